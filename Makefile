@@ -1,0 +1,68 @@
+# gesturebank — the two commands that do everything on a fresh machine:
+#   make demo   set up .venv, fetch real sample media, build a dataset, write the QC dashboard
+#   make test   set up .venv with dev tools, fetch test media, run lint + type checks + the suite
+#
+# Run as root on Debian/Ubuntu, `make` also installs the system packages it needs with apt-get
+# (espeak-ng, sox: speech test media; libusb-1.0-0: open3d; chromium: dashboard tests).
+# As another user it only tells you which ones are missing.
+
+PYTHON     ?= python3.11
+VENV       ?= .venv
+PY         := $(VENV)/bin/python
+PIP        := $(PY) -m pip
+EXTRAS     ?= dev,train,robot,multiview,distributed
+MEDIA      ?= $(HOME)/.cache/gesturebank/samples
+DEMO_OUT   ?= demo-out
+APT_PKGS   := espeak-ng sox libusb-1.0-0 chromium
+MEDIAPIPE  := mediapipe==0.10.14
+
+.PHONY: demo test lint typecheck pytest setup system-deps samples clean help
+
+help:
+	@sed -n '2,8p' Makefile
+
+# -- setup --------------------------------------------------------------------------------------
+system-deps:
+	@missing=$$(for p in $(APT_PKGS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || echo $$p; done); \
+	if [ -z "$$missing" ]; then exit 0; fi; \
+	if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  echo "apt-get install: $$missing"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	else echo "note: missing system packages (install them as root): $$missing"; fi
+
+$(VENV)/.installed: pyproject.toml Makefile
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+	$(PIP) install -q -e ".[$(EXTRAS)]"
+	# mediapipe without its declared deps: they would add a second cv2 (the GUI build) and jax.
+	# Its real runtime deps are in pyproject's dependencies.
+	$(PIP) install -q --no-deps $(MEDIAPIPE)
+	touch $@
+
+setup: system-deps $(VENV)/.installed
+
+samples: setup
+	$(VENV)/bin/gesturebank fetch-samples $(MEDIA)
+
+# -- the two commands ---------------------------------------------------------------------------
+demo: samples
+	$(VENV)/bin/build-dataset $(MEDIA)/talking $(DEMO_OUT) ; rc=$$?; \
+	  if [ $$rc -gt 1 ]; then exit $$rc; fi
+	@echo
+	@echo "Demo finished. Sample media: $(MEDIA)   Dataset: $(DEMO_OUT)/"
+	@test -f $(DEMO_OUT)/qc/index.html && echo "QC dashboard: $(DEMO_OUT)/qc/index.html" || true
+
+test: samples lint typecheck pytest
+
+lint: setup
+	$(VENV)/bin/ruff check gesturebank tests benchmarks
+	$(VENV)/bin/ruff format --check gesturebank tests benchmarks
+
+typecheck: setup
+	$(VENV)/bin/mypy
+
+pytest: setup
+	GESTUREBANK_SAMPLES=$(MEDIA) $(VENV)/bin/pytest
+
+clean:
+	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .mypy_cache .ruff_cache build *.egg-info

@@ -1,0 +1,249 @@
+"""Configuration: one validated pydantic model per stage, loaded from TOML, overridden on the CLI.
+
+Precedence is defaults < file < command-line flags. The fully resolved config is what gets saved
+with every output (and hashed, so a re-run knows whether a built take is still valid). Every
+field says its unit and when to change it; `gesturebank.toml` in the repository is the commented
+example of the same.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tomllib
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from gesturebank.errors import ConfigError
+
+
+class Section(BaseModel):
+    """A config section: unknown keys are errors, values are validated on assignment too."""
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+
+
+class VideoConfig(Section):
+    stride: int = Field(1, ge=1, description="Use every Nth decoded frame (1 = all frames).")
+    start_s: float = Field(0.0, ge=0, description="Start of the used time range, seconds.")
+    end_s: float | None = Field(
+        None, gt=0, description="End of the used time range, seconds (none = end of video)."
+    )
+
+    @model_validator(mode="after")
+    def _range(self) -> VideoConfig:
+        if self.end_s is not None and self.end_s <= self.start_s:
+            raise ValueError("end_s must be greater than start_s")
+        return self
+
+
+class DetectorConfig(Section):
+    name: str = Field(
+        "mediapipe", description="2D detector: 'mediapipe', 'openpose-json' or a plug-in name."
+    )
+    model_complexity: int = Field(
+        1,
+        ge=0,
+        le=2,
+        description="BlazePose model: only 1 (Full) is bundled with mediapipe 0.10.14; "
+        "0 and 2 would need a download.",
+    )
+    min_detection_confidence: float = Field(
+        0.5, ge=0, le=1, description="Detector threshold; lower it for small or far people."
+    )
+    min_tracking_confidence: float = Field(
+        0.5, ge=0, le=1, description="Below this the detector re-detects instead of tracking."
+    )
+    json_suffix: str = Field(
+        "_json",
+        description="Folder '<video stem><suffix>' next to a video holds precomputed "
+        "OpenPose-format JSON keypoints.",
+    )
+
+
+class TrackingConfig(Section):
+    size_weight: float = Field(
+        1.0, ge=0, description="Weight of upper-body size in speaker choice."
+    )
+    center_weight: float = Field(1.0, ge=0, description="Weight of closeness to image centre.")
+    confidence_weight: float = Field(1.0, ge=0, description="Weight of mean keypoint confidence.")
+    gate: float = Field(
+        0.25,
+        gt=0,
+        description="Largest match distance between frames, as a fraction of the image "
+        "diagonal; beyond it a detection starts a new identity.",
+    )
+
+
+class LifterConfig(Section):
+    name: str = Field(
+        "blazepose-world",
+        description="3D lifter: 'blazepose-world' (learned), 'geometric' (assumptions), "
+        "'multiview' (calibrated cameras) or a plug-in name.",
+    )
+
+
+class RobotConfig(Section):
+    profile: str = Field(
+        "pepper-1.7",
+        description="Robot profile for joint limits: 'pepper-1.7' (dissertation Table 3.1) or "
+        "'pepper-1.8' (public Pepper URDF).",
+    )
+
+
+class ProcessingConfig(Section):
+    rate_hz: float = Field(
+        100.0, gt=0, description="Frame clock of angles and audio features, Hz (10 ms hop)."
+    )
+    butter_order: int = Field(5, ge=1, le=10, description="Butterworth low-pass order (§4.2.3).")
+    cutoff_hz: float = Field(
+        4.0, gt=0, description="Butterworth cut-off, Hz; the dissertation chose 4 Hz (§4.2.3)."
+    )
+    max_gap_s: float = Field(
+        0.25, ge=0, description="Gaps in the pose up to this long are interpolated, seconds."
+    )
+
+    @model_validator(mode="after")
+    def _nyquist(self) -> ProcessingConfig:
+        if self.cutoff_hz >= self.rate_hz / 2:
+            raise ValueError("cutoff_hz must be below rate_hz / 2 (Nyquist)")
+        return self
+
+
+FeatureKind = Literal["logfb26", "logfb52", "logfb78", "mfcc13"]
+
+
+class AudioConfig(Section):
+    sample_rate: int = Field(16000, ge=8000, description="Audio is resampled to this rate, Hz.")
+    features: FeatureKind = Field(
+        "logfb26",
+        description="LogFB-26 (default), with deltas (52) and delta-deltas (78), or MFCC-13.",
+    )
+    preemph: float = Field(0.97, ge=0, lt=1, description="Pre-emphasis coefficient.")
+    winlen_s: float = Field(0.025, gt=0, description="Analysis window length, seconds.")
+    winstep_s: float = Field(0.01, gt=0, description="Hop between frames, seconds (= 100 Hz).")
+    nfft: int = Field(512, ge=64, description="FFT size; must cover winlen_s × sample_rate.")
+    nfilt: int = Field(26, ge=1, le=128, description="Number of Mel filters.")
+    delta_n: int = Field(2, ge=1, description="Half-width of the delta regression window.")
+
+    @model_validator(mode="after")
+    def _nfft(self) -> AudioConfig:
+        if self.nfft < round(self.winlen_s * self.sample_rate):
+            raise ValueError("nfft must be at least winlen_s × sample_rate samples")
+        return self
+
+
+class BuildConfig(Section):
+    workers: int | None = Field(
+        None, ge=1, description="Takes built in parallel (none = number of CPU cores)."
+    )
+    executor: Literal["local", "ray"] = Field(
+        "local", description="'local' process pool, or 'ray' for a cluster."
+    )
+    ray_address: str | None = Field(None, description="Ray cluster address ('auto', host:port).")
+    video_extensions: list[str] = Field(
+        [".mp4", ".mov", ".avi", ".mkv", ".webm"], description="Files treated as takes."
+    )
+    subject_pattern: str | None = Field(
+        None,
+        description="Regular expression with a group 'subject' matched against a take's "
+        "relative path, used when there is no subjects.csv.",
+    )
+
+
+class Config(Section):
+    """The resolved configuration of every stage."""
+
+    video: VideoConfig = Field(default_factory=VideoConfig)
+    detector: DetectorConfig = Field(default_factory=DetectorConfig)
+    tracking: TrackingConfig = Field(default_factory=TrackingConfig)
+    lifter: LifterConfig = Field(default_factory=LifterConfig)
+    robot: RobotConfig = Field(default_factory=RobotConfig)
+    processing: ProcessingConfig = Field(default_factory=ProcessingConfig)
+    audio: AudioConfig = Field(default_factory=AudioConfig)
+    build: BuildConfig = Field(default_factory=BuildConfig)
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return self.model_dump(mode="json")
+
+    def digest(self, *sections: str) -> str:
+        """sha256 of the given sections (all when none), to key caches and resumable builds."""
+        data = self.to_json_dict()
+        if sections:
+            data = {s: data[s] for s in sections}
+        return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _error_line(source: str, exc: ValidationError) -> str:
+    """One line per problem, naming the dotted key: 'file.toml: audio.nfilt: ...'."""
+    lines = []
+    for err in exc.errors():
+        key = ".".join(str(p) for p in err["loc"]) or "(top level)"
+        msg = err["msg"]
+        if err["type"] == "extra_forbidden":
+            msg = "unknown key"
+        elif "input" in err and not isinstance(err["input"], dict | list):
+            msg = f"{msg} (got {err['input']!r})"
+        lines.append(f"{source}: {key}: {msg}")
+    return "; ".join(lines)
+
+
+def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(out[k], v) if isinstance(v, Mapping) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def parse_override(item: str) -> dict[str, Any]:
+    """'audio.nfilt=40' → {'audio': {'nfilt': 40}}; the value is read as TOML (else a string)."""
+    key, sep, raw = item.partition("=")
+    if not sep or not key.strip():
+        raise ConfigError(f"--set {item!r}: expected SECTION.KEY=VALUE")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    nested: dict[str, Any] = {}
+    cur = nested
+    parts = key.strip().split(".")
+    for p in parts[:-1]:
+        cur = cur.setdefault(p, {})
+    cur[parts[-1]] = value
+    return nested
+
+
+def load_config(
+    path: str | os.PathLike[str] | None = None,
+    overrides: Iterable[Mapping[str, Any]] = (),
+) -> Config:
+    """Defaults < the TOML file at `path` < each mapping of `overrides` in turn.
+
+    Raises ConfigError with one line naming the file (or "command line") and the key.
+    """
+    data: dict[str, Any] = {}
+    source = "defaults"
+    if path is not None:
+        source = os.fspath(path)
+        try:
+            data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ConfigError(f"{source}: config file not found") from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"{source}: cannot read config file ({exc})") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ConfigError(f"{source}: not valid TOML ({exc})") from None
+        try:
+            Config.model_validate(data)
+        except ValidationError as exc:
+            raise ConfigError(_error_line(source, exc)) from None
+    for over in overrides:
+        data = _merge(data, over)
+    try:
+        return Config.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(_error_line("command line", exc)) from None

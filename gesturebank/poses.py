@@ -1,0 +1,229 @@
+"""Pose2D / Pose3D: the arrays that travel between stages (DESIGN.md "Contracts").
+
+Both validate shapes and dtypes on construction, keep missing values as NaN (never 0), carry their
+own timestamps (variable frame rate is real), and round-trip through `.npz` without pickle.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from gesturebank.errors import InputError
+from gesturebank.skeletons import COCO17, get_skeleton
+
+Units = Literal["m", "relative"]
+
+
+def _timestamps(ts: np.ndarray, n: int, what: str) -> np.ndarray:
+    ts = np.asarray(ts, dtype=np.float64)
+    if ts.shape != (n,):
+        raise InputError(f"{what}: timestamps must have shape ({n},), got {ts.shape}")
+    if not np.all(np.isfinite(ts)):
+        raise InputError(f"{what}: timestamps must be finite")
+    if n > 1 and not np.all(np.diff(ts) > 0):
+        raise InputError(f"{what}: timestamps must be strictly increasing")
+    return ts
+
+
+def _confidence(c: np.ndarray, what: str) -> None:
+    finite = c[np.isfinite(c)]
+    if finite.size and (finite.min() < 0 or finite.max() > 1):
+        raise InputError(f"{what}: confidence must lie in [0, 1]")
+
+
+@dataclass(frozen=True, eq=False)
+class Pose2D:
+    """2D keypoints of one person over a take.
+
+    keypoints:  (T, K, 3) float32 — x px, y px, confidence in [0, 1]; NaN = missing.
+    timestamps: (T,) float64 seconds in the video's own time base.
+    skeleton:   name of the keypoint set (see `gesturebank.skeletons`).
+    image_size: (width, height) in pixels.
+    world:      optional (T, K, 3) float32 metric 3D landmarks the detector predicts with its 2D
+                output (BlazePose world landmarks, metres, origin between the hips), for the
+                learned lifter.
+    """
+
+    keypoints: np.ndarray
+    timestamps: np.ndarray
+    skeleton: str
+    image_size: tuple[int, int]
+    world: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        kp = np.asarray(self.keypoints, dtype=np.float32)
+        skel = get_skeleton(self.skeleton)
+        if kp.ndim != 3 or kp.shape[1:] != (len(skel), 3):
+            raise InputError(
+                f"Pose2D: keypoints must have shape (T, {len(skel)}, 3) for skeleton "
+                f"{skel.name!r}, got {kp.shape}"
+            )
+        if np.any(np.isnan(kp[..., 0]) != np.isnan(kp[..., 1])):
+            raise InputError("Pose2D: a keypoint has x or y missing but not both")
+        _confidence(kp[..., 2], "Pose2D")
+        object.__setattr__(self, "keypoints", kp)
+        object.__setattr__(self, "timestamps", _timestamps(self.timestamps, len(kp), "Pose2D"))
+        w, h = (int(v) for v in self.image_size)
+        if w <= 0 or h <= 0:
+            raise InputError(f"Pose2D: image_size must be positive, got {self.image_size}")
+        object.__setattr__(self, "image_size", (w, h))
+        if self.world is not None:
+            world = np.asarray(self.world, dtype=np.float32)
+            if world.shape != kp.shape:
+                raise InputError(f"Pose2D: world must have shape {kp.shape}, got {world.shape}")
+            object.__setattr__(self, "world", world)
+
+    def __len__(self) -> int:
+        return len(self.keypoints)
+
+    @property
+    def xy(self) -> np.ndarray:
+        """(T, K, 2) pixel coordinates."""
+        return self.keypoints[..., :2]
+
+    @property
+    def confidence(self) -> np.ndarray:
+        """(T, K) confidence."""
+        return self.keypoints[..., 2]
+
+    def to_coco17(self) -> Pose2D:
+        """The same pose in COCO-17 order (joints the skeleton lacks become NaN)."""
+        src = get_skeleton(self.skeleton)
+        world = None if self.world is None else src.convert(self.world, COCO17)
+        return Pose2D(
+            src.convert(self.keypoints, COCO17),
+            self.timestamps,
+            COCO17.name,
+            self.image_size,
+            world,
+        )
+
+    def to_arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
+        out = {
+            f"{prefix}keypoints": self.keypoints,
+            f"{prefix}timestamps": self.timestamps,
+            f"{prefix}skeleton": np.array(self.skeleton),
+            f"{prefix}image_size": np.array(self.image_size, dtype=np.int64),
+        }
+        if self.world is not None:
+            out[f"{prefix}world"] = self.world
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray], prefix: str = "") -> Pose2D:
+        world = arrays[f"{prefix}world"] if f"{prefix}world" in arrays else None
+        size = np.asarray(arrays[f"{prefix}image_size"])
+        return cls(
+            keypoints=np.asarray(arrays[f"{prefix}keypoints"]),
+            timestamps=np.asarray(arrays[f"{prefix}timestamps"]),
+            skeleton=str(arrays[f"{prefix}skeleton"]),
+            image_size=(int(size[0]), int(size[1])),
+            world=None if world is None else np.asarray(world),
+        )
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        save_npz(path, self.to_arrays())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Pose2D:
+        return cls.from_arrays(_load_npz(path))
+
+
+@dataclass(frozen=True, eq=False)
+class Pose3D:
+    """3D joints of one person over a take, in COCO-17 order.
+
+    joints:     (T, 17, 3) float32, right-handed; metres when `units == "m"`; NaN = missing.
+    confidence: (T, 17) float32 in [0, 1] (NaN where the joint is missing).
+    timestamps: (T,) float64 seconds.
+    frame:      name of the coordinate frame (e.g. "camera", "world", "hips").
+    units:      "m", or "relative" when the lifter does not know the scale.
+    """
+
+    joints: np.ndarray
+    confidence: np.ndarray
+    timestamps: np.ndarray
+    frame: str = "camera"
+    units: Units = "m"
+    meta: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        j = np.asarray(self.joints, dtype=np.float32)
+        if j.ndim != 3 or j.shape[1:] != (len(COCO17), 3):
+            raise InputError(f"Pose3D: joints must have shape (T, 17, 3), got {j.shape}")
+        partial = np.isnan(j).any(axis=-1) & ~np.isnan(j).all(axis=-1)
+        if partial.any():
+            raise InputError("Pose3D: a joint has some coordinates missing but not all")
+        c = np.asarray(self.confidence, dtype=np.float32)
+        if c.shape != j.shape[:2]:
+            raise InputError(f"Pose3D: confidence must have shape {j.shape[:2]}, got {c.shape}")
+        _confidence(c, "Pose3D")
+        if self.units not in ("m", "relative"):
+            raise InputError(f"Pose3D: units must be 'm' or 'relative', got {self.units!r}")
+        object.__setattr__(self, "joints", j)
+        object.__setattr__(self, "confidence", c)
+        object.__setattr__(self, "timestamps", _timestamps(self.timestamps, len(j), "Pose3D"))
+
+    def __len__(self) -> int:
+        return len(self.joints)
+
+    def joint(self, name: str) -> np.ndarray:
+        """(T, 3) trajectory of one COCO-17 joint."""
+        return self.joints[:, COCO17.index[name]]
+
+    def to_arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
+        out = {
+            f"{prefix}joints": self.joints,
+            f"{prefix}confidence": self.confidence,
+            f"{prefix}timestamps": self.timestamps,
+            f"{prefix}frame": np.array(self.frame),
+            f"{prefix}units": np.array(self.units),
+        }
+        for k, v in self.meta.items():
+            out[f"{prefix}meta_{k}"] = np.array(v)
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray], prefix: str = "") -> Pose3D:
+        meta_prefix = f"{prefix}meta_"
+        meta = {k[len(meta_prefix) :]: str(arrays[k]) for k in arrays if k.startswith(meta_prefix)}
+        units = str(arrays[f"{prefix}units"])
+        if units not in ("m", "relative"):
+            raise InputError(f"Pose3D: units must be 'm' or 'relative', got {units!r}")
+        return cls(
+            joints=np.asarray(arrays[f"{prefix}joints"]),
+            confidence=np.asarray(arrays[f"{prefix}confidence"]),
+            timestamps=np.asarray(arrays[f"{prefix}timestamps"]),
+            frame=str(arrays[f"{prefix}frame"]),
+            units="m" if units == "m" else "relative",
+            meta=meta,
+        )
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        save_npz(path, self.to_arrays())
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Pose3D:
+        return cls.from_arrays(_load_npz(path))
+
+
+def save_npz(path: str | os.PathLike[str], arrays: Mapping[str, np.ndarray]) -> None:
+    """Write arrays to a compressed .npz (object arrays refused: nothing here is ever pickled)."""
+    for name, value in arrays.items():
+        if value.dtype == object:
+            raise InputError(f"{os.fspath(path)}: array {name!r} has dtype object")
+    np.savez_compressed(path, allow_pickle=False, **arrays)
+
+
+def _load_npz(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
+    """All arrays of an .npz, never unpickling; a bad file is an InputError naming it."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except (OSError, ValueError, EOFError) as exc:
+        raise InputError(f"{os.fspath(path)}: not a readable .npz file ({exc})") from None

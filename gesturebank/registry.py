@@ -1,0 +1,58 @@
+"""Name → factory registries that third-party packages extend through entry points.
+
+Detectors and lifters are looked up by name. Built-ins register themselves with the decorator;
+a plug-in package declares e.g. `[project.entry-points."gesturebank.detectors"] mine = "pkg:Cls"`
+and is found without touching gesturebank.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from importlib.metadata import entry_points
+from typing import Generic, TypeVar
+
+from gesturebank.errors import InputError
+
+T = TypeVar("T")
+
+
+class Registry(Generic[T]):
+    """Factories of one kind of stage, by name; entry points of `group` are loaded on demand."""
+
+    def __init__(self, kind: str, group: str) -> None:
+        self.kind = kind
+        self.group = group
+        self._factories: dict[str, Callable[..., T]] = {}
+
+    def register(self, name: str) -> Callable[[Callable[..., T]], Callable[..., T]]:
+        def add(factory: Callable[..., T]) -> Callable[..., T]:
+            self._factories[name] = factory
+            return factory
+
+        return add
+
+    def _plugins(self) -> dict[str, object]:
+        return {ep.name: ep for ep in entry_points(group=self.group)}
+
+    def names(self) -> list[str]:
+        """Built-in and plug-in names, sorted."""
+        return sorted(set(self._factories) | set(self._plugins()))
+
+    def get(self, name: str) -> Callable[..., T]:
+        """The factory registered as `name`; InputError listing the known names otherwise."""
+        if name in self._factories:
+            return self._factories[name]
+        plugin = self._plugins().get(name)
+        if plugin is None:
+            raise InputError(
+                f"unknown {self.kind} {name!r}; available: {', '.join(self.names()) or 'none'}"
+            )
+        try:
+            factory = plugin.load()  # type: ignore[attr-defined]
+        except Exception as exc:  # a broken plug-in must not look like a missing one
+            raise InputError(f"{self.kind} plug-in {name!r} failed to load: {exc}") from exc
+        self._factories[name] = factory
+        return factory
+
+    def create(self, name: str, *args: object, **kwargs: object) -> T:
+        return self.get(name)(*args, **kwargs)

@@ -1,0 +1,33 @@
+"""Shared fixtures: the real sample media, fetched (and checksummed) by the project's own code."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+
+@pytest.fixture(scope="session")
+def samples() -> Path:
+    """Folder of real sample media (see `gesturebank fetch-samples`), fetched on first use."""
+    from gesturebank.samples import default_samples_dir, fetch_samples
+
+    root = Path(os.environ.get("GESTUREBANK_SAMPLES") or default_samples_dir())
+    fetch_samples(root)
+    return root
+
+
+@pytest.fixture(scope="session")
+def artifacts() -> Path:
+    """Folder for files a person may want to look at after the run (screenshots, renders)."""
+    path = Path(os.environ.get("GESTUREBANK_TEST_ARTIFACTS", "test-artifacts"))
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Tests that use the real sample media carry the `media` marker (`-m "not media"` skips)."""
+    for item in items:
+        if "samples" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.media)

@@ -1,0 +1,92 @@
+"""The installed console scripts: help texts, exit codes, one-line errors."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BIN = Path(sys.executable).parent
+
+
+def run(*args: str) -> subprocess.CompletedProcess[str]:
+    cmd = [str(BIN / args[0]), *args[1:]]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+
+
+def test_help_lists_every_command_with_text() -> None:
+    r = run("gesturebank", "--help")
+    assert r.returncode == 0
+    for command, words in {
+        "info": "detectors and lifters",
+        "fetch-samples": "sample media",
+        "config": "resolved configuration",
+        "build-dataset": "Pepper angles",
+    }.items():
+        line = next(ln for ln in r.stdout.splitlines() if f" {command} " in ln)
+        assert words in line, line
+
+
+@pytest.mark.parametrize("command", ["info", "fetch-samples", "config", "build-dataset"])
+def test_each_command_has_help(command: str) -> None:
+    r = run("gesturebank", command, "--help")
+    assert r.returncode == 0
+    assert "Usage: gesturebank " + command in r.stdout
+
+
+def test_build_dataset_script_is_the_same_command() -> None:
+    a = run("build-dataset", "--help").stdout.splitlines()
+    b = run("gesturebank", "build-dataset", "--help").stdout.splitlines()
+    usage_a = next(ln for ln in a if "Usage:" in ln)
+    usage_b = next(ln for ln in b if "Usage:" in ln)
+    assert usage_a.strip().replace("build-dataset", "gesturebank build-dataset") == usage_b.strip()
+    # everything after the usage line (description, arguments, options) is identical
+    assert a[a.index(usage_a) + 1 :] == b[b.index(usage_b) + 1 :]
+
+
+def test_info_lists_registries() -> None:
+    r = run("gesturebank", "info")
+    assert r.returncode == 0
+    assert "detectors" in r.stdout
+    assert "lifters" in r.stdout
+    assert "mediapipe" in r.stdout
+
+
+def test_usage_errors_exit_2_with_one_line(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[detector]\nnmae = 'mediapipe'\n")
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    (videos / "notes.txt").write_text("no video here")
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    cases = [
+        (("config", "--config", str(bad)), "detector.nmae: unknown key"),
+        (("build-dataset", str(tmp_path / "nope"), str(tmp_path / "o")), "not a directory"),
+        (("build-dataset", str(videos), str(tmp_path / "o")), "no videos found"),
+        (("build-dataset", str(videos), str(tmp_path / "o"), "--set", "audio.nfilt=0"), "nfilt"),
+    ]
+    for args, message in cases:
+        r = run("gesturebank", *args)
+        assert r.returncode == 2, (args, r.stderr)
+        lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+        assert len(lines) == 1, r.stderr
+        assert message in lines[0]
+    (videos / "a.mp4").write_bytes(b"")
+    r = run("build-dataset", str(videos), str(blocker / "out"))
+    assert r.returncode == 2
+    assert "cannot create output folder" in r.stderr
+    assert run("gesturebank", "no-such-command").returncode == 2
+
+
+def test_config_prints_resolved_toml(tmp_path: Path) -> None:
+    import tomllib
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[audio]\nnfilt = 40\n")
+    r = run("gesturebank", "config", "--config", str(cfg), "--set", "processing.cutoff_hz=6")
+    assert r.returncode == 0
+    data = tomllib.loads(r.stdout)
+    assert data["audio"]["nfilt"] == 40
+    assert data["processing"]["cutoff_hz"] == 6
+    assert data["processing"]["butter_order"] == 5
