@@ -36,6 +36,7 @@ import numpy as np
 from platformdirs import user_cache_dir
 
 from gesturebank.errors import FetchError
+from gesturebank.fileio import write_bytes_atomic
 
 log = logging.getLogger(__name__)
 
@@ -155,18 +156,6 @@ def sha256_file(path: Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _download(archive: Archive, cache: Path) -> tuple[Path, bool]:
@@ -305,7 +294,7 @@ def fetch_samples(
             files[rel] = hashlib.sha256(data).hexdigest()
             target = root / rel
             if not (target.is_file() and sha256_file(target) == files[rel]):
-                _write_atomic(target, data)
+                write_bytes_atomic(target, data)
                 report.written.append(rel)
             else:
                 report.verified += 1
@@ -323,9 +312,9 @@ def fetch_samples(
         report.written.append(out)
     readme = root / "talking" / "README.txt"
     if not readme.is_file() or readme.read_text() != TALKING_README:
-        _write_atomic(readme, TALKING_README.encode())
+        write_bytes_atomic(readme, TALKING_README.encode())
 
     new_manifest = {"version": 1, "groups": groups}
     if new_manifest != manifest:
-        _write_atomic(manifest_path, json.dumps(new_manifest, indent=1).encode())
+        write_bytes_atomic(manifest_path, json.dumps(new_manifest, indent=1).encode())
     return report

@@ -1,0 +1,117 @@
+"""Train/validation/test splits (dissertation Table 4.4).
+
+Subject-independent (SI): k-fold over subjects. Subjects are shuffled once (seeded) and cut into
+k groups; fold i tests on group i, validates on group i+1 and trains on the rest — with 19
+subjects and k = 10 that is the dissertation's 15 / 2 / 2 subjects per fold.
+
+Subject-dependent (SD): within each subject, their recordings in take order are cut by time into
+the first 70 %, the next 15 % and the last 15 %, as (take_id, start_frame, end_frame) segments.
+
+Failed takes never enter a split; rejected ones only when asked.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from itertools import pairwise
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gesturebank.errors import InputError
+from gesturebank.fileio import write_bytes_atomic
+
+SPLITS_DIR = "splits"
+PARTS = ("train", "val", "test")
+
+
+def _usable(records: Sequence[Mapping[str, Any]], include_rejected: bool) -> list[Mapping]:
+    ok = {"accepted", "rejected"} if include_rejected else {"accepted"}
+    return [r for r in records if r["qc_status"] in ok and int(r.get("n_frames", 0)) > 0]
+
+
+def subject_independent(
+    records: Sequence[Mapping[str, Any]],
+    folds: int = 10,
+    *,
+    seed: int = 0,
+    include_rejected: bool = False,
+) -> list[dict[str, Any]]:
+    """SI folds: each a dict of take ids and subjects per part. Needs ≥ 3 subjects."""
+    usable = _usable(records, include_rejected)
+    subjects = sorted({r["subject"] for r in usable})
+    if len(subjects) < 3:
+        raise InputError(
+            f"subject-independent splits need at least 3 subjects, the dataset has {len(subjects)}"
+        )
+    k = min(folds, len(subjects))
+    order = [subjects[i] for i in np.random.default_rng(seed).permutation(len(subjects))]
+    groups = [list(g) for g in np.array_split(np.array(order, dtype=object), k)]
+    result = []
+    for i in range(k):
+        parts = {"test": set(groups[i]), "val": set(groups[(i + 1) % k])}
+        parts["train"] = set(subjects) - parts["test"] - parts["val"]
+        result.append(
+            {
+                "variant": "si",
+                "fold": i,
+                "subjects": {p: sorted(parts[p]) for p in PARTS},
+                **{
+                    p: sorted(r["take_id"] for r in usable if r["subject"] in parts[p])
+                    for p in PARTS
+                },
+            }
+        )
+    return result
+
+
+def subject_dependent(
+    records: Sequence[Mapping[str, Any]],
+    fractions: tuple[float, float, float] = (0.70, 0.15, 0.15),
+    *,
+    include_rejected: bool = False,
+) -> dict[str, Any]:
+    """SD split: per subject, (take_id, start, end) frame segments for train, val and test."""
+    if len(fractions) != 3 or not np.isclose(sum(fractions), 1.0) or min(fractions) < 0:
+        raise InputError(
+            f"split fractions must be three non-negative numbers summing to 1, got {fractions}"
+        )
+    usable = _usable(records, include_rejected)
+    per_subject: dict[str, dict[str, list[list[Any]]]] = {}
+    for subject in sorted({r["subject"] for r in usable}):
+        takes = sorted((r for r in usable if r["subject"] == subject), key=lambda r: r["take_id"])
+        lengths = np.array([int(r["n_frames"]) for r in takes])
+        starts = np.concatenate([[0], np.cumsum(lengths)])  # take j spans starts[j]:starts[j+1]
+        total = int(starts[-1])
+        cuts = [0, round(total * fractions[0]), round(total * (fractions[0] + fractions[1])), total]
+        parts: dict[str, list[list[Any]]] = {p: [] for p in PARTS}
+        for p, (lo, hi) in zip(PARTS, pairwise(cuts), strict=True):
+            for r, a, b in zip(takes, starts[:-1], starts[1:], strict=True):
+                s, e = max(lo, int(a)), min(hi, int(b))
+                if e > s:
+                    parts[p].append([r["take_id"], s - int(a), e - int(a)])
+        per_subject[subject] = parts
+    return {"variant": "sd", "fractions": list(fractions), "subjects": per_subject}
+
+
+def write_splits(
+    out: Path, records: Sequence[Mapping[str, Any]], folds: int = 10, *, seed: int = 0
+) -> list[str]:
+    """Write splits/si_fold_XX.json (when there are ≥ 3 subjects) and splits/sd.json.
+
+    Returns notes on what could not be written (e.g. too few subjects for SI)."""
+    folder = Path(out) / SPLITS_DIR
+    notes = []
+    for old in folder.glob("si_fold_*.json"):
+        old.unlink()  # a rebuild with fewer subjects must not keep stale folds
+    try:
+        for fold in subject_independent(records, folds, seed=seed):
+            path = folder / f"si_fold_{fold['fold']:02d}.json"
+            write_bytes_atomic(path, json.dumps(fold, indent=1).encode())
+    except InputError as exc:
+        notes.append(f"no subject-independent splits: {exc}")
+    sd = subject_dependent(records)
+    write_bytes_atomic(folder / "sd.json", json.dumps(sd, indent=1).encode())
+    return notes
