@@ -1,0 +1,224 @@
+"""Retargeting: COCO-17 3D joints `(T, 17, 3)` → Pepper's 11 angles `(T, 11)` (DESIGN.md).
+
+Same joints, signs and zero pose as the dissertation (seed 000, §3.1), but every angle is a signed
+`atan2` in a local frame instead of `acos(|·|)` plus orientation branches, so angles are continuous
+and cover their full range.
+
+Body frame (per frame, from the joints only, hence invariant to global rotation, translation and
+uniform scale): up = mid-hips → mid-shoulders; left = right → left shoulder, made orthogonal to up;
+forward = left × up. The last step needs right-handed input (the contract); the face is not used
+to flip it, because a head turned past 90° is a legal pose — `face_forward_fraction` flags takes
+that look mirrored. Angles then follow Pepper's joint chains (URDF axes, robot x fwd, y left, z up):
+
+- ShoulderPitch/Roll: upper arm a = Ry(pitch)·Rz(roll)·x̂ in the torso frame, so
+  roll = atan2(a_y, |a_xz|) and pitch = atan2(−a_z, a_x) (+π/2 hanging, 0 forward, − raised).
+- ElbowRoll: ∓ the bend (π − interior elbow angle): 0 straight, ∓π/2 at a right angle.
+- ElbowYaw: rotation about the upper arm of the arm plane, measured in the bicep frame
+  Ry(pitch)·Rz(roll) (0 = forearm bends inwards in the shoulder's horizontal plane).
+- HeadYaw/Pitch: face direction (mid-ears → mid-eyes) = Rz(yaw)·Ry(pitch)·x̂ in the torso frame.
+- HipRoll: lean of the torso's up axis along the hip line (left hip − right hip). URDF HipRoll
+  turns about −x, so positive = upper body leans to its left, as in the dissertation's code.
+
+Singular set (documented and handled continuously, never by a jump):
+
+- Straight elbow (bend < `straight_elbow`, default 10°): the arm plane, hence ElbowYaw, is
+  undefined. ElbowYaw is multiplied by a smoothstep of bend/`straight_elbow`, so it fades to 0
+  as the arm straightens (where it has no visible effect).
+- Arm along the pitch axis (|roll| > 90° − `lateral_arm`, default 10°, e.g. a T-pose): pitch and
+  ElbowYaw turn about the same axis, and pitch is ill-conditioned (on the two sides of a T-pose
+  it differs by π). Inside this band the pitch is blended (smoothstep) towards the value that
+  makes ElbowYaw = 0 given the arm plane (towards 0 when the elbow is straight or folded, or the
+  wrist is missing), so the π turn is spread over the band; ElbowYaw is measured in the blended
+  frame. The blend can only cancel out, i.e. jump, where the true ElbowYaw is near ±π, beyond
+  the robot's limits.
+- Branch cuts of atan2 (±π) lie where the robot cannot go: ShoulderPitch ±π (arm pointing straight
+  backwards), ElbowYaw ±π, HeadYaw ±π — each the middle of the arc beyond the joint's limits, so a
+  later clamp goes to the nearer limit.
+
+Missing joints (NaN) make only the angles that need them NaN: the torso frame needs both shoulders
+and hips (all angles), an arm needs its elbow (shoulder angles) and wrist (elbow angles); HeadYaw
+needs mid-ears → mid-eyes, else nose and both ears, else the ear or eye line; HeadPitch needs both
+eyes and both ears; HipRoll needs the hips and shoulders.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gesturebank.errors import InputError
+from gesturebank.poses import Pose3D
+from gesturebank.robot.pepper import JOINTS
+from gesturebank.skeletons import COCO17
+
+STRAIGHT_ELBOW = np.deg2rad(10.0)
+LATERAL_ARM = np.deg2rad(10.0)
+
+_I = COCO17.index
+_USED = COCO17.joints[:13]  # knees and ankles play no part
+
+
+def pepper_angles(
+    pose: Pose3D | np.ndarray,
+    *,
+    straight_elbow: float = STRAIGHT_ELBOW,
+    lateral_arm: float = LATERAL_ARM,
+) -> np.ndarray:
+    """Pepper angles `(T, 11)` float32 radians (order `pepper.JOINTS`) from COCO-17 joints.
+
+    pose: a Pose3D, or joints `(T, 17, 3)` in COCO-17 order, right-handed, any unit.
+    straight_elbow, lateral_arm: widths (rad) of the singular bands (see the module docstring).
+    """
+    p = _points(pose)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fwd, left, up = _body_frame(p)
+
+        def local(v: np.ndarray) -> np.ndarray:
+            """(3, T) world vector → (3, T) torso-frame components (forward, left, up)."""
+            return np.stack([_dot(v, fwd), _dot(v, left), _dot(v, up)])
+
+        mirror = np.array([[1.0], [-1.0], [1.0]])
+        l_arm = _arm(
+            local(p["left_elbow"] - p["left_shoulder"]),
+            local(p["left_wrist"] - p["left_elbow"]),
+            straight_elbow,
+            lateral_arm,
+        )
+        # The right arm is the left arm mirrored (y → −y): roll, yaw and elbow roll change sign.
+        r_arm = _arm(
+            mirror * local(p["right_elbow"] - p["right_shoulder"]),
+            mirror * local(p["right_wrist"] - p["right_elbow"]),
+            straight_elbow,
+            lateral_arm,
+        )
+        ears = (p["left_ear"] + p["right_ear"]) / 2
+        head_pitch, head_yaw = _head(
+            local((p["left_eye"] + p["right_eye"]) / 2 - ears),
+            local(p["nose"] - ears),
+            local(_head_lateral(p)),
+        )
+        hip_roll = _hip_roll(up, p["left_hip"] - p["right_hip"])
+    out = np.empty((len(up[0]), len(JOINTS)), dtype=np.float32)
+    out[:, 0] = head_pitch
+    out[:, 1] = head_yaw
+    out[:, 2], out[:, 3], out[:, 4], out[:, 5] = l_arm
+    out[:, 6], out[:, 7], out[:, 8], out[:, 9] = -r_arm[0], r_arm[1], -r_arm[2], -r_arm[3]
+    out[:, 10] = hip_roll
+    return out
+
+
+def face_forward_fraction(pose: Pose3D | np.ndarray) -> float:
+    """Fraction of frames whose face (mid-ears → nose) points in front of the torso, in [0, 1].
+
+    Near 1 for right-handed input with correct left/right labels; near 0 means the input is
+    mirrored (left-handed) or its left/right labels are swapped. NaN if no frame has a face.
+    """
+    p = _points(pose)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fwd = _body_frame(p)[0]
+        ahead = _dot(fwd, p["nose"] - (p["left_ear"] + p["right_ear"]) / 2)
+    ok = np.isfinite(ahead)
+    return float(np.mean(ahead[ok] > 0)) if ok.any() else float("nan")
+
+
+def _points(pose: Pose3D | np.ndarray) -> dict[str, np.ndarray]:
+    """Joint name → (3, T) float64 coordinates (components as rows: fast elementwise maths)."""
+    j = pose.joints if isinstance(pose, Pose3D) else np.asarray(pose)
+    if j.ndim != 3 or j.shape[1:] != (len(COCO17), 3):
+        raise InputError(
+            f"pepper_angles: joints must have shape (T, 17, 3) in COCO-17 order, got {j.shape}"
+        )
+    if not np.issubdtype(j.dtype, np.number):
+        raise InputError(f"pepper_angles: joints must be numeric, got dtype {j.dtype}")
+    soa = np.ascontiguousarray(j[:, : len(_USED)].transpose(1, 2, 0), dtype=np.float64)
+    return {name: soa[i] for i, name in enumerate(_USED)}
+
+
+# Vectors are (3, T) arrays: row k is component k over all frames.
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.stack(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.sqrt(_dot(v, v))
+
+
+def _body_frame(p: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Torso axes (forward, left, up), each (3, T) unit, from the shoulders and hips."""
+    ls, rs = p["left_shoulder"], p["right_shoulder"]
+    up = _unit(ls + rs - p["left_hip"] - p["right_hip"])
+    left = ls - rs
+    left = _unit(left - _dot(left, up) * up)
+    return _cross(left, up), left, up
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    t = np.clip(x, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _arm(
+    upper: np.ndarray, fore: np.ndarray, straight_elbow: float, lateral_arm: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Left-arm angles (roll, pitch, elbow roll, elbow yaw), each (T,), from torso-frame vectors.
+
+    upper: (3, T) shoulder → elbow; fore: (3, T) elbow → wrist.
+    """
+    a, b = _unit(upper), _unit(fore)
+    ax, ay, az = a
+    cos_roll = np.hypot(ax, az)
+    roll = np.arctan2(ay, cos_roll)
+    # Arm plane normal b × a (length sin(bend)): the bicep z axis when ElbowYaw = 0 (left arm).
+    n = _cross(b, a)
+    bend = np.arctan2(np.sqrt(_dot(n, n)), _dot(a, b))
+    # Pitch: (a_x, −a_z) = cos(roll)·(cos, sin)(pitch). Inside the lateral band, blend in the
+    # bicep z axis (sin, 0, cos)(pitch) implied by the arm plane, or pitch 0 where there is no
+    # arm plane (elbow straight or folded, wrist missing). The blend can only cancel out where
+    # the true ElbowYaw is near ±π, beyond the robot's limits.
+    w = 1.0 - _smoothstep(cos_roll / np.sin(lateral_arm))
+    n = np.where(np.isfinite(n), n, 0.0)
+    no_plane = 1.0 - _smoothstep(np.sqrt(_dot(n, n)) / np.sin(straight_elbow))
+    pitch = np.arctan2(-az + w * n[0], ax + w * (n[2] + no_plane))
+    cp, sp, cr, sr = np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
+    # Forearm in the bicep frame Ry(pitch)·Rz(roll): components along its y and z axes.
+    by = -sr * cp * b[0] + cr * b[1] + sr * sp * b[2]
+    bz = sp * b[0] + cp * b[2]
+    # Left arm: forearm = (cos e, sin e·cos yaw, sin e·sin yaw) with e = −bend ≤ 0.
+    yaw = np.arctan2(-bz, -by) * _smoothstep(bend / straight_elbow)
+    return roll, pitch, -bend, yaw
+
+
+def _head_lateral(p: dict[str, np.ndarray]) -> np.ndarray:
+    """(3, T) head's left axis from the ear line plus the eye line (whichever exist), else NaN."""
+    ears = p["left_ear"] - p["right_ear"]
+    eyes = p["left_eye"] - p["right_eye"]
+    ears_ok, eyes_ok = np.isfinite(ears), np.isfinite(eyes)
+    lateral = np.where(ears_ok, ears, 0.0) + np.where(eyes_ok, eyes, 0.0)
+    return np.where(ears_ok | eyes_ok, lateral, np.nan)
+
+
+def _head(face: np.ndarray, nose: np.ndarray, lateral: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(HeadPitch, HeadYaw), each (T,), from torso-frame head vectors (3, T).
+
+    face: mid-ears → mid-eyes (= Rz(yaw)·Ry(pitch)·x̂ up to scale); nose: mid-ears → nose (in the
+    mid-sagittal plane: its heading is the yaw, its elevation is not the pitch); lateral: head's
+    left axis (= Rz(yaw)·ŷ, pitch turns about it).
+    """
+    # Yaw from the best heading available; a level heading ⟂ the lateral axis as the last resort.
+    level = np.stack([lateral[1], -lateral[0]])
+    hx = np.where(np.isfinite(face[0]), face[0], np.where(np.isfinite(nose[0]), nose[0], level[0]))
+    hy = np.where(np.isfinite(face[0]), face[1], np.where(np.isfinite(nose[0]), nose[1], level[1]))
+    yaw = np.arctan2(hy, hx)
+    pitch = np.arctan2(-face[2], np.hypot(face[0], face[1]))  # + = face down
+    return pitch, yaw
+
+
+def _hip_roll(up: np.ndarray, hips: np.ndarray) -> np.ndarray:
+    """(T,) lean of the torso's up axis (3, T) towards the left hip (hips: right → left hip)."""
+    s = _dot(up, _unit(hips))
+    return np.arctan2(s, np.sqrt(np.clip(1.0 - s * s, 0.0, None)))
