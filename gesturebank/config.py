@@ -58,6 +58,14 @@ class DetectorConfig(Section):
     min_tracking_confidence: float = Field(
         0.5, ge=0, le=1, description="Below this the detector re-detects instead of tracking."
     )
+    max_people: int = Field(
+        1,
+        ge=1,
+        le=4,
+        description="People looked for per frame. BlazePose tracks one; with 2+ each person found "
+        "is masked and BlazePose runs again, so the main speaker survives someone walking past "
+        "(slower: one more BlazePose per person).",
+    )
     json_suffix: str = Field(
         "_json",
         description="Folder '<video stem><suffix>' next to a video holds precomputed "
@@ -76,6 +84,20 @@ class TrackingConfig(Section):
         gt=0,
         description="Largest match distance between frames, as a fraction of the image "
         "diagonal; beyond it a detection starts a new identity.",
+    )
+    max_lost_s: float = Field(
+        2.0, gt=0, description="A track unseen for longer than this (seconds) ends."
+    )
+    predict_s: float = Field(
+        0.2,
+        ge=0,
+        description="Over gaps up to this long (s) a track's pose is moved on by its velocity.",
+    )
+    switch_window_s: float = Field(
+        0.5,
+        gt=0,
+        description="A track appearing within this many seconds of another vanishing is "
+        "reported as an identity switch.",
     )
 
 

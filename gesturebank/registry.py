@@ -7,6 +7,7 @@ and is found without touching gesturebank.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Generic, TypeVar
@@ -30,6 +31,18 @@ class Registry(Generic[T]):
             return factory
 
         return add
+
+    def register_lazy(self, name: str, target: str) -> None:
+        """Register "module:attribute", imported only when `name` is first used, so listing the
+        names never imports heavy dependencies (mediapipe, torch)."""
+
+        def factory(*args: object, **kwargs: object) -> T:
+            module, _, attr = target.partition(":")
+            real: Callable[..., T] = getattr(importlib.import_module(module), attr)
+            self._factories[name] = real
+            return real(*args, **kwargs)
+
+        self._factories[name] = factory
 
     def _plugins(self) -> dict[str, object]:
         return {ep.name: ep for ep in entry_points(group=self.group)}

@@ -1,0 +1,296 @@
+"""Video and audio decoding with PyAV: frames with their real timestamps, audio as 16 kHz mono.
+
+Timestamps are the presentation timestamps of the stream (pts × time_base, seconds), never
+index / fps: phone videos often have a variable frame rate. Frames are streamed one at a time.
+Every failure to read a file is an `InputError` whose one-line message names the file.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import av
+import numpy as np
+
+from gesturebank.config import VideoConfig
+from gesturebank.errors import InputError
+
+log = logging.getLogger(__name__)
+
+PathLike = str | os.PathLike[str]
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What `probe` learns from the container headers (no full decode).
+
+    size is (width, height) after the rotation metadata is applied; fps is the container's
+    average rate (an estimate: the real clock is the per-frame timestamps); n_frames is None
+    when the container does not say.
+    """
+
+    path: str
+    duration_s: float
+    fps: float
+    n_frames: int | None
+    size: tuple[int, int]
+    rotation: int
+    codec: str
+    has_audio: bool
+    audio_codec: str | None = None
+
+
+class Audio(NamedTuple):
+    """A decoded audio track.
+
+    signal:         (N,) float32 mono in [-1, 1].
+    sample_rate:    Hz.
+    start_offset_s: time of sample 0 minus the time of the first video frame of the file,
+                    seconds (0 when the file has no video).
+    start_s:        time of sample 0 on the clock of the video's timestamps (Pose2D.timestamps),
+                    so sample n plays at start_s + n / sample_rate whatever frames were selected.
+    """
+
+    signal: np.ndarray
+    sample_rate: int
+    start_offset_s: float
+    start_s: float = 0.0
+
+
+def _open(path: PathLike) -> av.container.InputContainer:
+    name = os.fspath(path)
+    if not Path(name).is_file():
+        raise InputError(f"{name}: no such file")
+    try:
+        return av.open(name, mode="r")
+    except (av.FFmpegError, UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{name}: not a readable media file ({_reason(exc)})") from None
+
+
+def _reason(exc: BaseException) -> str:
+    """FFmpeg's own words without the file name (the message names the file once)."""
+    text = getattr(exc, "strerror", None) or str(exc)
+    return " ".join(str(text).split()) or type(exc).__name__
+
+
+def _video_stream(container: av.container.InputContainer, name: str) -> av.video.stream.VideoStream:
+    if not container.streams.video:
+        raise InputError(f"{name}: no video stream")
+    return container.streams.video[0]
+
+
+def _rotation(stream: av.video.stream.VideoStream, container: av.container.InputContainer) -> int:
+    """Display rotation in degrees counter-clockwise (0, 90, 180, 270), from the first frame's
+    display matrix (FFmpeg copies the stream's matrix onto every decoded frame)."""
+    try:
+        frame = next(container.decode(stream))
+    except (StopIteration, av.FFmpegError):
+        return 0
+    return _normalise_rotation(frame.rotation)
+
+
+def _normalise_rotation(degrees: float) -> int:
+    """Nearest multiple of 90 in [0, 360); arbitrary angles are not produced by cameras."""
+    return round(degrees / 90.0) % 4 * 90
+
+
+def probe(path: PathLike) -> VideoInfo:
+    """Read headers (and the first frame, for the rotation) of a video file."""
+    name = os.fspath(path)
+    with _open(path) as container:
+        stream = _video_stream(container, name)
+        audio = container.streams.audio[0] if container.streams.audio else None
+        fps = float(stream.average_rate or stream.guessed_rate or 0.0)
+        if stream.duration is not None and stream.time_base is not None:
+            duration = float(stream.duration * stream.time_base)
+        elif container.duration is not None:
+            duration = container.duration / av.time_base
+        else:
+            duration = float("nan")
+        w, h = stream.codec_context.width, stream.codec_context.height
+        rotation = _rotation(stream, container)
+        if rotation in (90, 270):
+            w, h = h, w
+        if w <= 0 or h <= 0:
+            raise InputError(f"{name}: video stream has no frame size")
+        return VideoInfo(
+            path=name,
+            duration_s=duration,
+            fps=fps,
+            n_frames=int(stream.frames) if stream.frames else None,
+            size=(w, h),
+            rotation=rotation,
+            codec=stream.codec_context.name,
+            has_audio=audio is not None,
+            audio_codec=None if audio is None else audio.codec_context.name,
+        )
+
+
+def _in_range(t: float, config: VideoConfig) -> bool:
+    return t >= config.start_s and (config.end_s is None or t < config.end_s)
+
+
+def select_indices(timestamps: np.ndarray, config: VideoConfig) -> np.ndarray:
+    """Indices of the frames `iter_frames` keeps: in [start_s, end_s), then every `stride`-th.
+
+    timestamps: (T,) seconds of all frames of the video in presentation order.
+    """
+    ts = np.asarray(timestamps, dtype=np.float64)
+    keep = ts >= config.start_s
+    if config.end_s is not None:
+        keep &= ts < config.end_s
+    return np.flatnonzero(keep)[:: config.stride]
+
+
+def iter_frames(
+    path: PathLike, config: VideoConfig | None = None
+) -> Iterator[tuple[float, np.ndarray]]:
+    """Yield `(timestamp_s, frame)` for the frames selected by `config`, one at a time.
+
+    frame: (H, W, 3) uint8 RGB, rotated as the display matrix says. timestamp_s: pts × time_base.
+    Frames whose timestamp does not increase (broken muxers) are dropped with a warning, so the
+    timestamps are strictly increasing.
+    """
+    config = config or VideoConfig()
+    name = os.fspath(path)
+    with _open(path) as container:
+        stream = _video_stream(container, name)
+        stream.thread_type = "AUTO"  # frame threads: ~2x faster decode on 2 cores
+        if config.start_s > 0 and stream.time_base is not None:
+            # Jump to the keyframe before start_s; frames before start_s are then skipped.
+            target = int(config.start_s / stream.time_base) + (stream.start_time or 0)
+            try:
+                container.seek(target, stream=stream, backward=True)
+            except av.FFmpegError:
+                container.seek(0)
+        last_t = -np.inf
+        kept = 0
+        try:
+            for frame in container.decode(stream):
+                t = _frame_time(frame, last_t)
+                if t is None:
+                    continue
+                if config.end_s is not None and t >= config.end_s:
+                    return
+                last_t = t
+                if not _in_range(t, config):
+                    continue
+                kept += 1
+                if (kept - 1) % config.stride:
+                    continue
+                yield t, _to_rgb(frame)
+        except av.FFmpegError as exc:
+            raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
+        _check_complete(stream, last_t, name)
+
+
+def _check_complete(stream: av.video.stream.VideoStream, last_t: float, name: str) -> None:
+    """InputError if decoding stopped well before the end the container declares (a truncated
+    file whose index survived: FFmpeg then just stops, without an error)."""
+    if stream.duration is None or stream.time_base is None or not np.isfinite(last_t):
+        return
+    end = float((stream.duration + (stream.start_time or 0)) * stream.time_base)
+    step = 1.0 / float(stream.average_rate) if stream.average_rate else 0.1
+    if last_t + max(0.5, 3 * step) < end:
+        raise InputError(
+            f"{name}: video is truncated (frames stop at {last_t:.2f} s of {end:.2f} s)"
+        )
+
+
+def _frame_time(frame: av.VideoFrame, last_t: float) -> float | None:
+    if frame.pts is None or frame.time_base is None:
+        log.warning("frame without a timestamp dropped (after t=%.3f s)", last_t)
+        return None
+    t = float(frame.pts * frame.time_base)
+    if t <= last_t:
+        log.warning("frame at t=%.6f s does not follow t=%.6f s; dropped", t, last_t)
+        return None
+    return t
+
+
+def _to_rgb(frame: av.VideoFrame) -> np.ndarray:
+    rgb = frame.to_ndarray(format="rgb24")
+    k = _normalise_rotation(frame.rotation) // 90
+    # The display matrix rotates counter-clockwise by `rotation`; np.rot90 turns CCW too.
+    return np.ascontiguousarray(np.rot90(rgb, k)) if k else rgb
+
+
+def frame_timestamps(path: PathLike) -> np.ndarray:
+    """(T,) presentation timestamps of every frame, from the packets (no decode; fast).
+
+    Used when only the clock is needed (precomputed keypoints). Packets arrive in decode order,
+    so the times are sorted; duplicates are dropped like `iter_frames` does.
+    """
+    name = os.fspath(path)
+    times: list[float] = []
+    with _open(path) as container:
+        stream = _video_stream(container, name)
+        tb = stream.time_base
+        if tb is None:
+            raise InputError(f"{name}: video stream has no time base")
+        try:
+            for packet in container.demux(stream):
+                if packet.pts is not None and packet.size > 0:
+                    times.append(float(packet.pts * tb))
+        except av.FFmpegError as exc:
+            raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
+    return np.unique(np.asarray(times, dtype=np.float64))
+
+
+def first_frame_time(path: PathLike) -> float | None:
+    """Timestamp (s) of the first decodable video frame, None if there is none."""
+    with _open(path) as container:
+        return _first_video_time(container)
+
+
+def _first_video_time(container: av.container.InputContainer) -> float | None:
+    if not container.streams.video:
+        return None
+    try:
+        for frame in container.decode(container.streams.video[0]):
+            if frame.pts is not None and frame.time_base is not None:
+                return float(frame.pts * frame.time_base)
+    except av.FFmpegError:
+        return None
+    return None
+
+
+def read_audio(path: PathLike, sample_rate: int = 16000) -> Audio | None:
+    """The first audio track as mono float32 at `sample_rate`, or None if the file has none.
+
+    Channels are averaged; the rate is converted by FFmpeg's swresample (windowed-sinc filter,
+    i.e. band-limited with anti-aliasing). The whole track is returned (audio is small: 1 h at
+    16 kHz is 230 MB).
+    """
+    name = os.fspath(path)
+    with _open(path) as container:
+        if not container.streams.audio:
+            return None
+        video_t0 = _first_video_time(container)
+    with _open(path) as container:
+        stream = container.streams.audio[0]
+        resampler = av.AudioResampler(format="fltp", rate=sample_rate)
+        chunks: list[np.ndarray] = []
+        audio_t0: float | None = None
+        try:
+            for frame in container.decode(stream):
+                if audio_t0 is None and frame.pts is not None and frame.time_base is not None:
+                    audio_t0 = float(frame.pts * frame.time_base)
+                chunks.extend(_mono(out) for out in resampler.resample(frame))
+            chunks.extend(_mono(out) for out in resampler.resample(None))
+        except av.FFmpegError as exc:
+            raise InputError(f"{name}: audio is corrupt or truncated ({_reason(exc)})") from None
+    signal = np.concatenate(chunks) if chunks else np.zeros(0, np.float32)
+    start = audio_t0 or 0.0
+    offset = start - (video_t0 if video_t0 is not None else 0.0)
+    return Audio(signal.astype(np.float32, copy=False), sample_rate, offset, start)
+
+
+def _mono(frame: av.AudioFrame) -> np.ndarray:
+    """(n,) mean of the channels of a planar float frame."""
+    return frame.to_ndarray().mean(axis=0, dtype=np.float32)

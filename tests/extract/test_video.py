@@ -1,0 +1,188 @@
+"""Video/audio decoding: real timestamps (VFR), rotation, stride/range, audio mono 16 kHz."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from pathlib import Path
+
+import av
+import numpy as np
+import pytest
+from scipy.signal import resample_poly
+
+from gesturebank.config import VideoConfig
+from gesturebank.extract.video import frame_timestamps, iter_frames, probe, read_audio
+
+# Irregular presentation times in milliseconds (a phone's variable frame rate, exaggerated).
+VFR_MS = [0, 33, 50, 120, 121, 300, 301, 302, 450, 1000, 1017, 1400]
+
+
+def write_video(
+    path: Path,
+    pts_ms: list[int],
+    size: tuple[int, int] = (64, 48),
+    *,
+    rotation: int | None = None,
+) -> None:
+    """H.264 video whose frame i is uniformly grey level 20 * i, at the given pts (1/1000 s)."""
+    w, h = size
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream("libx264", rate=30)
+        stream.width, stream.height, stream.pix_fmt = w, h, "yuv420p"
+        stream.time_base = Fraction(1, 1000)
+        stream.codec_context.time_base = Fraction(1, 1000)
+        if rotation is not None:
+            stream.set_display_rotation(rotation)
+        for i, ms in enumerate(pts_ms):
+            img = np.full((h, w, 3), 20 * i, np.uint8)
+            if rotation is not None:
+                img[: h // 4, : w // 4] = 255  # white marker in the coded top-left corner
+                img[h // 4 :, :] = 0
+                img[:, w // 4 :] = 0
+            frame = av.VideoFrame.from_ndarray(img, format="rgb24")
+            frame.pts, frame.time_base = ms, Fraction(1, 1000)
+            out.mux(stream.encode(frame))
+        out.mux(stream.encode())
+
+
+def test_variable_frame_rate_timestamps_are_kept_exactly(tmp_path: Path) -> None:
+    path = tmp_path / "vfr.mp4"
+    write_video(path, VFR_MS)
+    got = list(iter_frames(path))
+    np.testing.assert_allclose([t for t, _ in got], np.array(VFR_MS) / 1000, rtol=0, atol=1e-9)
+    # Each timestamp stays with its own picture (grey level 20 * i).
+    levels = [float(img.mean()) for _, img in got]
+    np.testing.assert_allclose(levels, 20 * np.arange(len(VFR_MS)), atol=3)
+    np.testing.assert_allclose(frame_timestamps(path), np.array(VFR_MS) / 1000, atol=1e-9)
+
+
+def test_frames_are_rgb_uint8_and_streamed(tmp_path: Path) -> None:
+    path = tmp_path / "vfr.mp4"
+    write_video(path, VFR_MS, size=(64, 48))
+    frames = iter_frames(path)
+    assert iter(frames) is frames  # a generator, not a list
+    t, img = next(frames)
+    assert t == 0.0 and img.shape == (48, 64, 3) and img.dtype == np.uint8
+
+
+def test_stride_and_time_range(tmp_path: Path) -> None:
+    path = tmp_path / "vfr.mp4"
+    write_video(path, VFR_MS)
+    got = [t for t, _ in iter_frames(path, VideoConfig(start_s=0.1, end_s=0.5, stride=2))]
+    # In [100, 500) ms: 120, 121, 300, 301, 302, 450 → every 2nd: 120, 300, 302.
+    np.testing.assert_allclose(got, [0.120, 0.300, 0.302], atol=1e-9)
+    later = [t for t, _ in iter_frames(path, VideoConfig(start_s=1.0))]
+    np.testing.assert_allclose(later, [1.0, 1.017, 1.4], atol=1e-9)
+
+
+def test_rotation_metadata_is_applied(tmp_path: Path) -> None:
+    path = tmp_path / "rot.mp4"
+    # PyAV's convention: -90 = rotate 90° clockwise for display (a phone held upright).
+    write_video(path, [0, 33, 66], size=(64, 32), rotation=-90)
+    info = probe(path)
+    assert info.size == (32, 64)
+    _, img = next(iter_frames(path))
+    assert img.shape == (64, 32, 3)
+    grey = img.mean(axis=2)
+    # Clockwise turn: the coded top-left corner is now the top-right corner.
+    assert grey[:8, -8:].mean() > 200
+    assert grey[:8, :8].mean() < 50 and grey[-8:, -8:].mean() < 50
+
+
+def test_probe_and_decode_real_videos(samples: Path) -> None:
+    cam01 = samples / "pose2sim" / "Demo_SinglePerson" / "videos" / "cam01.mp4"
+    info = probe(cam01)
+    assert info.size == (1080, 1920) and info.n_frames == 100 and info.codec == "h264"
+    assert info.fps == pytest.approx(60) and not info.has_audio
+    ts = [t for t, img in iter_frames(cam01, VideoConfig(stride=10))]
+    np.testing.assert_allclose(ts, np.arange(0, 100, 10) / 60, atol=1e-6)
+    demo = probe(samples / "sports2d" / "Demo" / "demo.mp4")
+    assert demo.size == (1768, 994) and demo.n_frames == 230 and demo.codec == "vp9"
+    assert demo.duration_s == pytest.approx(230 / 30, abs=0.05)
+
+
+def test_video_without_audio_gives_none(samples: Path) -> None:
+    assert read_audio(samples / "pose2sim" / "Demo_SinglePerson" / "videos" / "cam01.mp4") is None
+
+
+def _amplitude(x: np.ndarray, freq: float, sr: int) -> float:
+    """Amplitude of the `freq` component of x (lock-in detection)."""
+    t = np.arange(len(x)) / sr
+    return float(
+        2
+        * np.hypot(
+            np.mean(x * np.sin(2 * np.pi * freq * t)), np.mean(x * np.cos(2 * np.pi * freq * t))
+        )
+    )
+
+
+def _mux_audio(
+    path: Path, audio: np.ndarray, rate: int, codec: str, audio_start_s: float = 0.0
+) -> None:
+    """A 1 s grey video plus `audio` (C, N) float in [-1, 1] starting at audio_start_s."""
+    channels = audio.shape[0]
+    with av.open(str(path), "w") as out:
+        v = out.add_stream("libx264", rate=25)
+        v.width, v.height, v.pix_fmt = 32, 32, "yuv420p"
+        a = out.add_stream(codec, rate=rate, layout="stereo" if channels == 2 else "mono")
+        for i in range(25):
+            frame = av.VideoFrame.from_ndarray(np.full((32, 32, 3), 128, np.uint8), "rgb24")
+            frame.pts, frame.time_base = i, Fraction(1, 25)
+            out.mux(v.encode(frame))
+        out.mux(v.encode())
+        pcm = np.round(np.clip(audio, -1, 1) * 32767).astype(np.int16)
+        start = round(audio_start_s * rate)
+        chunk = 1024
+        fmt = "s16p" if codec == "pcm_s16le" else "s16"
+        for i in range(0, pcm.shape[1], chunk):
+            block = pcm[:, i : i + chunk]
+            data = block if fmt == "s16p" else block.T.reshape(1, -1)
+            frame = av.AudioFrame.from_ndarray(
+                np.ascontiguousarray(data), format=fmt, layout=a.layout.name
+            )
+            frame.sample_rate, frame.pts, frame.time_base = rate, start + i, Fraction(1, rate)
+            out.mux(a.encode(frame))
+        out.mux(a.encode())
+
+
+def test_audio_is_averaged_resampled_with_antialiasing_and_offset(tmp_path: Path) -> None:
+    sr_in, dur = 48000, 1.0
+    t = np.arange(int(sr_in * dur)) / sr_in
+    tone = np.sin(2 * np.pi * 440 * t)
+    high = 0.3 * np.sin(2 * np.pi * 12000 * t)  # above 8 kHz: must not alias to 4 kHz
+    stereo = np.stack([0.6 * tone + high, 0.2 * tone + high])
+    path = tmp_path / "tone.mkv"
+    _mux_audio(path, stereo, sr_in, "pcm_s16le", audio_start_s=0.5)
+    audio = read_audio(path, 16000)
+    assert audio is not None
+    x = audio.signal
+    assert audio.sample_rate == 16000 and x.dtype == np.float32 and x.ndim == 1
+    assert len(x) == pytest.approx(16000 * dur, abs=32)
+    assert audio.start_offset_s == pytest.approx(0.5, abs=1e-3)
+    assert audio.start_s == pytest.approx(0.5, abs=1e-3)  # the video starts at 0
+    core = x[800:-800]  # away from the filter's edges
+    assert _amplitude(core, 440, 16000) == pytest.approx(0.4, abs=0.01)  # (0.6 + 0.2) / 2
+    assert _amplitude(core, 4000, 16000) < 0.005  # the 12 kHz tone was filtered, not folded
+
+
+def test_speech_muxed_as_aac_matches_the_wav(tmp_path: Path, samples: Path) -> None:
+    wav = samples / "speech" / "arctic_a0007.wav"
+    with av.open(str(wav)) as c:
+        ref = np.concatenate([f.to_ndarray().reshape(-1) for f in c.decode(audio=0)])
+        sr_ref = c.streams.audio[0].rate
+    ref = ref.astype(np.float64) / 32768 if ref.dtype == np.int16 else ref.astype(np.float64)
+    up = resample_poly(ref, 44100, sr_ref)  # muxed at 44.1 kHz stereo like a camera would
+    path = tmp_path / "speech.mp4"
+    _mux_audio(path, np.stack([up, up]), 44100, "aac")
+    audio = read_audio(path, 16000)
+    assert audio is not None
+    ref16 = resample_poly(ref, 16000, sr_ref)
+    n = min(len(ref16), len(audio.signal))
+    assert abs(len(audio.signal) - len(ref16)) < 0.05 * 16000
+    a, b = audio.signal[:n], ref16[:n]
+    lags = range(-160, 161)
+    corr = [np.corrcoef(np.roll(a, lag), b)[0, 1] for lag in lags]
+    best = int(np.argmax(corr))
+    assert corr[best] > 0.95
+    # Sample 0 plays at the offset: the aligned lag plus the offset stays within 10 ms of 0.
+    assert abs(list(lags)[best] / 16000 + audio.start_offset_s) < 0.01
