@@ -12,15 +12,19 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from gesturebank import __version__
 from gesturebank.config import Config, load_config, parse_override
 from gesturebank.errors import GesturebankError, InputError
+
+if TYPE_CHECKING:
+    from gesturebank.datasets.build import BuildSummary, TakeResult
 
 EXIT_OK, EXIT_TAKES_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -170,6 +174,12 @@ def build_dataset(
     workers: Annotated[
         int | None, typer.Option(min=1, help="Takes built in parallel (default: CPU cores).")
     ] = None,
+    executor: Annotated[
+        str | None, typer.Option(help="'local' process pool (default) or 'ray'.")
+    ] = None,
+    ray_address: Annotated[
+        str | None, typer.Option(help="Ray cluster address (default: start a local Ray).")
+    ] = None,
     force: Annotated[bool, typer.Option(help="Rebuild takes that are already built.")] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
     sets: Annotated[
@@ -194,7 +204,7 @@ def build_dataset(
             {
                 "detector": {"name": detector},
                 "lifter": {"name": lifter},
-                "build": {"workers": workers},
+                "build": {"workers": workers, "executor": executor, "ray_address": ray_address},
             },
         )
         takes = discover_takes(videos_dir, config.build)
@@ -202,18 +212,48 @@ def build_dataset(
             exts = ", ".join(config.build.video_extensions)
             raise InputError(f"{videos_dir}: no videos found ({exts})")
         ensure_writable(out_dir)
+    from gesturebank.datasets.build import build_dataset as build
+
     console = Console(quiet=quiet)
-    table = Table(title=f"{len(takes)} takes in {videos_dir}")
-    table.add_column("take")
-    table.add_column("subject")
-    table.add_column("video")
-    for t in takes:
-        table.add_row(t.take_id, t.subject, str(t.video.relative_to(videos_dir)))
-    console.print(table)
-    console.print(
-        "The processing stages (extract → lift → retarget → features → store) are not part of "
-        f"this version yet: nothing was written to {out_dir}."
+    progress = Progress(
+        TextColumn("[bold]build[/bold]"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TextColumn("{task.description}"),
+        console=console,
+        transient=False,
     )
+    colour = {"built": "green", "skipped": "cyan", "rejected": "yellow", "failed": "red"}
+    with progress:
+        task = progress.add_task("", total=len(takes))
+
+        def show(result: TakeResult) -> None:
+            c = colour[result.outcome]
+            progress.update(
+                task, advance=1, description=f"[{c}]{result.outcome}[/{c}] {result.take_id}"
+            )
+
+        with user_errors():
+            summary = build(takes, videos_dir, out_dir, config, force=force, on_result=show)
+    _print_summary(console, summary)
+    if summary.interrupted:
+        raise typer.Exit(130)
+    raise typer.Exit(EXIT_TAKES_FAILED if summary.failed else EXIT_OK)
+
+
+def _print_summary(console: Console, summary: BuildSummary) -> None:
+    table = Table(title=f"dataset {summary.out}")
+    for name in ("built", "skipped", "rejected", "failed"):
+        table.add_column(name, justify="right")
+    table.add_row(*(str(summary.count(n)) for n in ("built", "skipped", "rejected", "failed")))
+    console.print(table)
+    for r in summary.failed:
+        console.print(f"[red]failed[/red] {r.take_id}: {r.reason}", highlight=False, soft_wrap=True)
+    for note in summary.notes:
+        console.print(f"note: {note}", highlight=False, soft_wrap=True)
+    if summary.interrupted:
+        console.print("interrupted: finished takes are kept; run the same command to resume")
 
 
 def ensure_writable(path: Path) -> None:

@@ -31,3 +31,17 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if "samples" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.media)
+
+
+@pytest.fixture(scope="session")
+def demo_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A dataset built once per session from the real talking demo clips (local pool)."""
+    from gesturebank.config import Config
+    from gesturebank.datasets.build import build_dataset
+    from gesturebank.datasets.takes import discover_takes
+
+    videos = samples / "talking"
+    out = tmp_path_factory.mktemp("demo-dataset")
+    summary = build_dataset(discover_takes(videos), videos, out, Config())
+    assert not summary.failed, summary.failed
+    return out

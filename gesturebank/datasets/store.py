@@ -138,6 +138,14 @@ def write_take(out: Path, record: TakeRecord, arrays: Mapping[str, np.ndarray] |
     write_bytes_atomic(take_json(out, record.take_id), text.encode())
 
 
+def remove_stale_temporaries(out: Path) -> int:
+    """Delete temporary files a killed build left in takes/ (call before any worker starts)."""
+    stale = list((Path(out) / TAKES_DIR).glob(".*.tmp"))
+    for path in stale:
+        path.unlink(missing_ok=True)
+    return len(stale)
+
+
 def read_record(out: Path, take_id: str) -> TakeRecord | None:
     """The take's record, or None when it has none (or an unreadable one: it gets rebuilt)."""
     try:

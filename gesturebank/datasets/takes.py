@@ -38,9 +38,10 @@ def _subjects_csv(root: Path) -> dict[str, dict[str, str]]:
     if not path.is_file():
         return {}
     with open(path, newline="", encoding="utf-8") as f:
-        rows = list(csv.DictReader(f))
-    if rows and not {"take", "subject"} <= set(rows[0]):
-        raise InputError(f"{path}: needs the columns 'take' and 'subject'")
+        reader = csv.DictReader(f)
+        if not {"take", "subject"} <= set(reader.fieldnames or ()):
+            raise InputError(f"{path}: needs the columns 'take' and 'subject'")
+        rows = list(reader)
     # A row may name the take by its id, its relative path or its file stem.
     return {row["take"].strip(): row for row in rows}
 

@@ -19,3 +19,5 @@ class Lifter(Protocol):
 
 
 LIFTERS: Registry[Lifter] = Registry("lifter", "gesturebank.lifters")
+
+LIFTERS.register_lazy("blazepose-world", "gesturebank.lift.blazepose_world:BlazePoseWorldLifter")

@@ -145,8 +145,13 @@ def clamp(angles: np.ndarray, profile: RobotProfile | str | None = None) -> np.n
     """Clip `(N, 11)` angles into the profile's limits; NaN stays NaN; float dtype kept."""
     p = _profile(profile)
     a = _angles(angles, "clamp")
-    out = np.clip(a, p.lower, p.upper)
-    return out.astype(np.result_type(np.asarray(angles).dtype, np.float32), copy=False)
+    dtype = np.result_type(np.asarray(angles).dtype, np.float32)
+    # Limits rounded inward in the output dtype: float32(2.0857) is above 2.0857, so clipping in
+    # float64 and casting afterwards could land just outside the limit.
+    lower, upper = p.lower.astype(dtype), p.upper.astype(dtype)
+    lower = np.where(lower < p.lower, np.nextafter(lower, dtype.type(np.inf)), lower)
+    upper = np.where(upper > p.upper, np.nextafter(upper, dtype.type(-np.inf)), upper)
+    return np.clip(a.astype(dtype), lower, upper)
 
 
 def normalise(angles: np.ndarray, profile: RobotProfile | str | None = None) -> np.ndarray:

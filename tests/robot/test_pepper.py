@@ -271,3 +271,14 @@ def test_fk_coco17_layout():
     assert j.shape == (3, 17, 3)
     assert np.isnan(j[:, 13:]).all()  # knees, ankles
     assert np.isfinite(j[:, :13]).all()
+
+
+def test_clamped_float32_never_exceeds_the_float64_limits() -> None:
+    """float32(2.0857) > 2.0857: clamping a float32 array must still land inside the limits."""
+    p = pepper.load_profile("pepper-1.7")
+    far = np.stack([p.lower - 1, p.upper + 1]).astype(np.float32)
+    out = pepper.clamp(far, p)
+    assert out.dtype == np.float32
+    assert np.all(out.astype(np.float64) >= p.lower)
+    assert np.all(out.astype(np.float64) <= p.upper)
+    np.testing.assert_allclose(out, np.stack([p.lower, p.upper]), atol=1e-6)

@@ -1,0 +1,160 @@
+"""build-dataset on the real sample clips: the on-disk format, resuming after SIGKILL, Ray."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from gesturebank.config import Config
+from gesturebank.datasets.build import audio_clock, build_dataset
+from gesturebank.datasets.takes import discover_takes
+from gesturebank.errors import InputError
+
+BIN = Path(sys.executable).parent
+TIMING = {"detect_s"}  # metrics that measure the run, not the data
+
+
+def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
+    """What a user's script sees, without any gesturebank code."""
+    info = json.loads((demo_dataset / "dataset.json").read_text())
+    assert info["schema_version"] == 1
+    assert info["rates"] == {"pose_hz": 100.0, "audio_hz": 100.0}
+    assert len(info["joints"]) == 11
+    lower = np.array([info["limits"][j]["lower"] for j in info["joints"]])
+    upper = np.array([info["limits"][j]["upper"] for j in info["joints"]])
+    manifest = pq.read_table(demo_dataset / "manifest.parquet").to_pylist()
+    assert [r["take_id"] for r in manifest] == [
+        "lab__cam01_arctic_a0007",
+        "lab__cam03_arctic_a0009",
+        "outdoor__sports2d_arctic",
+    ]
+    for row in manifest:
+        assert row["qc_status"] in ("accepted", "rejected")
+        with np.load(demo_dataset / "takes" / f"{row['take_id']}.npz", allow_pickle=False) as d:
+            angles, angles01, audio, times = d["angles"], d["angles01"], d["audio"], d["times"]
+            raw, ts = d["raw_angles"], d["timestamps"]
+            assert d["pose3d_joints"].shape == (len(ts), 17, 3)
+        n = row["n_frames"]
+        assert angles.shape == angles01.shape == (n, 11)
+        assert audio.shape == (n, info["audio_features"]["dim"])
+        assert angles.dtype == audio.dtype == np.float32
+        np.testing.assert_allclose(np.diff(times), 0.01, atol=1e-9)  # 100 Hz
+        assert raw.shape == (len(ts), 11)
+        assert row["duration_s"] == pytest.approx(n / 100)
+        ok = np.isfinite(angles)
+        assert ok.mean() > 0.8
+        assert np.all((angles >= lower) | ~ok) and np.all((angles <= upper) | ~ok)
+        assert np.all((angles01[ok] >= 0) & (angles01[ok] <= 1))
+        # video span covers the audio clock it was resampled onto
+        assert ts[0] <= times[0] + 1e-9 and times[-1] <= ts[-1] + 1e-9
+    assert (demo_dataset / "splits" / "sd.json").is_file()
+
+
+def test_audio_clock_is_the_common_span() -> None:
+    pose_t = np.arange(0.1, 2.0, 1 / 30)  # video 0.1 … 1.9 s
+    i0, i1, t = audio_clock(pose_t, audio_start_s=0.0, n_frames=150, hop_s=0.01, win_s=0.025)
+    assert t[0] >= pose_t[0] and t[0] - 0.01 < pose_t[0]  # first centre inside the video
+    assert t[-1] <= 1.5 - 0.01 + 0.0125  # audio (150 frames) ends first
+    assert i1 == 149
+    np.testing.assert_allclose(t, 0.0125 + 0.01 * np.arange(i0, i1 + 1))
+    with pytest.raises(InputError, match="do not overlap"):
+        audio_clock(pose_t + 10, 0.0, 150, 0.01, 0.025)
+
+
+def dataset_contents(out: Path) -> dict:
+    rows = pq.read_table(out / "manifest.parquet").to_pylist()
+    for r in rows:
+        r["metrics"] = {k: v for k, v in r["metrics"] if k not in TIMING}
+    arrays = {}
+    for r in rows:
+        with np.load(out / "takes" / f"{r['take_id']}.npz", allow_pickle=False) as d:
+            arrays[r["take_id"]] = {k: d[k] for k in d.files}
+    return {"rows": rows, "arrays": arrays}
+
+
+def assert_same_dataset(a: Path, b: Path) -> None:
+    ca, cb = dataset_contents(a), dataset_contents(b)
+    assert ca["rows"] == cb["rows"]
+    for take, arrays in ca["arrays"].items():
+        assert arrays.keys() == cb["arrays"][take].keys()
+        for key, value in arrays.items():
+            np.testing.assert_array_equal(value, cb["arrays"][take][key], err_msg=f"{take} {key}")
+
+
+def test_sigkill_mid_build_then_rerun_gives_the_same_dataset(
+    samples: Path, demo_dataset: Path, tmp_path: Path
+) -> None:
+    videos, out = samples / "talking", tmp_path / "out"
+    cmd = [str(BIN / "build-dataset"), str(videos), str(out), "--workers", "1", "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not list((out / "takes").glob("*.json")) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    os.kill(proc.pid, signal.SIGKILL)  # while the next take is being processed
+    proc.wait()
+    done = {p.stem for p in (out / "takes").glob("*.json")}
+    assert 1 <= len(done) < 3, "the kill should land mid-build"
+    for npz in (out / "takes").glob("*.npz"):  # whatever is under a final name is complete
+        with np.load(npz, allow_pickle=False) as d:
+            assert d["angles"].shape[1] == 11
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert r.returncode == 0, r.stderr
+    assert not list((out / "takes").glob(".*"))  # no temporary files left behind
+    assert_same_dataset(out, demo_dataset)
+
+
+def test_rerun_skips_built_takes_and_force_rebuilds(demo_dataset: Path, samples: Path) -> None:
+    videos = samples / "talking"
+    before = {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*.npz")}
+    summary = build_dataset(discover_takes(videos), videos, demo_dataset, Config())
+    assert summary.count("skipped") == 3
+    assert {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*.npz")} == before
+    changed = Config.model_validate({"processing": {"cutoff_hz": 6.0}})
+    summary = build_dataset(discover_takes(videos), videos, demo_dataset, changed)
+    assert summary.count("built") == 3  # a changed config rebuilds
+    summary = build_dataset(discover_takes(videos), videos, demo_dataset, Config(), force=True)
+    assert summary.count("built") == 3
+
+
+def test_bad_take_fails_alone(samples: Path, tmp_path: Path) -> None:
+    videos = tmp_path / "videos"
+    (videos / "s1").mkdir(parents=True)
+    (videos / "s1" / "good.mp4").symlink_to(samples / "talking/lab/cam01_arctic_a0007.mp4")
+    (videos / "s1" / "broken.mp4").write_bytes(b"\x00\x00\x00\x18ftypmp42 not a real video")
+    (videos / "s1" / "silent.mp4").symlink_to(
+        samples / "pose2sim/Demo_SinglePerson/videos/cam04.mp4"
+    )
+    out = tmp_path / "out"
+    r = subprocess.run(
+        [str(BIN / "build-dataset"), str(videos), str(out), "--workers", "2"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert r.returncode == 1  # some takes failed
+    rows = {row["take_id"]: row for row in pq.read_table(out / "manifest.parquet").to_pylist()}
+    assert rows["s1__good"]["qc_status"] == "accepted"
+    assert rows["s1__broken"]["qc_status"] == "failed"
+    assert "broken.mp4" in rows["s1__broken"]["qc_reasons"][0]
+    assert rows["s1__silent"]["qc_status"] == "failed"
+    assert "no audio" in rows["s1__silent"]["qc_reasons"][0]
+    assert not (out / "takes" / "s1__broken.npz").exists()
+    assert "failed s1__broken" in r.stdout.replace("\n", " ")
+
+
+@pytest.mark.slow
+def test_ray_executor_gives_the_same_dataset(samples: Path, demo_dataset: Path, tmp_path) -> None:
+    pytest.importorskip("ray")
+    videos = samples / "talking"
+    config = Config.model_validate({"build": {"executor": "ray"}})
+    summary = build_dataset(discover_takes(videos), videos, tmp_path, config)
+    assert summary.count("built") == 3
+    assert_same_dataset(tmp_path, demo_dataset)
