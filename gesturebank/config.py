@@ -109,6 +109,73 @@ class LifterConfig(Section):
     )
 
 
+class GeometricConfig(Section):
+    """Options of the `geometric` lifter; every assumption of the module docstring has a switch."""
+
+    robust_lengths: bool = Field(
+        True,
+        description="A2: bone lengths = a percentile of the 2D lengths over the whole take; "
+        "false = the dissertation's causal running maximum.",
+    )
+    length_percentile: float = Field(
+        95.0,
+        gt=0,
+        le=100,
+        description="Percentile of the 2D lengths taken as a bone's true length; lower it when "
+        "the detector often over-stretches bones, raise it when bones rarely lie in the image.",
+    )
+    torso_facing_camera: bool = Field(
+        True,
+        description="A3: shoulders and hips lie in a plane parallel to the image (z = 0); "
+        "false = estimate the torso's yaw from its width foreshortening.",
+    )
+    head_in_front: bool = Field(
+        True, description="A4: nose, eyes and ears are in front of the torso plane."
+    )
+    arms_in_front: bool = Field(
+        True, description="A4: elbows (and wrists) are in front of the torso plane."
+    )
+    wrist_beyond_elbow: bool = Field(
+        True, description="A5: each wrist is further in front of the torso plane than its elbow."
+    )
+    min_confidence: float = Field(
+        0.05, ge=0, le=1, description="Keypoints below this confidence are treated as missing."
+    )
+    visible_confidence: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Keypoints at or above this confidence count as seen: only they estimate "
+        "bone lengths, and an arm keypoint inside the torso outline below it is flagged behind.",
+    )
+    length_tolerance: float = Field(
+        0.1,
+        ge=0,
+        description="A bone longer in 2D than (1 + this) × its estimated length is flagged "
+        "too_long (fraction; measurement noise stays below it).",
+    )
+    ambiguity_tolerance: float = Field(
+        0.1,
+        ge=0,
+        le=1,
+        description="With a sign prior off, a depth up to this fraction of the bone length "
+        "is not ambiguous (both signs give nearly the same point).",
+    )
+    flag_confidence: float = Field(
+        0.25, ge=0, le=1, description="Confidence of a flagged joint is multiplied by this."
+    )
+    units: Literal["relative", "m"] = Field(
+        "relative",
+        description="'relative' = pixels / image height; 'm' = scaled by an assumed shoulder "
+        "width (shoulder_width_m).",
+    )
+    shoulder_width_m: float = Field(
+        0.35,
+        gt=0,
+        description="Assumed distance between the shoulder joints, metres (units = 'm' only).",
+    )
+
+
 class RobotConfig(Section):
     profile: str = Field(
         "pepper-1.7",
@@ -167,6 +234,11 @@ class BuildConfig(Section):
         "local", description="'local' process pool, or 'ray' for a cluster."
     )
     ray_address: str | None = Field(None, description="Ray cluster address ('auto', host:port).")
+    cache_detections: bool = Field(
+        True,
+        description="Reuse 2D detections of a video already seen with the same detector "
+        "settings (cached by content in the user cache dir, or $GESTUREBANK_CACHE).",
+    )
     video_extensions: list[str] = Field(
         [".mp4", ".mov", ".avi", ".mkv", ".webm"], description="Files treated as takes."
     )
@@ -184,6 +256,7 @@ class Config(Section):
     detector: DetectorConfig = Field(default_factory=DetectorConfig)
     tracking: TrackingConfig = Field(default_factory=TrackingConfig)
     lifter: LifterConfig = Field(default_factory=LifterConfig)
+    geometric: GeometricConfig = Field(default_factory=GeometricConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)
     processing: ProcessingConfig = Field(default_factory=ProcessingConfig)
     audio: AudioConfig = Field(default_factory=AudioConfig)

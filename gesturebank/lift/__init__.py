@@ -21,3 +21,4 @@ class Lifter(Protocol):
 LIFTERS: Registry[Lifter] = Registry("lifter", "gesturebank.lifters")
 
 LIFTERS.register_lazy("blazepose-world", "gesturebank.lift.blazepose_world:BlazePoseWorldLifter")
+LIFTERS.register_lazy("geometric", "gesturebank.lift.geometric:GeometricLifter")
