@@ -181,6 +181,9 @@ def build_dataset(
         str | None, typer.Option(help="Ray cluster address (default: start a local Ray).")
     ] = None,
     force: Annotated[bool, typer.Option(help="Rebuild takes that are already built.")] = False,
+    no_cache: Annotated[
+        bool, typer.Option("--no-cache", help="Run the detector even on videos seen before.")
+    ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
     sets: Annotated[
         list[str] | None,
@@ -204,7 +207,12 @@ def build_dataset(
             {
                 "detector": {"name": detector},
                 "lifter": {"name": lifter},
-                "build": {"workers": workers, "executor": executor, "ray_address": ray_address},
+                "build": {
+                    "workers": workers,
+                    "executor": executor,
+                    "ray_address": ray_address,
+                    "cache_detections": False if no_cache else None,
+                },
             },
         )
         takes = discover_takes(videos_dir, config.build)

@@ -9,6 +9,7 @@ with its one-line reason and the build goes on.
 
 from __future__ import annotations
 
+import importlib
 import logging
 import math
 import multiprocessing
@@ -17,6 +18,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -33,6 +35,18 @@ from gesturebank.errors import GesturebankError, InputError
 log = logging.getLogger(__name__)
 
 Outcome = Literal["built", "skipped", "rejected", "failed"]
+
+# Imported once by the worker pool's fork server (their import is the slow part of a start).
+PIPELINE_MODULES = (
+    "gesturebank.extract.pipeline",
+    "gesturebank.extract.detectors.mediapipe",
+    "gesturebank.extract.audio",
+    "gesturebank.filters",
+    "gesturebank.lift.blazepose_world",
+    "gesturebank.robot.retarget",
+    "mediapipe.python.solutions.pose",
+    "scipy.signal",
+)
 
 # Config sections that change what a take contains (the build section only changes how).
 CONTENT_SECTIONS = ("video", "detector", "tracking", "lifter", "robot", "processing", "audio")
@@ -94,7 +108,7 @@ def process_take(take: Take, config: Config) -> tuple[dict[str, np.ndarray], dic
     from gesturebank.robot import pepper
     from gesturebank.robot.retarget import pepper_angles
 
-    pose2d, audio, info = extract_take(take.video, config)
+    pose2d, audio, info = extract_take(take.video, config, use_cache=config.build.cache_detections)
     if audio is None:
         raise InputError(f"{take.video}: no audio track and no {take.video.stem}.wav beside it")
     pose3d = LIFTERS.create(config.lifter.name, config).lift(pose2d)
@@ -150,7 +164,7 @@ def process_take(take: Take, config: Config) -> tuple[dict[str, np.ndarray], dic
     return arrays, {"metrics": metrics, "detector": info.detector, "n_frames": len(times)}
 
 
-def run_take(take: Take, out: Path, config: Config, source: str) -> TakeResult:
+def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
     """Build one take and write it; every failure becomes a `failed` record, never an exception."""
     start = time.perf_counter()
     digest = content_digest(config)
@@ -185,31 +199,53 @@ def run_take(take: Take, out: Path, config: Config, source: str) -> TakeResult:
         return TakeResult(
             take.take_id, "built", "", wall, metrics["duration_s"], metrics["detect_s"]
         )
-    failed = store.TakeRecord(
-        qc_status="failed", qc_reasons=(reason,), detector=config.detector.name, **base
+    return _record_failure(take, source, out, config, reason, time.perf_counter() - start)
+
+
+def _record_failure(
+    take: Take, source: str, out: Path, config: Config, reason: str, wall_s: float = 0.0
+) -> TakeResult:
+    record = store.TakeRecord(
+        take_id=take.take_id,
+        subject=take.subject,
+        source=source,
+        qc_status="failed",
+        qc_reasons=(reason,),
+        config_digest=content_digest(config),
+        detector=config.detector.name,
+        lifter=config.lifter.name,
+        traits=take.traits,
     )
-    store.write_take(out, failed, None)
-    return TakeResult(take.take_id, "failed", reason, time.perf_counter() - start)
+    store.write_take(out, record, None)
+    return TakeResult(take.take_id, "failed", reason, wall_s)
 
 
 def _local(
     jobs: list[tuple[Take, str]], out: Path, config: Config, workers: int
 ) -> Iterator[TakeResult]:
     if workers == 1:
+        for module in PIPELINE_MODULES:  # as the pool does: start-up is not a take's time
+            importlib.import_module(module)
         for take, source in jobs:
-            yield run_take(take, out, config, source)
+            yield run_take(take, source, out, config)
         return
-    # spawn: workers start clean (no inherited threads from mediapipe or a Ray client)
-    ctx = multiprocessing.get_context("spawn")
+    # forkserver: a clean server process (no threads inherited from mediapipe or a Ray client)
+    # imports the pipeline once; every worker forks from it instead of importing for seconds.
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(list(PIPELINE_MODULES))
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        pending: set[Future[TakeResult]] = {
-            pool.submit(run_take, take, out, config, source) for take, source in jobs
-        }
+        futures = {pool.submit(run_take, *job, out, config): job for job in jobs}
+        pending: set[Future[TakeResult]] = set(futures)
         try:
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
-                    yield fut.result()
+                    try:
+                        yield fut.result()
+                    except BrokenProcessPool:
+                        # a native crash (e.g. in a decoder) killed a worker: the pool is gone
+                        reason = "worker process died; run again to resume"
+                        yield _record_failure(*futures[fut], out, config, reason)
         except BaseException:
             for fut in pending:
                 fut.cancel()
@@ -230,7 +266,7 @@ def _ray(
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
     try:
         remote = ray.remote(run_take)
-        pending = [remote.remote(take, out, config, source) for take, source in jobs]
+        pending = [remote.remote(take, source, out, config) for take, source in jobs]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             yield ray.get(done[0])
@@ -308,6 +344,8 @@ def build_dataset(
                 on_result(result)
         else:
             jobs.append((take, str(take.video.relative_to(videos_dir))))
+    # longest first (file size as the cheap proxy), so no worker is left with a long take at the end
+    jobs.sort(key=lambda job: job[0].video.stat().st_size, reverse=True)
     workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(jobs)))
     results = (
         _ray(jobs, out, config, config.build.ray_address)
