@@ -158,3 +158,26 @@ def test_ray_executor_gives_the_same_dataset(samples: Path, demo_dataset: Path, 
     summary = build_dataset(discover_takes(videos), videos, tmp_path, config)
     assert summary.count("built") == 3
     assert_same_dataset(tmp_path, demo_dataset)
+
+
+def test_ctrl_c_stops_cleanly_and_a_rerun_resumes(samples: Path, tmp_path: Path) -> None:
+    videos, out = samples / "talking", tmp_path / "out"
+    cmd = [str(BIN / "build-dataset"), str(videos), str(out), "--workers", "2", "--no-cache"]
+    # own process group, so the SIGINT reaches the workers too, as Ctrl-C in a terminal does
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, start_new_session=True
+    )
+    deadline = time.monotonic() + 120
+    while not list((out / "takes").glob("*.json")) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "interrupted" in stdout
+    assert not list((out / "takes").glob(".*"))  # no temporary or half-written files
+    done = {p.stem for p in (out / "takes").glob("*.npz")}
+    manifest = pq.read_table(out / "manifest.parquet").to_pylist()
+    assert {r["take_id"] for r in manifest if r["qc_status"] == "accepted"} == done
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert r.returncode == 0, r.stdout
+    assert len(pq.read_table(out / "manifest.parquet")) == 3
