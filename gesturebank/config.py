@@ -176,6 +176,60 @@ class GeometricConfig(Section):
     )
 
 
+class MultiviewConfig(Section):
+    """Triangulation thresholds and camera synchronisation of the `multiview` lifter."""
+
+    min_confidence: float = Field(
+        0.3,
+        ge=0,
+        le=1,
+        description="2D keypoints below this detector confidence are ignored (Pose2Sim: 0.3).",
+    )
+    max_error_px: float = Field(
+        12.0,
+        gt=0,
+        description="Mean reprojection error (pixels) above which the worst cameras are "
+        "excluded. 12 px suits BlazePose on 1080p video; raise it for larger images or looser "
+        "detectors (Pose2Sim uses 15).",
+    )
+    reject_error_px: float | None = Field(
+        50.0,
+        gt=0,
+        description="Joints still above this error (pixels) after exclusion become NaN; "
+        "none keeps everything that was triangulated.",
+    )
+    min_cameras: int = Field(2, ge=2, description="Fewest cameras a joint is triangulated from.")
+    max_combinations: int = Field(
+        64,
+        ge=1,
+        description="Most camera subsets tried per joint before the search turns greedy "
+        "(dropping the worst camera); bounds the cost with many cameras.",
+    )
+    sync: Literal["none", "audio", "motion", "auto"] = Field(
+        "none",
+        description="Time offsets between cameras: 'none' (hardware-synchronised), 'audio' "
+        "(cross-correlate audio tracks), 'motion' (cross-correlate keypoint speed), 'auto' "
+        "(audio where every camera has it, else motion).",
+    )
+    offsets_s: list[float] | None = Field(
+        None,
+        description="Known offsets, seconds, one per camera (camera clock minus reference "
+        "clock); overrides `sync`.",
+    )
+    max_offset_s: float = Field(
+        2.0, gt=0, description="Largest offset the synchronisation searches for, seconds."
+    )
+    reference_camera: int = Field(
+        0, ge=0, description="Index of the camera whose clock and frames the 3D pose follows."
+    )
+
+    @model_validator(mode="after")
+    def _reject(self) -> MultiviewConfig:
+        if self.reject_error_px is not None and self.reject_error_px < self.max_error_px:
+            raise ValueError("reject_error_px must be at least max_error_px")
+        return self
+
+
 class RobotConfig(Section):
     profile: str = Field(
         "pepper-1.7",
@@ -257,6 +311,7 @@ class Config(Section):
     tracking: TrackingConfig = Field(default_factory=TrackingConfig)
     lifter: LifterConfig = Field(default_factory=LifterConfig)
     geometric: GeometricConfig = Field(default_factory=GeometricConfig)
+    multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)
     processing: ProcessingConfig = Field(default_factory=ProcessingConfig)
     audio: AudioConfig = Field(default_factory=AudioConfig)

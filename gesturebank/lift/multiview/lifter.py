@@ -1,0 +1,237 @@
+"""`multiview`: the calibrated multi-camera lifter — several Pose2D + a CameraGroup → Pose3D.
+
+Each view is converted to COCO-17, put on the reference camera's clock (known offsets, or
+audio / motion synchronisation), then every joint of every frame is triangulated with camera
+exclusion (`triangulate`). The result is in the calibration's world frame, metres. Joints no two
+cameras agree on are NaN; confidence falls with the reprojection error:
+`conf = mean 2D confidence of the cameras used × max_error / (max_error + error)` (½ at the
+exclusion threshold for a perfectly confident detection).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gesturebank.config import Config, MultiviewConfig
+from gesturebank.errors import CalibrationError, InputError
+from gesturebank.extract.video import Audio
+from gesturebank.lift.multiview.cameras import CameraGroup
+from gesturebank.lift.multiview.sync import align, estimate_offsets
+from gesturebank.lift.multiview.triangulate import Triangulation, triangulate
+from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.skeletons import COCO17
+
+log = logging.getLogger(__name__)
+
+CALIBRATION_NAMES = ("calibration.toml", "*.qca.txt")
+
+
+@dataclass(frozen=True)
+class MultiviewReport:
+    """What the lifter did to one take.
+
+    offsets_s (C,): camera clock minus reference clock; sync: method per camera;
+    triangulation: per-point result on the reference timeline (T, 17); camera_names (C,).
+    """
+
+    offsets_s: np.ndarray
+    sync: list[str]
+    triangulation: Triangulation
+    camera_names: list[str]
+
+    def joint_table(self) -> list[tuple[str, float, float, float]]:
+        """(joint, median error px, 90th percentile px, mean cameras used) per COCO-17 joint;
+        NaN errors for joints never triangulated."""
+        rows = []
+        err, ncam = self.triangulation.error, self.triangulation.n_cameras
+        for j, name in enumerate(COCO17.joints):
+            e = err[:, j][np.isfinite(err[:, j])]
+            med = float(np.median(e)) if e.size else float("nan")
+            p90 = float(np.percentile(e, 90)) if e.size else float("nan")
+            rows.append(
+                (
+                    name,
+                    med,
+                    p90,
+                    float(ncam[:, j][np.isfinite(err[:, j])].mean()) if e.size else 0.0,
+                )
+            )
+        return rows
+
+    def camera_usage(self) -> dict[str, float]:
+        """Fraction of triangulated joints each camera took part in."""
+        ok = np.isfinite(self.triangulation.error)
+        used = self.triangulation.used
+        return {
+            name: float(used[c][ok].mean()) if ok.any() else 0.0
+            for c, name in enumerate(self.camera_names)
+        }
+
+
+def _config(config: MultiviewConfig | Config | None) -> MultiviewConfig:
+    if config is None:
+        return MultiviewConfig()
+    return config if isinstance(config, MultiviewConfig) else config.multiview
+
+
+class MultiviewLifter:
+    """Triangulating lifter. `config` is a MultiviewConfig or the main Config (its `multiview`
+    section is used); `cameras` may also be given per call."""
+
+    name = "multiview"
+
+    def __init__(self, config: Any = None, *, cameras: CameraGroup | None = None) -> None:
+        self.config = _config(config)
+        self.cameras = cameras
+
+    def lift(
+        self,
+        poses: Sequence[Pose2D] | Pose2D,
+        cameras: CameraGroup | None = None,
+        *,
+        audios: Sequence[Audio | None] | None = None,
+    ) -> Pose3D:
+        """One Pose2D per camera (same order as `cameras`) → Pose3D (T, 17, 3), metres, world
+        frame, on the reference camera's timestamps."""
+        return self.lift_with_report(poses, cameras, audios=audios)[0]
+
+    def lift_with_report(
+        self,
+        poses: Sequence[Pose2D] | Pose2D,
+        cameras: CameraGroup | None = None,
+        *,
+        audios: Sequence[Audio | None] | None = None,
+    ) -> tuple[Pose3D, MultiviewReport]:
+        cfg = self.config
+        cams = cameras or self.cameras
+        if cams is None:
+            raise CalibrationError("multiview lifter: no cameras given (a calibration file)")
+        views = [poses] if isinstance(poses, Pose2D) else list(poses)
+        if len(views) < 2:
+            raise InputError(f"multiview lifter: needs two or more views, got {len(views)}")
+        if len(views) != len(cams):
+            raise InputError(
+                f"multiview lifter: {len(views)} views but {len(cams)} cameras ({cams.names})"
+            )
+        if not 0 <= cfg.reference_camera < len(views):
+            raise InputError(
+                f"multiview lifter: reference_camera {cfg.reference_camera} out of "
+                f"range for {len(views)} cameras"
+            )
+        for pose, cam in zip(views, cams, strict=True):
+            if tuple(pose.image_size) != cam.size:
+                log.warning(
+                    "camera %s: video is %dx%d, calibration %dx%d",
+                    cam.name,
+                    *pose.image_size,
+                    *cam.size,
+                )
+        coco = [v.to_coco17() for v in views]
+        # Sync on the detector's own keypoints: more of them make a steadier motion curve.
+        offsets, methods = self._offsets(views, audios)
+        times = coco[cfg.reference_camera].timestamps
+        kp = align(coco, offsets, times)  # (C, T, 17, 3)
+        tri = triangulate(
+            kp[..., :2],
+            kp[..., 2],
+            cams,
+            min_confidence=cfg.min_confidence,
+            max_error_px=cfg.max_error_px,
+            min_cameras=cfg.min_cameras,
+            max_combinations=cfg.max_combinations,
+        )
+        joints, error, used = tri.points.copy(), tri.error.copy(), tri.used.copy()
+        if cfg.reject_error_px is not None:
+            bad = error > cfg.reject_error_px
+            joints[bad], error[bad], used[:, bad] = np.nan, np.nan, False
+        tri = Triangulation(points=joints, error=error, used=used)
+        conf2d = np.where(used, np.nan_to_num(kp[..., 2]), 0.0).sum(0) / np.maximum(used.sum(0), 1)
+        with np.errstate(invalid="ignore"):
+            confidence = np.clip(conf2d * cfg.max_error_px / (cfg.max_error_px + error), 0, 1)
+        confidence[~np.isfinite(error)] = np.nan
+        report = MultiviewReport(offsets, methods, tri, cams.names)
+        pose3d = Pose3D(
+            joints.astype(np.float32),
+            confidence.astype(np.float32),
+            times,
+            frame="world",
+            units="m",
+            meta={
+                "lifter": self.name,
+                "cameras": ",".join(cams.names),
+                "offsets_s": ",".join(f"{o:.6f}" for o in offsets),
+                "sync": ",".join(methods),
+                "median_error_px": f"{_nanmedian(error):.3f}",
+            },
+        )
+        return pose3d, report
+
+    def _offsets(
+        self, views: list[Pose2D], audios: Sequence[Audio | None] | None
+    ) -> tuple[np.ndarray, list[str]]:
+        cfg = self.config
+        if cfg.offsets_s is not None:
+            if len(cfg.offsets_s) != len(views):
+                raise InputError(
+                    f"multiview lifter: {len(cfg.offsets_s)} offsets_s for {len(views)} cameras"
+                )
+            return np.asarray(cfg.offsets_s, np.float64), ["given"] * len(views)
+        if cfg.sync == "none":
+            return np.zeros(len(views)), ["none"] * len(views)
+        offsets, methods, _ = estimate_offsets(
+            views,
+            audios,
+            method=cfg.sync,
+            reference=cfg.reference_camera,
+            max_lag_s=cfg.max_offset_s,
+        )
+        return offsets, methods
+
+
+def _nanmedian(values: np.ndarray) -> float:
+    finite = values[np.isfinite(values)]
+    return float(np.median(finite)) if finite.size else float("nan")
+
+
+def find_calibration(folder: str | os.PathLike[str]) -> Path:
+    """The calibration file of a multi-camera take folder (DESIGN.md "What a take is"):
+    `calibration.toml` or a Qualisys `*.qca.txt`, in the folder or its `calibration/` subfolder."""
+    root = Path(folder)
+    for where in (root, root / "calibration"):
+        for pattern in CALIBRATION_NAMES:
+            hits = sorted(where.glob(pattern))
+            if len(hits) > 1:
+                raise CalibrationError(f"{where}: several calibration files ({hits[0].name}, …)")
+            if hits:
+                return hits[0]
+    raise CalibrationError(f"{root}: no calibration.toml or *.qca.txt")
+
+
+def match_videos(cameras: CameraGroup, videos: Sequence[str | os.PathLike[str]]) -> list[Path]:
+    """The videos in camera order: by name (a camera called 'cam01' takes the video whose stem
+    is or starts with 'cam01'), else by sorted file name when the counts agree."""
+    paths = sorted(Path(v) for v in videos)
+    by_name: list[Path] = []
+    for cam in cameras:
+        hits = [p for p in paths if p.stem == cam.name] or [
+            p for p in paths if p.stem.startswith(cam.name)
+        ]
+        if len(hits) != 1:
+            break
+        by_name.append(hits[0])
+    if len(by_name) == len(cameras) and len(set(by_name)) == len(by_name):
+        return by_name
+    if len(paths) != len(cameras):
+        raise CalibrationError(
+            f"{len(paths)} videos for {len(cameras)} calibrated cameras ({cameras.names}) and "
+            "the names do not match"
+        )
+    log.warning("videos matched to cameras %s by sorted file name", cameras.names)
+    return paths
