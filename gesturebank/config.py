@@ -280,6 +280,216 @@ class AudioConfig(Section):
         return self
 
 
+class QCConfig(Section):
+    """Thresholds of the QC (config section `qc`). Defaults were set on the real sample takes
+    (see benchmarks/qc.py); loosen them for unusual footage rather than editing takes."""
+
+    analysis_rate_hz: float = Field(
+        30.0,
+        gt=0,
+        description="Uniform clock the raw angles are resampled to for jerk and jitter, Hz, so "
+        "takes filmed at different frame rates compare (noise jerk grows as rate⁵).",
+    )
+    min_confidence: float = Field(
+        0.5, ge=0, le=1, description="A 2D keypoint less confident than this counts as missing."
+    )
+    jitter_above_hz: float = Field(
+        7.0, gt=0, description="Power above this frequency of the raw angles counts as jitter, Hz."
+    )
+    min_duration_s: float = Field(1.0, ge=0, description="Shorter takes are rejected, seconds.")
+    max_missing_fraction: float = Field(
+        0.25,
+        ge=0,
+        le=1,
+        description="Largest share of frames with a missing or low-confidence upper-body keypoint.",
+    )
+    max_keypoint_gap_s: float = Field(
+        0.5,
+        ge=0,
+        description="Longest run of such frames, seconds (the builder bridges up to "
+        "processing.max_gap_s by interpolation).",
+    )
+    max_bone_cv: float = Field(
+        0.25,
+        ge=0,
+        description="Largest coefficient of variation of a 3D bone length (rigid body: 0).",
+    )
+    max_limit_fraction: float = Field(
+        0.6,
+        ge=0,
+        le=1,
+        description="Largest share of frames with some joint held at a robot limit by clamping.",
+    )
+    max_jitter_fraction: float = Field(
+        0.15, ge=0, le=1, description="Largest share of raw-angle power above jitter_above_hz."
+    )
+    max_swap_events: int = Field(
+        0, ge=0, description="Left/right exchanges of the arms tolerated in a take."
+    )
+    max_spike: float = Field(
+        0.75,
+        gt=0,
+        description="Largest one-frame jump of a keypoint out and back, in shoulder widths.",
+    )
+    max_frozen_fraction: float = Field(
+        0.1, ge=0, le=1, description="Largest share of frames where the pose is exactly repeated."
+    )
+    min_motion_range: float = Field(
+        0.035,
+        ge=0,
+        description="A take whose every joint moves less than this (5–95 % range, rad; "
+        "0.035 rad = 2°) is static.",
+    )
+    max_jerk_raw: float | None = Field(
+        None,
+        gt=0,
+        description="Absolute ceiling on the raw jerk J (Eq. 3.21, rad² s⁻⁵); none = only the "
+        "dataset-relative check.",
+    )
+    outlier_metrics: list[str] = Field(
+        ["jerk_raw", "jerk"],
+        description="Metrics checked for dataset-relative outliers (robust z of their log).",
+    )
+    outlier_z: float = Field(3.5, gt=0, description="Robust z-score above which a take stands out.")
+    outlier_min_ratio: float = Field(
+        3.0, ge=1, description="…and its metric must also exceed this × the dataset median."
+    )
+    outlier_min_takes: int = Field(
+        5, ge=3, description="Fewer built takes than this: no dataset-relative check."
+    )
+
+
+ModelKind = Literal["mlp", "lstm"]
+Variant = Literal["si", "sd"]
+
+
+class MLPConfig(Section):
+    layers: int = Field(
+        7, ge=1, le=64, description="Hidden layers N_l (Table 4.5: 7 for LogFB-26)."
+    )
+    units: int = Field(8, ge=1, description="Units per hidden layer N_u (Table 4.5: 8).")
+    batch_size: int | None = Field(
+        None,
+        ge=1,
+        description="Frames per Adam step; none = the whole training partition per step, as the "
+        "dissertation (one step per epoch). Set e.g. 256 for faster convergence on big data.",
+    )
+    max_epochs: int = Field(10_000, ge=1, description="Upper bound on epochs (§4.3.3: 10,000).")
+
+
+class LSTMConfig(Section):
+    units: int = Field(12, ge=1, description="LSTM units N_u' in the one hidden layer (§4.3.4).")
+    seq_len: int = Field(
+        300, ge=2, description="Training sequence length N_τ, frames (300 = 3 s at 100 Hz)."
+    )
+    stride: int = Field(1, ge=1, description="Frames between training sequence starts (§4.3.4: 1).")
+    batch_size: int = Field(
+        256,
+        ge=1,
+        description="Sequences per Adam step. The dissertation used 15,000 (its GPU memory "
+        "limit); 256 fits a CPU and converges in fewer epochs.",
+    )
+    max_epochs: int = Field(100, ge=1, description="Upper bound on epochs (§4.3.4: 100 SI).")
+
+
+class TrainConfig(Section):
+    """How models are trained and evaluated (section `[train]`)."""
+
+    mlp: MLPConfig = Field(default_factory=MLPConfig)
+    lstm: LSTMConfig = Field(default_factory=LSTMConfig)
+    learning_rate: float = Field(1e-3, gt=0, description="Adam learning rate (Keras default).")
+    patience: int = Field(
+        10, ge=1, description="Stop after this many epochs without a lower validation loss."
+    )
+    seed: int = Field(0, description="Seeds weights and shuffling; same seed → same weights.")
+    threads: int = Field(
+        1,
+        ge=1,
+        description="torch CPU threads while training. These models are tiny: a second thread "
+        "made an MLP step slower, not faster (0.6 vs 16–49 ms on 2 busy cores).",
+    )
+    smoothing_cutoff_hz: float = Field(
+        4.0, gt=0, description="Post-smoothing of predictions (§4.4.1): Butterworth cut-off, Hz."
+    )
+    smoothing_order: int = Field(5, ge=1, le=10, description="Post-smoothing Butterworth order.")
+    lcca_window_s: float = Field(3.0, gt=0, description="Local CCA window τ, seconds (§3.4.3).")
+    lcca_stride: int = Field(
+        1, ge=1, description="Frames between local-CCA windows (Eq. 3.18: 1; raise for speed)."
+    )
+    shift_baseline_s: float = Field(
+        0.5, gt=0, description="Time shift of the 'ground truth shifted' baseline, seconds."
+    )
+    speed_bin: float = Field(
+        0.05, gt=0, description="Width of the angular-speed histogram bins, rad/s."
+    )
+    speed_max: float = Field(
+        5.0,
+        gt=0,
+        description="Top of the speed histogram, rad/s; faster frames go in the last bin.",
+    )
+
+
+class PlaybackConfig(Section):
+    """Options of robot playback (offline replay and live mode)."""
+
+    mode: Literal["stream", "interpolate"] = Field(
+        "stream",
+        description="'stream': one setAngles per frame with the adaptive sleep of Eq. 4.1; "
+        "'interpolate': one time-stamped angleInterpolation call for the whole timeline "
+        "(backends without it stream). 'stream' kept better sync (benchmarks/playback.py).",
+    )
+    eta: float = Field(
+        0.95,
+        gt=0,
+        le=1,
+        description="η of Eq. 4.1: sleep η × the time left until the next frame is due; below "
+        "1 it wakes early rather than late (the dissertation's empirical 0.95).",
+    )
+    start_s: float = Field(
+        2.0, ge=0, description="Shortest move from the robot's current pose to frame 0, seconds."
+    )
+    return_s: float = Field(
+        2.0, ge=0, description="Shortest move back to the neutral pose at the end, seconds."
+    )
+    lead_s: float = Field(
+        0.05,
+        ge=0,
+        description="Pause between reaching frame 0 and starting the audio, seconds (gives "
+        "the audio device time to open).",
+    )
+    speed_fraction: float = Field(
+        1.0,
+        gt=0,
+        le=1,
+        description="Share of each joint's maximum velocity the sent motion may use; also "
+        "ALMotion's fractionMaxSpeed. Lower it for a gentler robot.",
+    )
+    ramp_rate_hz: float = Field(
+        100.0, gt=0, le=1000, description="Command rate of the start and return moves, Hz."
+    )
+    timeout_s: float = Field(
+        2.0,
+        gt=0,
+        description="A robot call taking longer than this counts as a lost connection, seconds.",
+    )
+    wake_up: bool = Field(
+        True, description="naoqi: call ALMotion.wakeUp (stiffen the motors) before moving."
+    )
+    rest_at_end: bool = Field(
+        False, description="naoqi: call ALMotion.rest (crouch, motors off) after returning."
+    )
+    sim_fps: int = Field(25, ge=1, le=120, description="sim: video frame rate, frames/s.")
+    sim_view_px: int = Field(
+        360, ge=120, le=1080, description="sim: side of one square view (front or side), px."
+    )
+    kalman_q: float = Field(
+        0.5, ge=0, description="Live mode: Kalman process noise q (§4.4.2; dissertation 0.5)."
+    )
+    kalman_r: float = Field(
+        0.01, gt=0, description="Live mode: Kalman measurement noise r (dissertation 0.01)."
+    )
+
+
 class BuildConfig(Section):
     workers: int | None = Field(
         None, ge=1, description="Takes built in parallel (none = number of CPU cores)."
@@ -315,6 +525,9 @@ class Config(Section):
     robot: RobotConfig = Field(default_factory=RobotConfig)
     processing: ProcessingConfig = Field(default_factory=ProcessingConfig)
     audio: AudioConfig = Field(default_factory=AudioConfig)
+    qc: QCConfig = Field(default_factory=QCConfig)
+    train: TrainConfig = Field(default_factory=TrainConfig)
+    playback: PlaybackConfig = Field(default_factory=PlaybackConfig)
     build: BuildConfig = Field(default_factory=BuildConfig)
 
     def to_json_dict(self) -> dict[str, Any]:

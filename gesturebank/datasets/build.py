@@ -15,7 +15,6 @@ import math
 import multiprocessing
 import os
 import time
-from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -34,7 +33,7 @@ from gesturebank.errors import GesturebankError, InputError
 
 log = logging.getLogger(__name__)
 
-Outcome = Literal["built", "skipped", "rejected", "failed"]
+Outcome = Literal["built", "skipped", "failed"]
 
 # Imported once by the worker pool's fork server (their import is the slow part of a start).
 PIPELINE_MODULES = (
@@ -68,6 +67,8 @@ class BuildSummary:
     results: list[TakeResult] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     interrupted: bool = False
+    dashboard: Path | None = None
+    qc: dict[str, tuple[str, list[str]]] = field(default_factory=dict)  # take → (status, reasons)
 
     def count(self, outcome: Outcome) -> int:
         return sum(r.outcome == outcome for r in self.results)
@@ -275,16 +276,19 @@ def _ray(
             ray.shutdown()
 
 
-def finalise(out: Path, config: Config, take_ids: list[str]) -> list[str]:
-    """manifest.parquet, dataset.json (with audio normalisation stats) and splits."""
+def finalise(out: Path, config: Config, take_ids: list[str], videos_dir: Path) -> list[str]:
+    """QC verdicts over all takes together, then manifest.parquet, dataset.json (with audio
+    normalisation stats of every built take's subject) and splits. Returns notes."""
     from gesturebank.extract.audio import feature_dim, fit_znorm
+    from gesturebank.qc.checks import apply_verdicts
     from gesturebank.robot import pepper
 
+    apply_verdicts(out, config.qc, take_ids)  # dataset-relative: always over every take
     table = store.write_manifest(out, take_ids)
     rows = table.to_pylist()
     by_subject: dict[str, list[np.ndarray]] = {}
     for row in rows:
-        if row["qc_status"] == "accepted":
+        if row["qc_status"] != "failed":  # a rejected take's motion is bad, its audio is not
             with np.load(store.take_npz(out, row["take_id"]), allow_pickle=False) as data:
                 by_subject.setdefault(row["subject"], []).append(data["audio"])
     stats: dict[str, Any] = {}
@@ -300,6 +304,7 @@ def finalise(out: Path, config: Config, take_ids: list[str]) -> list[str]:
         {
             "tool": "gesturebank",
             "tool_version": __version__,
+            "videos_dir": str(Path(videos_dir).resolve()),
             "config": config.to_json_dict(),
             "config_digest": content_digest(config),
             "joints": list(pepper.JOINTS),
@@ -326,6 +331,7 @@ def build_dataset(
     config: Config,
     *,
     force: bool = False,
+    dashboard: bool = True,
     on_result: Callable[[TakeResult], None] | None = None,
 ) -> BuildSummary:
     """Build (or resume) the dataset in `out`; see the module docstring."""
@@ -359,9 +365,11 @@ def build_dataset(
                 on_result(result)
     except KeyboardInterrupt:
         summary.interrupted = True  # finished takes are on disk; the manifest still covers them
-    summary.notes = finalise(out, config, [t.take_id for t in takes])
+    summary.notes = finalise(out, config, [t.take_id for t in takes], videos_dir)
+    for row in store.Dataset(out).records():
+        summary.qc[row["take_id"]] = (row["qc_status"], row["qc_reasons"])
+    if dashboard:
+        from gesturebank.qc.dashboard import write_dashboard
+
+        summary.dashboard = write_dashboard(out, config.qc)
     return summary
-
-
-def outcome_counts(summary: BuildSummary) -> Counter[str]:
-    return Counter(r.outcome for r in summary.results)

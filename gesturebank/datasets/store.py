@@ -134,6 +134,11 @@ def write_take(out: Path, record: TakeRecord, arrays: Mapping[str, np.ndarray] |
             np.savez_compressed(f, allow_pickle=False, **arrays)
     else:
         npz.unlink(missing_ok=True)  # a failed rebuild must not leave an older take behind
+    write_record(out, record)
+
+
+def write_record(out: Path, record: TakeRecord) -> None:
+    """Write (or rewrite, e.g. after QC) a take's record atomically."""
     text = json.dumps(record.to_json_dict(), indent=1, allow_nan=True)
     write_bytes_atomic(take_json(out, record.take_id), text.encode())
 

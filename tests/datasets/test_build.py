@@ -177,7 +177,7 @@ def test_ctrl_c_stops_cleanly_and_a_rerun_resumes(samples: Path, tmp_path: Path)
     assert not list((out / "takes").glob(".*"))  # no temporary or half-written files
     done = {p.stem for p in (out / "takes").glob("*.npz")}
     manifest = pq.read_table(out / "manifest.parquet").to_pylist()
-    assert {r["take_id"] for r in manifest if r["qc_status"] == "accepted"} == done
+    assert {r["take_id"] for r in manifest if r["qc_status"] != "failed"} == done
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
     assert r.returncode == 0, r.stdout
     assert len(pq.read_table(out / "manifest.parquet")) == 3

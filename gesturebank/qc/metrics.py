@@ -1,0 +1,340 @@
+"""QC metrics of one take: pure functions over its arrays (DESIGN.md "Dataset on disk").
+
+Radians and seconds inside; the reasons and plots convert to degrees.
+
+Jerkiness J (Eq. 3.21) is computed twice:
+
+- `jerk_raw`: on the raw angles, i.e. straight from the 3D pose at the video's own timestamps.
+  Video frame rates differ between takes (30, 50, 60 fps, and variable frame rate is real), and
+  the J of frame-to-frame measurement noise grows as rate⁵ (Eq. 3.21 has f⁶ / f), so the same
+  noise filmed at 60 fps would look 32× jerkier than at 30 fps. The raw angles are therefore first
+  linearly resampled onto one uniform analysis clock (`analysis_rate_hz`, 30 Hz by default, the
+  rate peers hard-code) using their real timestamps; gaps longer than `max_gap_s` stay NaN.
+  This makes J comparable across takes, and is what the dataset-relative outlier check uses.
+- `jerk`: on the processed angles (100 Hz, low-passed, clamped): what the model will learn.
+
+Both are sums over the 11 joints (as Fig. 4.7); per-joint values are `jerk_raw/<Joint>` and
+`jerk/<Joint>` (as Fig. 4.9).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gesturebank.filters import resample_to_clock
+from gesturebank.robot.pepper import JOINTS, RobotProfile, load_profile
+from gesturebank.skeletons import COCO17, to_coco17
+
+F64 = NDArray[np.float64]
+
+# Keypoints a take cannot do without: the 11 Pepper angles are computed from these (COCO-17 names).
+UPPER_BODY = (
+    "nose",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+    "left_hip",
+    "right_hip",
+)
+# Bones whose length must stay constant in a rigid 3D skeleton.
+UPPER_BONES = (
+    ("left_shoulder", "right_shoulder"),
+    ("left_shoulder", "left_elbow"),
+    ("left_elbow", "left_wrist"),
+    ("right_shoulder", "right_elbow"),
+    ("right_elbow", "right_wrist"),
+    ("left_shoulder", "left_hip"),
+    ("right_shoulder", "right_hip"),
+    ("left_hip", "right_hip"),
+)
+_I = COCO17.index
+
+
+# --------------------------------------------------------------------------------------------------
+# Jerkiness
+
+
+def jerkiness(angles: np.ndarray, rate_hz: float) -> F64:
+    """Angular jerkiness per joint `(D,)`, rad² s⁻⁵, of `angles (N, D)` sampled at `rate_hz`.
+
+    Jerk, Eq. 3.21: J_j = 1 / (2 f (N − 3)) Σ_i (Δ³θ_ij f³)², with the third forward difference
+    Δ³θ_i = θ_(i+3) − 3 θ_(i+2) + 3 θ_(i+1) − θ_i; i.e. ½ f⁵ mean_i (Δ³θ_i)². The sum over joints
+    is the overall J of Eq. 3.21. Only differences over four finite samples count, and N − 3
+    becomes their number; a joint without any is NaN.
+    """
+    a = np.asarray(angles, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    f = float(rate_hz)
+    if not f > 0:
+        raise ValueError(f"rate_hz must be positive, got {rate_hz!r}")
+    if len(a) < 4:
+        return np.full(a.shape[1], np.nan)
+    d3 = a[3:] - 3 * a[2:-1] + 3 * a[1:-2] - a[:-3]  # Δ³θ, (N − 3, D)
+    valid = np.isfinite(d3)
+    n = valid.sum(axis=0)
+    total = np.where(valid, d3, 0.0) ** 2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, 0.5 * f**5 * total.sum(axis=0) / n, np.nan)
+
+
+def uniform(
+    values: np.ndarray, timestamps: np.ndarray, rate_hz: float, max_gap_s: float = 0.25
+) -> F64:
+    """`values (T, D)` at irregular `timestamps (T,)` linearly resampled to `rate_hz`: `(N, D)`.
+
+    Gaps longer than `max_gap_s` stay NaN (see `filters.interpolate_at`).
+    """
+    v = np.asarray(values, dtype=np.float64)
+    if len(v) < 2:
+        return v.reshape(len(v), -1)
+    _, out, _ = resample_to_clock(v, timestamps, rate_hz, max_gap_s=max_gap_s)
+    return np.asarray(out, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------------------------------
+# Detection coverage
+
+
+def missing_frames(
+    keypoints: np.ndarray, skeleton: str, min_confidence: float = 0.5
+) -> NDArray[np.bool_]:
+    """Frames `(T,)` where any upper-body keypoint of `keypoints (T, K, 3)` (x, y, confidence)
+    is missing (NaN) or less confident than `min_confidence`."""
+    kp = to_coco17(np.asarray(keypoints, dtype=np.float32), skeleton)[
+        :, [_I[j] for j in UPPER_BODY]
+    ]
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(kp[..., :2]).all(axis=-1) | ~(kp[..., 2] >= min_confidence)
+    return np.asarray(bad.any(axis=-1))
+
+
+def longest_run_s(bad: np.ndarray, timestamps: np.ndarray) -> float:
+    """Longest run of True in `bad (T,)`, in seconds: from the run's first frame to the next
+    frame after it (a run reaching the end lasts one more median frame interval)."""
+    b = np.asarray(bad, dtype=bool)
+    t = np.asarray(timestamps, dtype=np.float64)
+    if not b.any():
+        return 0.0
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    t_after = np.append(t[1:], t[-1] + dt)  # when each frame ends
+    edges = np.diff(np.concatenate([[0], b.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return float(max(t_after[e - 1] - t[s] for s, e in zip(starts, stops, strict=True)))
+
+
+# --------------------------------------------------------------------------------------------------
+# Geometry of the 3D pose
+
+
+def bone_cv(joints: np.ndarray, bones: Sequence[tuple[str, str]] = UPPER_BONES) -> F64:
+    """Coefficient of variation (std / mean over frames) of each bone's length `(B,)` in
+    `joints (T, 17, 3)` (COCO-17). A rigid skeleton gives 0; NaN frames are skipped."""
+    j = np.asarray(joints, dtype=np.float64)
+    out = np.full(len(bones), np.nan)
+    for b, (p, q) in enumerate(bones):
+        length = np.linalg.norm(j[:, _I[p]] - j[:, _I[q]], axis=-1)
+        length = length[np.isfinite(length)]
+        if len(length) >= 2 and length.mean() > 0:
+            out[b] = length.std() / length.mean()
+    return out
+
+
+def _scale(points: np.ndarray) -> float:
+    """Median shoulder width of `points (T, 17, D)`: the body's size in its own units."""
+    w = np.linalg.norm(points[:, _I["left_shoulder"]] - points[:, _I["right_shoulder"]], axis=-1)
+    w = w[np.isfinite(w)]
+    return float(np.median(w)) if len(w) else float("nan")
+
+
+def swap_events(points: np.ndarray, *, ratio: float = 0.5, min_move: float = 0.5) -> int:
+    """Number of sudden left/right exchanges of the elbows and wrists in `points (T, 17, D)`.
+
+    Between consecutive frames, `same` = Σ |L_t − L_(t−1)| + |R_t − R_(t−1)| over elbow and
+    wrist, and `cross` the same with the previous frame's sides exchanged. A swap is a step where
+    the arms moved more than `min_move` shoulder widths (`same`) but exchanging the sides explains
+    the step (`cross < ratio · same`). Swapping back counts as another event.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    if len(p) < 2:
+        return 0
+    left = p[:, [_I["left_elbow"], _I["left_wrist"]]]
+    right = p[:, [_I["right_elbow"], _I["right_wrist"]]]
+
+    def dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(a - b, axis=-1).sum(axis=-1)
+
+    same = dist(left[1:], left[:-1]) + dist(right[1:], right[:-1])
+    cross = dist(left[1:], right[:-1]) + dist(right[1:], left[:-1])
+    with np.errstate(invalid="ignore"):
+        events = (same > min_move * _scale(p)) & (cross < ratio * same)
+    return int(np.sum(events))
+
+
+def frozen_fraction(points: np.ndarray, *, tol: float = 1e-6) -> float:
+    """Share of consecutive-frame steps of `points (T, J, D)` where nothing moved at all
+    (every finite coordinate changed by at most `tol` × the body's size): a held, not a tracked,
+    pose. Only coordinates finite in both frames count; steps without any are skipped."""
+    p = np.asarray(points, dtype=np.float64)
+    if len(p) < 2:
+        return 0.0
+    flat = p.reshape(len(p), -1)
+    both = np.isfinite(flat[1:]) & np.isfinite(flat[:-1])
+    valid = both.any(axis=1)
+    if not valid.any():
+        return 0.0
+    step = np.where(both, np.abs(np.diff(flat, axis=0)), 0.0).max(axis=1)
+    size = float(np.nanstd(flat))
+    return float(np.mean(step[valid] <= tol * max(size, 1e-12)))
+
+
+def spike_sizes(points: np.ndarray, joints: Sequence[str] = UPPER_BODY) -> F64:
+    """How far each keypoint of `points (T, 17, D)` leaves the line between its neighbours in
+    time, in shoulder widths: |p_t − (p_(t−1) + p_(t+1)) / 2| / width, `(T − 2, J)`; only where
+    the excursion is larger than the step between the neighbours (it jumps out and back)."""
+    p = np.asarray(points, dtype=np.float64)[:, [_I[j] for j in joints]]
+    if len(p) < 3:
+        return np.zeros((0, len(joints)))
+    out = np.linalg.norm(p[1:-1] - (p[:-2] + p[2:]) / 2, axis=-1)
+    through = np.linalg.norm(p[2:] - p[:-2], axis=-1)
+    with np.errstate(invalid="ignore"):
+        return np.where(out > through, out, 0.0) / _scale(points)
+
+
+# --------------------------------------------------------------------------------------------------
+# Angles
+
+
+def _max(values: np.ndarray) -> float:
+    finite = np.asarray(values)[np.isfinite(values)]
+    return float(finite.max()) if finite.size else 0.0
+
+
+def limit_frames(
+    angles: np.ndarray, lower: np.ndarray, upper: np.ndarray, tol: float = 1e-5
+) -> NDArray[np.bool_]:
+    """`(N, D)` True where a clamped angle of `angles (N, D)` sits on its limit (within `tol`)."""
+    a = np.asarray(angles, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.asarray((a <= np.asarray(lower) + tol) | (a >= np.asarray(upper) - tol))
+
+
+def spectrum(values: np.ndarray, rate_hz: float) -> tuple[F64, F64]:
+    """Power spectrum of each column of `values (N, D)`: `(freqs (F,), power (F, D))`.
+
+    Each column's mean is removed; NaN samples are bridged linearly for the transform (a column
+    without finite values is all zero). Periodogram with a Hann window.
+    """
+    v = np.array(values, dtype=np.float64, copy=True)
+    if v.ndim == 1:
+        v = v[:, None]
+    idx = np.arange(len(v))
+    for j in range(v.shape[1]):
+        ok = np.isfinite(v[:, j])
+        v[:, j] = np.interp(idx, idx[ok], v[ok, j]) - v[ok, j].mean() if ok.any() else 0.0
+    window = np.hanning(len(v))[:, None]
+    power = np.asarray(np.abs(np.fft.rfft(v * window, axis=0)) ** 2, dtype=np.float64)
+    return np.asarray(np.fft.rfftfreq(len(v), 1.0 / rate_hz), dtype=np.float64), power
+
+
+def high_freq_fraction(values: np.ndarray, rate_hz: float, above_hz: float = 7.0) -> float:
+    """Share of the power of `values (N, D)` above `above_hz`, all columns together (the mean
+    excluded): jitter. NaN when the clock cannot show `above_hz` or nothing moves."""
+    if above_hz >= rate_hz / 2 or len(values) < 8:
+        return float("nan")
+    freqs, power = spectrum(values, rate_hz)
+    total = power[1:].sum()
+    return float(power[freqs > above_hz].sum() / total) if total > 0 else float("nan")
+
+
+def motion_range(angles: np.ndarray) -> float:
+    """Largest 5–95 % range of any joint of `angles (N, D)`, rad: ~0 for a static take."""
+    a = np.asarray(angles, dtype=np.float64)
+    ranges = [
+        np.percentile(c[np.isfinite(c)], 95) - np.percentile(c[np.isfinite(c)], 5)
+        for c in a.T
+        if np.isfinite(c).sum() >= 2
+    ]
+    return float(max(ranges, default=0.0))
+
+
+# --------------------------------------------------------------------------------------------------
+# One take
+
+
+def take_metrics(
+    arrays: Mapping[str, np.ndarray],
+    profile: RobotProfile | str = "pepper-1.7",
+    *,
+    analysis_rate_hz: float = 30.0,
+    max_gap_s: float = 0.25,
+    min_confidence: float = 0.5,
+    jitter_above_hz: float = 7.0,
+) -> dict[str, float]:
+    """All QC metrics of one take's arrays (the layout of `store`), as plain floats.
+
+    Keys: duration_s; jerk_raw and jerk (sums over joints, Eq. 3.21) and their per-joint
+    `jerk_raw/<Joint>`, `jerk/<Joint>`; missing_keypoints_fraction, keypoint_gap_s;
+    bone_cv_max; limit_frames_fraction; jitter_fraction; swap_events; frozen_fraction;
+    spike_max (shoulder widths); motion_range (rad). A metric whose arrays are absent is NaN.
+    """
+    prof = load_profile(profile) if isinstance(profile, str) else profile
+    nan = float("nan")
+    m: dict[str, float] = {}
+
+    angles = np.asarray(arrays["angles"], dtype=np.float64)
+    times = np.asarray(arrays["times"], dtype=np.float64)
+    rate = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else 100.0
+    m["duration_s"] = float(times[-1] - times[0]) + 1.0 / rate if len(times) else 0.0
+
+    j_proc = jerkiness(angles, rate)
+    raw_u = np.empty((0, len(JOINTS)))
+    if "raw_angles" in arrays and len(arrays["raw_angles"]) >= 2:
+        raw_u = uniform(arrays["raw_angles"], arrays["timestamps"], analysis_rate_hz, max_gap_s)
+    j_raw = jerkiness(raw_u, analysis_rate_hz) if len(raw_u) else np.full(len(JOINTS), nan)
+    m["jerk_raw"] = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
+    m["jerk"] = float(np.nansum(j_proc)) if np.isfinite(j_proc).any() else nan
+    for name, jr, jp in zip(JOINTS, j_raw, j_proc, strict=True):
+        m[f"jerk_raw/{name}"] = float(jr)
+        m[f"jerk/{name}"] = float(jp)
+
+    m["missing_keypoints_fraction"] = m["keypoint_gap_s"] = nan
+    frozen: list[float] = []
+    swaps: list[float] = []
+    spikes: list[float] = []
+    if "pose2d_keypoints" in arrays:
+        kp = np.asarray(arrays["pose2d_keypoints"])
+        skel = str(arrays["pose2d_skeleton"])
+        bad = missing_frames(kp, skel, min_confidence)
+        m["missing_keypoints_fraction"] = float(bad.mean()) if len(bad) else nan
+        m["keypoint_gap_s"] = longest_run_s(bad, arrays["pose2d_timestamps"])
+        xy = to_coco17(kp, skel)[..., :2]
+        swaps.append(swap_events(xy))
+        frozen.append(frozen_fraction(xy[:, [_I[j] for j in UPPER_BODY]]))
+        spikes.append(_max(spike_sizes(xy)))
+
+    m["bone_cv_max"] = nan
+    if "pose3d_joints" in arrays:
+        joints = np.asarray(arrays["pose3d_joints"])
+        cv = bone_cv(joints)
+        m["bone_cv_max"] = float(np.nanmax(cv)) if np.isfinite(cv).any() else nan
+        swaps.append(swap_events(joints))
+        frozen.append(frozen_fraction(joints[:, [_I[j] for j in UPPER_BODY]]))
+        spikes.append(_max(spike_sizes(joints)))
+    m["swap_events"] = float(max(swaps)) if swaps else nan
+    m["frozen_fraction"] = float(max(frozen)) if frozen else nan
+    m["spike_max"] = float(np.nanmax(spikes)) if np.isfinite(spikes).any() else nan
+
+    at_limit = limit_frames(angles, prof.lower, prof.upper)
+    m["limit_frames_fraction"] = float(at_limit.any(axis=1).mean()) if len(angles) else nan
+    m["jitter_fraction"] = (
+        high_freq_fraction(raw_u, analysis_rate_hz, jitter_above_hz) if len(raw_u) else nan
+    )
+    m["motion_range"] = motion_range(angles)
+    return m

@@ -1,0 +1,163 @@
+"""Each QC metric against its formula or a known value."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gesturebank.qc import metrics as M
+from gesturebank.robot import pepper
+from gesturebank.skeletons import COCO17
+
+IDX = COCO17.index
+
+
+def test_jerk_of_a_cubic_is_known() -> None:
+    # θ = c t³: Δ³θ = 6c / f³ every step, so Eq. 3.21 gives J = ½ f⁵ (6c / f³)² = 18 c² / f.
+    f, c = 50.0, 0.7
+    t = np.arange(200) / f
+    j = M.jerkiness(c * t[:, None] ** 3, f)
+    assert j[0] == pytest.approx(18 * c**2 / f, rel=1e-9)
+
+
+@pytest.mark.parametrize("poly", [lambda t: 0 * t + 1.3, lambda t: 2 * t - 1, lambda t: t**2])
+def test_jerk_of_constant_linear_quadratic_is_zero(poly) -> None:
+    t = np.arange(100) / 30.0
+    assert M.jerkiness(poly(t)[:, None], 30.0)[0] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_jerk_matches_eq_3_21_literally() -> None:
+    rng = np.random.default_rng(1)
+    theta, f = rng.normal(size=(40, 11)), 25.0
+    n = len(theta)
+    expect = np.zeros(11)
+    for i in range(n - 3):  # J = 1 / (2 f (N − 3)) Σ_i (Δ³θ_i f³)²
+        d3 = (theta[i + 3] - 3 * theta[i + 2] + 3 * theta[i + 1] - theta[i]) * f**3
+        expect += d3**2
+    expect /= 2 * f * (n - 3)
+    np.testing.assert_allclose(M.jerkiness(theta, f), expect, rtol=1e-12)
+
+
+def test_jerk_skips_windows_touching_nan() -> None:
+    f, c = 30.0, 1.0
+    t = np.arange(60) / f
+    theta = c * t[:, None] ** 3
+    theta[20] = np.nan
+    assert M.jerkiness(theta, f)[0] == pytest.approx(18 * c**2 / f)
+    assert np.isnan(M.jerkiness(np.full((10, 1), np.nan), f)[0])
+
+
+def test_uniform_resampling_makes_frame_rates_comparable() -> None:
+    # A cubic filmed at 60 fps, resampled to 30 Hz, has the 30 Hz value 18 c² / 30.
+    t60 = np.arange(120) / 60.0
+    theta = (0.5 * t60**3)[:, None]
+    j = M.jerkiness(M.uniform(theta, t60, 30.0), 30.0)[0]
+    assert j == pytest.approx(18 * 0.25 / 30.0, rel=1e-6)
+
+
+def test_missing_frames_and_longest_gap() -> None:
+    kp = np.ones((30, 17, 3), np.float32)
+    kp[5:8, IDX["left_wrist"], :2] = np.nan  # missing
+    kp[20, IDX["nose"], 2] = 0.1  # not confident
+    kp[25, IDX["left_knee"], :2] = np.nan  # not an upper-body keypoint: ignored
+    bad = M.missing_frames(kp, "coco17", min_confidence=0.5)
+    assert np.flatnonzero(bad).tolist() == [5, 6, 7, 20]
+    t = np.arange(30) / 30.0
+    assert M.longest_run_s(bad, t) == pytest.approx(3 / 30)
+    end = np.zeros(30, bool)
+    end[-2:] = True
+    assert M.longest_run_s(end, t) == pytest.approx(2 / 30)
+    assert M.longest_run_s(np.zeros(30, bool), t) == 0.0
+
+
+def _random_rotation(rng: np.random.Generator) -> np.ndarray:
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.diag(r))
+
+
+def test_bone_cv_of_rigid_motion_is_zero_and_of_a_stretch_is_known() -> None:
+    rng = np.random.default_rng(2)
+    body = pepper.fk_coco17(pepper.neutral_pose()[None])[0]
+    frames = np.stack([body @ _random_rotation(rng).T + rng.normal(size=3) for _ in range(50)])
+    np.testing.assert_allclose(M.bone_cv(frames), 0.0, atol=1e-9)
+    stretched = frames.copy()
+    # forearm alternately 1.1× and 0.9× as long: CV = 0.1 exactly
+    k = np.where(np.arange(50) % 2, 1.1, 0.9)[:, None]
+    e, w = IDX["left_elbow"], IDX["left_wrist"]
+    stretched[:, w] = frames[:, e] + k * (frames[:, w] - frames[:, e])
+    cv = M.bone_cv(stretched)
+    assert cv[M.UPPER_BONES.index(("left_elbow", "left_wrist"))] == pytest.approx(0.1)
+
+
+def _walking_skeleton(n: int = 60) -> np.ndarray:
+    """A skeleton whose arms move smoothly (shoulder width 0.4)."""
+    body = pepper.fk_coco17(pepper.neutral_pose()[None])[0]
+    t = np.arange(n) / 30.0
+    frames = np.repeat(body[None], n, axis=0)
+    for name in ("left_elbow", "left_wrist", "right_elbow", "right_wrist"):
+        frames[:, IDX[name], 0] += 0.1 * np.sin(2 * np.pi * 0.7 * t + 0.3)
+    return frames
+
+
+def test_swap_detection_on_a_constructed_swap() -> None:
+    frames = _walking_skeleton()
+    assert M.swap_events(frames) == 0
+    swapped = frames.copy()
+    for a, b in (("left_elbow", "right_elbow"), ("left_wrist", "right_wrist")):
+        swapped[20:30, [IDX[a], IDX[b]]] = frames[20:30, [IDX[b], IDX[a]]]
+    assert M.swap_events(swapped) == 2  # in and back out
+    assert M.swap_events(swapped[:, :, :2]) == 2  # in 2D too
+
+
+def test_frozen_fraction() -> None:
+    frames = _walking_skeleton()
+    assert M.frozen_fraction(frames) == 0.0
+    frames[10:25] = frames[10]
+    assert M.frozen_fraction(frames) == pytest.approx(14 / 59)
+
+
+def test_spike_size_in_shoulder_widths() -> None:
+    frames = _walking_skeleton()
+    width = np.linalg.norm(frames[0, IDX["left_shoulder"]] - frames[0, IDX["right_shoulder"]])
+    assert np.nanmax(M.spike_sizes(frames)) < 0.05
+    frames[30, IDX["right_wrist"], 1] += 1.5 * width
+    assert np.nanmax(M.spike_sizes(frames)) == pytest.approx(1.5, rel=0.02)
+
+
+def test_limit_frames() -> None:
+    prof = pepper.load_profile()
+    a = np.tile((prof.lower + prof.upper) / 2, (4, 1))
+    a[1, 0] = prof.upper[0]
+    a[2, 3] = prof.lower[3]
+    at = M.limit_frames(a, prof.lower, prof.upper)
+    assert at.any(axis=1).tolist() == [False, True, True, False]
+
+
+def test_high_frequency_share() -> None:
+    t = np.arange(600) / 30.0
+    slow = np.sin(2 * np.pi * 1.0 * t)[:, None]
+    fast = np.sin(2 * np.pi * 11.0 * t)[:, None]
+    assert M.high_freq_fraction(slow, 30.0, 7.0) < 0.01
+    assert M.high_freq_fraction(fast, 30.0, 7.0) > 0.99
+    mixed = np.hstack([slow, fast])  # equal power in each column → half above 7 Hz
+    assert M.high_freq_fraction(mixed, 30.0, 7.0) == pytest.approx(0.5, abs=0.01)
+    assert np.isnan(M.high_freq_fraction(slow, 12.0, 7.0))  # the clock cannot show 7 Hz
+
+
+def test_motion_range() -> None:
+    assert M.motion_range(np.zeros((50, 11))) == 0.0
+    ramp = np.zeros((101, 11))
+    ramp[:, 4] = np.linspace(0, 1, 101)
+    assert M.motion_range(ramp) == pytest.approx(0.9)
+
+
+def test_take_metrics_of_a_clean_synthetic_take(take) -> None:
+    m = M.take_metrics(take)
+    assert m["duration_s"] == pytest.approx(len(take["times"]) / 100)
+    assert m["jerk"] == pytest.approx(sum(m[f"jerk/{j}"] for j in pepper.JOINTS))
+    assert m["jerk_raw"] > m["jerk"] > 0  # the low-pass removes jerk
+    assert m["missing_keypoints_fraction"] == 0 and m["keypoint_gap_s"] == 0
+    assert m["swap_events"] == 0 and m["frozen_fraction"] == 0
+    assert m["spike_max"] < 0.1 and m["jitter_fraction"] < 0.01
+    assert m["motion_range"] > 0.2
+    assert all(isinstance(v, float) for v in m.values())
