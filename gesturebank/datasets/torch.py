@@ -1,0 +1,256 @@
+"""PyTorch datasets over a built dataset's splits: frame pairs (MLP) and sequence windows (LSTM).
+
+A split part (SI fold or SD subject, see `datasets.splits`) is loaded as `Segment`s — one per
+take (SI) or per (take, start, end) piece (SD). Audio features are z-normalised with the stats of
+the segment's own subject from dataset.json (`normalisation.audio_znorm_by_subject`, §3.2), which
+is how the dissertation normalised every speaker, test speakers included.
+
+Unknown pose (NaN in `angles01`) is handled with a mask, never by inventing values:
+- every segment carries `mask (n, 11)`, True where the target angle is known; the target holds 0
+  where it is not, and the loss (`masked_mse`) averages over known entries only;
+- `FrameDataset` drops frames with no known angle at all (they carry no signal);
+- `WindowDataset` keeps audio continuous (the LSTM needs its context even where pose is unknown),
+  masks the unknown targets, and drops windows with no known target. A segment shorter than
+  `seq_len` is padded at its end with zero audio and mask 0: the LSTM is causal, so padding after
+  a frame never changes that frame's output.
+Frames whose audio is not finite are zeroed and masked too.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+from torch.utils.data import Dataset as TorchDataset
+
+from gesturebank.datasets.splits import SPLITS_DIR
+from gesturebank.datasets.store import Dataset
+from gesturebank.errors import InputError
+from gesturebank.extract.audio import apply_znorm, fit_znorm
+
+log = logging.getLogger(__name__)
+
+SplitItem = tuple[str, int, int]  # (take_id, start_frame, end_frame)
+Batch = tuple[torch.Tensor, torch.Tensor, torch.Tensor]  # x, y, mask
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A contiguous piece of one take, ready for a model.
+
+    audio: (n, F) float32 z-normalised features; target: (n, 11) float32 angles in [0, 1] with
+    unknown entries 0; mask: (n, 11) bool, True where the target is known; angles: (n, 11)
+    float32 radians, NaN where unknown (for metrics).
+    """
+
+    take_id: str
+    subject: str
+    start: int
+    audio: np.ndarray
+    target: np.ndarray
+    mask: np.ndarray
+    angles: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.audio)
+
+
+def split_items(
+    dataset: Dataset,
+    variant: str,
+    part: str,
+    *,
+    fold: int | None = None,
+    subject: str | None = None,
+) -> list[SplitItem]:
+    """(take_id, start, end) items of one part ('train' | 'val' | 'test') of a split.
+
+    SI: `fold` selects splits/si_fold_XX.json, whole takes. SD: `subject` selects that subject's
+    segments in splits/sd.json.
+    """
+    if part not in ("train", "val", "test"):
+        raise InputError(f"split part must be train, val or test, got {part!r}")
+    folder = dataset.path / SPLITS_DIR
+    n_frames = {r["take_id"]: int(r["n_frames"]) for r in dataset.records()}
+    if variant == "si":
+        if fold is None:
+            raise InputError("a subject-independent split needs a fold number")
+        path = folder / f"si_fold_{fold:02d}.json"
+        spec = _read_json(path)
+        return [(t, 0, n_frames[t]) for t in spec[part]]
+    if variant == "sd":
+        if subject is None:
+            raise InputError("a subject-dependent split needs a subject")
+        spec = _read_json(folder / "sd.json")
+        if subject not in spec["subjects"]:
+            known = ", ".join(sorted(spec["subjects"]))
+            raise InputError(f"subject {subject!r} is not in {folder / 'sd.json'} ({known})")
+        return [(str(t), int(a), int(b)) for t, a, b in spec["subjects"][subject][part]]
+    raise InputError(f"variant must be 'si' or 'sd', got {variant!r}")
+
+
+def _read_json(path: Any) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f"{path}: split not found (rebuild the dataset's splits)") from None
+    except ValueError as exc:
+        raise InputError(f"{path}: not valid JSON ({exc})") from None
+
+
+def znorm_stats(dataset: Dataset, subject: str) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, std) `(F,)` of a subject's audio features ("*" = all subjects).
+
+    From dataset.json, which holds them for the subjects of accepted takes; a subject with only
+    QC-rejected takes (trained on when a split includes them) gets them fitted here, over its
+    built takes, the same way.
+    """
+    stats = dataset.info.get("normalisation", {}).get("audio_znorm_by_subject", {})
+    if subject in stats:
+        return np.asarray(stats[subject]["mean"]), np.asarray(stats[subject]["std"])
+    takes = [
+        r["take_id"]
+        for r in dataset.records()
+        if r["subject"] == subject and r["qc_status"] != "failed"
+    ]
+    if not takes:
+        raise InputError(f"{dataset.path}: no audio normalisation and no takes for {subject!r}")
+    log.info("%s: fitting audio z-norm of %r over its %d takes", dataset.path, subject, len(takes))
+    return fit_znorm([dataset.load(t)["audio"] for t in takes])
+
+
+def load_segments(dataset: Dataset, items: Sequence[SplitItem]) -> list[Segment]:
+    """Load the items' frames, z-normalise audio per subject, build targets and masks."""
+    subjects = {r["take_id"]: r["subject"] for r in dataset.records()}
+    stats: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    cache: dict[str, dict[str, np.ndarray]] = {}
+    out = []
+    for take_id, start, end in items:
+        if take_id not in cache:
+            cache = {take_id: dataset.load(take_id)}  # items come grouped by take
+        arrays = cache[take_id]
+        subject = subjects[take_id]
+        if subject not in stats:
+            stats[subject] = znorm_stats(dataset, subject)
+        mean, std = stats[subject]
+        audio = apply_znorm(arrays["audio"][start:end], mean, std)
+        angles01 = np.asarray(arrays["angles01"][start:end], dtype=np.float32)
+        angles = np.asarray(arrays["angles"][start:end], dtype=np.float32)
+        out.append(make_segment(take_id, subject, start, audio, angles01, angles))
+    return out
+
+
+def make_segment(
+    take_id: str,
+    subject: str,
+    start: int,
+    audio: np.ndarray,
+    angles01: np.ndarray,
+    angles: np.ndarray,
+) -> Segment:
+    """A Segment from z-normalised audio `(n, F)` and angles `(n, 11)` (NaN = unknown)."""
+    audio = np.asarray(audio, dtype=np.float32)
+    bad_audio = ~np.isfinite(audio).all(axis=1)
+    mask = np.isfinite(angles01) & ~bad_audio[:, None]
+    return Segment(
+        take_id=take_id,
+        subject=subject,
+        start=start,
+        audio=np.where(bad_audio[:, None], 0.0, audio).astype(np.float32),
+        target=np.where(mask, angles01, 0.0).astype(np.float32),
+        mask=mask,
+        angles=np.where(np.isfinite(angles01), angles, np.nan).astype(np.float32),
+    )
+
+
+def masked_mse(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Mean of (pred − target)² over the known entries (loss L, Eq. 3.15, NaN-free)."""
+    m = mask.to(pred.dtype)
+    return ((pred - target) ** 2 * m).sum() / m.sum().clamp_min(1.0)
+
+
+class FrameDataset(TorchDataset[Batch]):
+    """Frame-wise pairs for the MLP: item i = (x (F,), y (11,), mask (11,)).
+
+    Frames of all segments are stacked; frames without any known angle are dropped.
+    """
+
+    def __init__(self, segments: Sequence[Segment]) -> None:
+        if not segments:
+            raise InputError("no segments to build a frame dataset from")
+        mask = np.concatenate([s.mask for s in segments])
+        keep = mask.any(axis=1)
+        self.x = torch.from_numpy(np.concatenate([s.audio for s in segments])[keep])
+        self.y = torch.from_numpy(np.concatenate([s.target for s in segments])[keep])
+        self.mask = torch.from_numpy(mask[keep])
+        if len(self.x) == 0:
+            raise InputError("no frame with a known pose in these segments")
+
+    def __len__(self) -> int:
+        return len(self.x)
+
+    def __getitem__(self, i: int) -> Batch:
+        return self.x[i], self.y[i], self.mask[i]
+
+    def batch(self, idx: torch.Tensor) -> Batch:
+        """Items `idx (B,)` stacked: x (B, F), y (B, 11), mask (B, 11)."""
+        return self.x[idx], self.y[idx], self.mask[idx]
+
+
+class WindowDataset(TorchDataset[Batch]):
+    """Sequence windows for the LSTM: item i = (x (L, F), y (L, 11), mask (L, 11)), L = seq_len.
+
+    Windows start every `stride` frames within a segment (never across segments); when the
+    stride does not land on a segment's last full window, that window is added so the end is
+    covered. Segments shorter than L are padded (module docstring).
+    """
+
+    def __init__(self, segments: Sequence[Segment], seq_len: int = 300, stride: int = 1) -> None:
+        if not segments:
+            raise InputError("no segments to build a window dataset from")
+        if seq_len < 1 or stride < 1:
+            raise InputError("seq_len and stride must be positive")
+        self.seq_len = seq_len
+        xs, ys, ms = [], [], []
+        starts: list[int] = []
+        offset = 0
+        for s in segments:
+            n = len(s)
+            pad = max(0, seq_len - n)
+            xs.append(np.pad(s.audio, ((0, pad), (0, 0))))
+            ys.append(np.pad(s.target, ((0, pad), (0, 0))))
+            ms.append(np.pad(s.mask, ((0, pad), (0, 0))))
+            last = n + pad - seq_len
+            local = list(range(0, last + 1, stride))
+            if local[-1] != last:
+                local.append(last)
+            starts.extend(offset + a for a in local)
+            offset += n + pad
+        self.x = torch.from_numpy(np.concatenate(xs))
+        self.y = torch.from_numpy(np.concatenate(ys))
+        self.mask = torch.from_numpy(np.concatenate(ms))
+        st = torch.tensor(starts, dtype=torch.long)
+        # Drop windows with no known target: a cumulative count of known frames per window.
+        known = torch.cat([torch.zeros(1), torch.cumsum(self.mask.any(dim=1).double(), 0)])
+        self.starts = st[(known[st + seq_len] - known[st]) > 0]
+        if len(self.starts) == 0:
+            raise InputError("no window with a known pose in these segments")
+        self._steps = torch.arange(seq_len)
+
+    def __len__(self) -> int:
+        return len(self.starts)
+
+    def __getitem__(self, i: int) -> Batch:
+        a = int(self.starts[i])
+        b = a + self.seq_len
+        return self.x[a:b], self.y[a:b], self.mask[a:b]
+
+    def batch(self, idx: torch.Tensor) -> Batch:
+        """Windows `idx (B,)` stacked: x (B, L, F), y (B, L, 11), mask (B, L, 11)."""
+        rows = self.starts[idx][:, None] + self._steps[None, :]
+        return self.x[rows], self.y[rows], self.mask[rows]

@@ -1,0 +1,136 @@
+"""ONNX export and onnxruntime inference for both models, including a stateful one-step LSTM.
+
+Exporter: the legacy TorchScript exporter (`torch.onnx.export(..., dynamo=False)`). The dynamo
+exporter needs `onnxscript`, which is not a dependency (and not installed); the TorchScript path
+works offline and turns `nn.LSTM` into one ONNX `LSTM` node with explicit `initial_h`/`initial_c`
+inputs and `Y_h`/`Y_c` outputs — exactly the interface a stateful step model needs.
+
+Files:
+- MLP `model.onnx`: `audio (N, F)` → `angles01 (N, 11)` (N dynamic).
+- LSTM `model.onnx`: `audio (B, T, F)` → `angles01 (B, T, 11)` from a zero state (B, T dynamic).
+- LSTM `model_step.onnx`: `audio (1, F)`, `h (1, 1, U)`, `c (1, 1, U)` → `angles01 (1, 11)`,
+  `h_out`, `c_out`. `StreamingLSTM` carries (h, c) between 10 ms frames, so live synthesis costs
+  one LSTM step per frame instead of re-running a 300-frame window (§5.1.2).
+
+Sessions use one intra-op thread: these graphs are a few thousand multiply-adds, and thread
+hand-offs would cost more than the arithmetic.
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import onnxruntime as ort
+import torch
+
+from gesturebank.errors import InputError
+from gesturebank.train.models import MLP, LSTMModel, LSTMStep
+
+OPSET = 17
+MODEL_ONNX = "model.onnx"
+STEP_ONNX = "model_step.onnx"
+
+
+def _export(module: torch.nn.Module, args: tuple[torch.Tensor, ...], path: Path, **kw: Any) -> None:
+    module.eval()
+    with warnings.catch_warnings():
+        # The legacy exporter announces its deprecation and warns about LSTM internals it traces.
+        warnings.simplefilter("ignore")
+        torch.onnx.export(module, args, str(path), dynamo=False, opset_version=OPSET, **kw)
+
+
+def export_onnx(model: MLP | LSTMModel, out_dir: Path) -> list[Path]:
+    """Write `model.onnx` (and for the LSTM `model_step.onnx`) into `out_dir`; returns the paths."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    f = model.n_features
+    path = out_dir / MODEL_ONNX
+    if isinstance(model, MLP):
+        _export(
+            model,
+            (torch.zeros(4, f),),
+            path,
+            input_names=["audio"],
+            output_names=["angles01"],
+            dynamic_axes={"audio": {0: "frames"}, "angles01": {0: "frames"}},
+        )
+        return [path]
+    _export(
+        model,
+        (torch.zeros(1, 8, f),),
+        path,
+        input_names=["audio"],
+        output_names=["angles01"],
+        dynamic_axes={"audio": {0: "batch", 1: "frames"}, "angles01": {0: "batch", 1: "frames"}},
+    )
+    step_path = out_dir / STEP_ONNX
+    u = model.units
+    _export(
+        LSTMStep(model),
+        (torch.zeros(1, f), torch.zeros(1, 1, u), torch.zeros(1, 1, u)),
+        step_path,
+        input_names=["audio", "h", "c"],
+        output_names=["angles01", "h_out", "c_out"],
+    )
+    return [path, step_path]
+
+
+def session(path: Path, threads: int = 1) -> ort.InferenceSession:
+    """An onnxruntime CPU session with `threads` intra-op threads and sequential execution."""
+    if not Path(path).is_file():
+        raise InputError(f"{path}: ONNX model not found")
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = threads
+    opts.inter_op_num_threads = 1
+    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+
+
+class OnnxModel:
+    """Offline inference of `model.onnx`: z-normalised audio `(N, F)` → `(N, 11)` in [0, 1]."""
+
+    def __init__(self, path: Path, threads: int = 1) -> None:
+        self.session = session(path, threads)
+        shape = self.session.get_inputs()[0].shape
+        self.sequence = len(shape) == 3  # LSTM graphs take (B, T, F)
+
+    def predict(self, audio: np.ndarray) -> np.ndarray:
+        x = np.ascontiguousarray(audio, dtype=np.float32)
+        if self.sequence:
+            return np.asarray(self.session.run(None, {"audio": x[None]})[0][0])
+        return np.asarray(self.session.run(None, {"audio": x})[0])
+
+
+class StreamingLSTM:
+    """Live inference of `model_step.onnx`: one `(F,)` frame in, one `(11,)` pose out.
+
+    The hidden state (h, c) is carried from frame to frame; `reset()` starts from zero again.
+    Fed with the frames of a sequence, the outputs equal `OnnxModel.predict` of the whole
+    sequence.
+    """
+
+    def __init__(self, path: Path, threads: int = 1) -> None:
+        self.session = session(path, threads)
+        inputs = {i.name: i.shape for i in self.session.get_inputs()}
+        if set(inputs) != {"audio", "h", "c"}:
+            raise InputError(f"{path}: not a stateful LSTM step model (inputs {sorted(inputs)})")
+        self.units = int(inputs["h"][-1])
+        self.n_features = int(inputs["audio"][-1])
+        self.reset()
+
+    def reset(self) -> None:
+        self.h = np.zeros((1, 1, self.units), np.float32)
+        self.c = np.zeros((1, 1, self.units), np.float32)
+
+    def step(self, frame: np.ndarray) -> np.ndarray:
+        x = np.asarray(frame, dtype=np.float32).reshape(1, self.n_features)
+        y, self.h, self.c = self.session.run(None, {"audio": x, "h": self.h, "c": self.c})
+        return np.asarray(y[0])
+
+    def run(self, audio: np.ndarray) -> np.ndarray:
+        """Step through `audio (N, F)` from the current state; `(N, 11)`."""
+        return np.stack([self.step(row) for row in np.asarray(audio)])
