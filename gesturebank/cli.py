@@ -1,6 +1,7 @@
 """The `gesturebank` command line (and its `build-dataset` shortcut).
 
-Exit codes: 0 ok, 1 some takes failed (the summary says which and why), 2 usage or config error.
+Exit codes: 0 ok; 1 some takes failed (the summary says which and why) or the robot failed;
+2 usage, config or input error; 130 interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -21,12 +22,12 @@ from rich.table import Table
 
 from gesturebank import __version__
 from gesturebank.config import Config, load_config, parse_override
-from gesturebank.errors import GesturebankError, InputError
+from gesturebank.errors import GesturebankError, InputError, RobotError
 
 if TYPE_CHECKING:
     from gesturebank.datasets.build import BuildSummary, TakeResult
 
-EXIT_OK, EXIT_TAKES_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
 app = typer.Typer(
     name="gesturebank",
@@ -47,13 +48,13 @@ MEDIAPIPE_INSTALL = (
 
 @contextmanager
 def user_errors() -> Iterator[None]:
-    """Show a GesturebankError as one line and exit 2 (usage/config/input error)."""
+    """Show a GesturebankError as one line; exit 1 when the robot failed, 2 for bad input."""
     try:
         yield
     except GesturebankError as exc:
         # plain echo, not rich: a one-line error must not be wrapped at the terminal width
         typer.echo(f"error: {exc}", err=True)
-        raise typer.Exit(EXIT_USAGE) from None
+        raise typer.Exit(EXIT_FAILED if isinstance(exc, RobotError) else EXIT_USAGE) from None
 
 
 @app.callback()
@@ -154,11 +155,16 @@ def config_cmd(
 
     with user_errors():
         config = resolve_config(config_file, sets, {})
-    data = {
-        sec: {k: v for k, v in keys.items() if v is not None}
-        for sec, keys in config.to_json_dict().items()
+    out.print(
+        tomli_w.dumps(_without_none(config.to_json_dict())), end="", highlight=False, markup=False
+    )
+
+
+def _without_none(data: dict[str, Any]) -> dict[str, Any]:
+    """TOML has no null: unset optional keys are left out (at every depth)."""
+    return {
+        k: _without_none(v) if isinstance(v, dict) else v for k, v in data.items() if v is not None
     }
-    out.print(tomli_w.dumps(data), end="", highlight=False, markup=False)
 
 
 def build_dataset(
@@ -232,7 +238,7 @@ def build_dataset(
         console=console,
         transient=False,
     )
-    colour = {"built": "green", "skipped": "cyan", "rejected": "yellow", "failed": "red"}
+    colour = {"built": "green", "skipped": "cyan", "failed": "red"}
     with progress:
         task = progress.add_task("", total=len(takes))
 
@@ -247,21 +253,217 @@ def build_dataset(
     _print_summary(console, summary)
     if summary.interrupted:
         raise typer.Exit(130)
-    raise typer.Exit(EXIT_TAKES_FAILED if summary.failed else EXIT_OK)
+    raise typer.Exit(EXIT_FAILED if summary.failed else EXIT_OK)
 
 
 def _print_summary(console: Console, summary: BuildSummary) -> None:
+    statuses = [status for status, _ in summary.qc.values()]
     table = Table(title=f"dataset {summary.out}")
-    for name in ("built", "skipped", "rejected", "failed"):
+    for name in ("built", "skipped", "failed", "accepted", "rejected"):
         table.add_column(name, justify="right")
-    table.add_row(*(str(summary.count(n)) for n in ("built", "skipped", "rejected", "failed")))
+    table.add_row(
+        *(str(summary.count(n)) for n in ("built", "skipped", "failed")),
+        *(str(statuses.count(s)) for s in ("accepted", "rejected")),
+    )
     console.print(table)
-    for r in summary.failed:
-        console.print(f"[red]failed[/red] {r.take_id}: {r.reason}", highlight=False, soft_wrap=True)
+    for take_id, (status, reasons) in summary.qc.items():
+        if status != "accepted":
+            colour = "red" if status == "failed" else "yellow"
+            text = "; ".join(reasons)
+            console.print(
+                f"[{colour}]{status}[/{colour}] {take_id}: {text}", highlight=False, soft_wrap=True
+            )
     for note in summary.notes:
         console.print(f"note: {note}", highlight=False, soft_wrap=True)
+    if summary.dashboard:
+        console.print(f"QC dashboard: {summary.dashboard}", highlight=False, soft_wrap=True)
     if summary.interrupted:
         console.print("interrupted: finished takes are kept; run the same command to resume")
+
+
+@app.command()
+def train(
+    dataset: Annotated[Path, typer.Argument(help="A dataset folder written by build-dataset.")],
+    model: Annotated[str, typer.Option(help="'mlp' or 'lstm'.")] = "mlp",
+    variant: Annotated[
+        str, typer.Option(help="'si' subject-independent (a fold) or 'sd' (one subject).")
+    ] = "si",
+    fold: Annotated[int | None, typer.Option(help="SI fold (default 0).")] = None,
+    subject: Annotated[str | None, typer.Option(help="SD subject.")] = None,
+    out_dir: Annotated[Path, typer.Option("--out", help="Model folder to write.")] = Path("model"),
+    config_file: Annotated[
+        Path | None, typer.Option("--config", "-c", help="TOML config file ([train]).")
+    ] = None,
+    sets: Annotated[
+        list[str] | None, typer.Option("--set", help="Override a key, e.g. --set train.seed=1.")
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+) -> None:
+    """Train a speech-to-motion model (MLP or LSTM, dissertation §4.3) on a dataset split.
+
+    Writes weights (state dict), the resolved config, the audio normalisers and an ONNX export
+    (plus a stateful one-step ONNX model for the LSTM) into the --out folder.
+    """
+    from gesturebank.train.commands import train_command
+
+    if model not in ("mlp", "lstm") or variant not in ("si", "sd"):
+        raise typer.BadParameter("--model is mlp or lstm, --variant is si or sd")
+    with user_errors():
+        config = resolve_config(config_file, sets, {})
+        train_command(dataset, model, variant, fold, subject, out_dir, config.train, quiet=quiet)
+    out.print(f"model written to {out_dir}", highlight=False, soft_wrap=True)
+
+
+@app.command()
+def evaluate(
+    model_dir: Annotated[Path, typer.Argument(help="A model folder written by `train`.")],
+    dataset: Annotated[
+        Path | None, typer.Argument(help="Dataset (default: the one it was trained on).")
+    ] = None,
+    split: Annotated[str, typer.Option(help="Split part: test, val or train.")] = "test",
+) -> None:
+    """Score a model like Table 5.1 of the dissertation, per subject and averaged.
+
+    L, RMSE, ΔLCCA, LCCA_Θ, ΔJ̃, CCA, FCCA, APE and speed-histogram Hellinger distance, next to
+    two baselines (the static mean pose and the ground truth shifted in time); metrics.json is
+    written into the model folder.
+    """
+    from gesturebank.train.commands import evaluate_command
+
+    with user_errors():
+        evaluate_command(model_dir, dataset, split, console=out)
+
+
+@app.command()
+def synthesize(
+    model_dir: Annotated[Path, typer.Argument(help="A model folder written by `train`.")],
+    audio: Annotated[Path, typer.Argument(help="Speech: a WAV or any file with an audio track.")],
+    out_csv: Annotated[Path, typer.Option("--out", help="CSV of angles to write.")] = Path(
+        "angles.csv"
+    ),
+    znorm: Annotated[
+        str, typer.Option(help="Audio z-norm stats: '*' (whole dataset), a subject, or 'self'.")
+    ] = "*",
+) -> None:
+    """Offline synthesis: speech → the 11 Pepper angles at 100 Hz, as a CSV for `replay`.
+
+    Audio features → model → inverse normalisation → Butterworth post-smoothing (§4.4.1) →
+    clamp; the CSV has a time_s column and one column per joint.
+    """
+    from gesturebank.train.commands import synthesize_command
+
+    with user_errors():
+        angles = synthesize_command(model_dir, audio, out_csv, znorm=znorm)
+    out.print(f"{len(angles)} frames written to {out_csv}", highlight=False, soft_wrap=True)
+
+
+@app.command()
+def replay(
+    angles: Annotated[
+        Path, typer.Argument(help="Angle CSV (from `synthesize`), or a dataset folder with --take.")
+    ],
+    backend: Annotated[str, typer.Option(help="naoqi (a robot), sim (MP4) or record (JSONL).")],
+    url: Annotated[
+        str | None, typer.Option(help="naoqi: the robot's address, e.g. tcp://192.168.1.10:9559.")
+    ] = None,
+    out_file: Annotated[
+        Path | None, typer.Option("--out", help="sim: video.mp4; record: timeline.jsonl.")
+    ] = None,
+    audio: Annotated[
+        Path | None, typer.Option(help="Speech to play (naoqi: here; sim: muxed into the video).")
+    ] = None,
+    take: Annotated[
+        str | None, typer.Option(help="Play this take of the dataset folder ANGLES instead.")
+    ] = None,
+    compare: Annotated[
+        Path | None, typer.Option(help="sim: a second CSV rendered side by side.")
+    ] = None,
+    config_file: Annotated[
+        Path | None, typer.Option("--config", "-c", help="TOML config file ([playback]).")
+    ] = None,
+    sets: Annotated[
+        list[str] | None, typer.Option("--set", help="e.g. --set playback.speed_fraction=0.5.")
+    ] = None,
+) -> None:
+    """Play an angle timeline on Pepper, a simulator render, or a file — safely.
+
+    Every backend gets angles inside the robot's limits and within its joint speeds; the robot
+    moves smoothly from its current pose to the first frame and back to neutral at the end, on
+    Ctrl-C or on an error. A lost connection stops playback with a one-line error.
+    """
+    from gesturebank.robot.playback import replay_command
+
+    with user_errors():
+        config = resolve_config(config_file, sets, {})
+        result = replay_command(
+            angles,
+            backend,
+            url,
+            out_file,
+            audio,
+            config.playback,
+            take=take,
+            compare=compare,
+            profile=config.robot.profile,
+        )
+    status = getattr(result, "status", "done")
+    where = f" → {out_file}" if out_file else ""
+    out.print(f"replay {status} on {backend}{where}", highlight=False, soft_wrap=True)
+    if status == "interrupted":
+        raise typer.Exit(130)
+
+
+@app.command()
+def live(
+    model_dir: Annotated[Path, typer.Argument(help="A model folder written by `train`.")],
+    backend: Annotated[str, typer.Option(help="naoqi (a robot), sim (MP4) or record (JSONL).")],
+    input_: Annotated[
+        str, typer.Option("--input", help="'mic' (the default microphone) or a WAV file.")
+    ] = "mic",
+    url: Annotated[str | None, typer.Option(help="naoqi: the robot's address.")] = None,
+    out_file: Annotated[
+        Path | None, typer.Option("--out", help="sim: video.mp4; record: timeline.jsonl.")
+    ] = None,
+    znorm: Annotated[
+        str, typer.Option(help="Audio z-norm stats: '*' (whole training set) or a subject.")
+    ] = "*",
+    seconds: Annotated[float | None, typer.Option(help="Stop after this many seconds.")] = None,
+    config_file: Annotated[
+        Path | None, typer.Option("--config", "-c", help="TOML config file ([playback]).")
+    ] = None,
+    sets: Annotated[
+        list[str] | None, typer.Option("--set", help="e.g. --set playback.kalman_q=0.2.")
+    ] = None,
+) -> None:
+    """Live synthesis: speech from a microphone (or a WAV in real time) drives the robot.
+
+    Every 10 ms: the latest 25 ms of audio → one feature frame → the model (a stateful step for
+    the LSTM) → inverse normalisation → Kalman smoothing → safety → the backend. Per-frame
+    latency p50/p99 is reported at the end.
+    """
+    from gesturebank.robot.online import live_command
+
+    with user_errors():
+        config = resolve_config(config_file, sets, {})
+        result = live_command(
+            model_dir,
+            backend,
+            input_,
+            url,
+            out_file,
+            config.playback,
+            max_seconds=seconds,
+            znorm=znorm,
+        )
+    p50, p99 = result.latency_ms()
+    out.print(
+        f"live {result.status}: {result.n_sent} of {result.n_chunks} frames sent, "
+        f"{result.skipped} skipped; latency p50 {p50:.2f} ms, p99 {p99:.2f} ms",
+        highlight=False,
+        soft_wrap=True,
+    )
+    if result.status == "interrupted":
+        raise typer.Exit(130)
 
 
 def ensure_writable(path: Path) -> None:
@@ -275,6 +477,31 @@ def ensure_writable(path: Path) -> None:
 
 
 app.command("build-dataset")(build_dataset)
+
+
+@app.command("qc")
+def qc_cmd(
+    out_dir: Annotated[Path, typer.Argument(help="A dataset folder written by build-dataset.")],
+    config_file: Annotated[
+        Path | None, typer.Option("--config", "-c", help="TOML config file ([qc] thresholds).")
+    ] = None,
+    sets: Annotated[
+        list[str] | None,
+        typer.Option("--set", help="Override a threshold, e.g. --set qc.max_swap_events=2."),
+    ] = None,
+) -> None:
+    """Re-run the quality checks on a dataset and write its dashboard.
+
+    Measures every built take (jerk, gaps, bone lengths, limits, jitter, swaps, spikes, static
+    or frozen takes), judges them against the [qc] thresholds and against each other, updates
+    the manifest, and writes OUT_DIR/qc/index.html with a page per take.
+    """
+    from gesturebank.qc.dashboard import qc_command
+
+    with user_errors():
+        config = resolve_config(config_file, sets, {})
+        index = qc_command(out_dir, config.qc)
+    out.print(f"QC dashboard: {index}", highlight=False, soft_wrap=True)
 
 
 def main() -> None:

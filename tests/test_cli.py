@@ -27,7 +27,21 @@ def test_help_lists_every_command_with_text() -> None:
         assert words in line, line
 
 
-@pytest.mark.parametrize("command", ["info", "fetch-samples", "config", "build-dataset"])
+COMMANDS = [
+    "info",
+    "fetch-samples",
+    "config",
+    "build-dataset",
+    "qc",
+    "train",
+    "evaluate",
+    "synthesize",
+    "replay",
+    "live",
+]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
 def test_each_command_has_help(command: str) -> None:
     r = run("gesturebank", command, "--help")
     assert r.returncode == 0
@@ -90,3 +104,38 @@ def test_config_prints_resolved_toml(tmp_path: Path) -> None:
     assert data["audio"]["nfilt"] == 40
     assert data["processing"]["cutoff_hz"] == 6
     assert data["processing"]["butter_order"] == 5
+
+
+def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, tmp_path) -> None:
+    """The robot-side commands chained as a user would, through the installed script."""
+    import json
+
+    model = tmp_path / "model"
+    wav = samples / "speech" / "arctic_a0009.wav"
+    fast = ["--set", "train.lstm.max_epochs=2"]
+    r = run("gesturebank", "train", str(demo_dataset), "--model", "lstm", "--variant", "sd",
+            "--subject", "lab", "--out", str(model), "-q", *fast)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert (model / "model_step.onnx").is_file()
+    r = run("gesturebank", "evaluate", str(model))
+    assert r.returncode == 0, r.stderr
+    assert "mean pose" in r.stdout and "RMSE" in r.stdout
+    csv = tmp_path / "angles.csv"
+    r = run("gesturebank", "synthesize", str(model), str(wav), "--out", str(csv), "--znorm", "lab")
+    assert r.returncode == 0, r.stderr
+    header = csv.read_text().splitlines()[0].split(",")
+    assert header[0] == "time_s" and len(header) == 12
+    sent = tmp_path / "sent.jsonl"
+    r = run("gesturebank", "replay", str(csv), "--backend", "record", "--out", str(sent))
+    assert r.returncode == 0, r.stderr
+    assert len(sent.read_text().splitlines()) > len(csv.read_text().splitlines())  # + start/return
+    live = tmp_path / "live.jsonl"
+    r = run("gesturebank", "live", str(model), "--backend", "record", "--input", str(wav),
+            "--out", str(live), "--znorm", "lab")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "0 skipped" in r.stdout
+    first = json.loads(live.read_text().splitlines()[0])
+    assert first  # a real command was recorded
+    r = run("gesturebank", "replay", str(csv), "--backend", "naoqi", "--url", "tcp://127.0.0.1:1")
+    assert r.returncode == 1  # the robot failed: one line, no traceback
+    assert len([ln for ln in r.stderr.splitlines() if ln.strip()]) == 1

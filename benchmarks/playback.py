@@ -1,0 +1,63 @@
+"""Offline playback sync: stream (Eq. 4.1, η = 0.95 and 1.0) vs one angleInterpolation call.
+
+Plays a 5 s, 100 Hz timeline through the unmodified `naoqi` backend against the recording
+ALMotion of tests/robot/naoqi_server.py (a qi session in another process, over TCP) and measures,
+on the server's clock, when each frame arrived relative to when it was due (t0 + times[i]).
+For `interpolate` there is one call: its arrival offset applies to every frame (the robot's own
+execution of the keyframes is not modelled by the stand-in).
+Run: .venv/bin/python benchmarks/playback.py
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "robot"))
+from naoqi_server import NaoqiServer
+
+from gesturebank.robot import pepper
+from gesturebank.robot.backends.naoqi import NaoqiBackend
+from gesturebank.robot.playback import PlaybackConfig, play
+from gesturebank.robot.timeline import Timeline
+
+
+def timeline(seconds: float = 5.0) -> Timeline:
+    t = np.arange(int(seconds * 100)) * 0.01
+    a = np.tile(pepper.neutral_pose(), (len(t), 1))
+    a[:, 3] -= 0.8 * np.sin(2 * np.pi * 0.5 * t)
+    a[:, 7] -= 0.8 * np.sin(2 * np.pi * 0.7 * t)
+    return Timeline.of(t, a)
+
+
+def run(mode: str, eta: float) -> tuple[float, float, float]:
+    tl = timeline()
+    cfg = PlaybackConfig(mode=mode, eta=eta, start_s=0.5, return_s=0.5)  # type: ignore[arg-type]
+    with NaoqiServer(lifetime_s=60) as srv:
+        backend = NaoqiBackend(srv.url)
+        result = play(tl, backend, config=cfg)
+        backend.close()
+        calls = srv.calls()
+    if mode == "stream":
+        sets = [c["t"] for c in calls if c["call"] == "setAngles"]
+        arrival = np.array(sets[result.n_start : result.n_start + len(tl)])
+        err = (arrival - (result.t0 + tl.times)) * 1000
+    else:
+        interp = [c["t"] for c in calls if c["call"] == "angleInterpolation"]
+        err = np.full(len(tl), (interp[1] - (result.t0 + tl.times[0])) * 1000)
+    p50, p99 = np.percentile(np.abs(err), [50, 99])
+    return float(p50), float(p99), float(np.mean(err))
+
+
+def main() -> None:
+    print(f"{'mode':<28}{'|err| p50 ms':>14}{'|err| p99 ms':>14}{'mean err ms':>14}")
+    for mode, eta in (("stream", 0.95), ("stream", 1.0), ("interpolate", 1.0)):
+        label = f"{mode} (η = {eta})" if mode == "stream" else "interpolate (one call)"
+        p50, p99, mean = run(mode, eta)
+        print(f"{label:<28}{p50:>14.2f}{p99:>14.2f}{mean:>14.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,390 @@
+"""Live mode (§4.4.2): speech in, robot motion out, one pose every 10 ms.
+
+Per 10 ms chunk of audio (160 samples at 16 kHz): the latest 25 ms window (400 samples) →
+one LogFB-26 frame → z-norm with the model's stored stats → the model's step → ν⁻¹ (Eq. 3.14
+inverted) → per-joint constant-acceleration Kalman filter (q = 0.5, r = 0.01) → safety (limits,
+speed) → backend. Input: the microphone (sounddevice) or a WAV streamed in real time, so the whole
+loop is testable without an audio device. Per-frame latency (chunk available → pose handed to the
+backend) is measured and summarised as p50/p99.
+
+The model folder is the one `gesturebank train` writes (gesturebank.train.export):
+- `model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state) or, for the MLP,
+  `model.onnx` (`(N, F)` → `(N, 11)`); inputs and outputs are taken by position;
+- `model.json`: its "audio" entry is the feature configuration the model was trained with;
+- `normalisers.json`: "audio_znorm_by_subject" (z-norm stats per subject and "*" for the whole
+  dataset — the dissertation's online mode used the global ones) and "robot_profile".
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import queue
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from gesturebank.config import AudioConfig
+from gesturebank.errors import InputError, RobotError
+from gesturebank.extract.audio import apply_znorm, frame_features, frame_length, frame_step
+from gesturebank.filters import KalmanConstAcc
+from gesturebank.robot import pepper
+from gesturebank.robot.backends import Backend, Command, create
+from gesturebank.robot.playback import (
+    Clock,
+    PlaybackConfig,
+    RealClock,
+    SafetyFilter,
+    VirtualClock,
+    _Run,
+    safe_pose,
+    speed_profile,
+)
+
+log = logging.getLogger(__name__)
+
+PathLike = str | os.PathLike[str]
+STEP_ONNX = "model_step.onnx"
+MODEL_ONNX = "model.onnx"
+MODEL_JSON = "model.json"
+NORMALISERS = "normalisers.json"
+
+
+# --------------------------------------------------------------------------------------------------
+# The model side
+
+
+class FrameModel(Protocol):
+    """One frame in, one pose out; stateful models keep their state between calls."""
+
+    def step(self, features01: np.ndarray) -> np.ndarray:
+        """z-normalised features `(F,)` → angles in [0, 1] `(11,)`."""
+        ...
+
+    def reset(self) -> None:
+        """Forget the state (a new utterance)."""
+        ...
+
+
+class OnnxFrameModel:
+    """`model_step.onnx` through onnxruntime (one thread: the graph is tiny, hand-offs cost)."""
+
+    def __init__(self, path: PathLike) -> None:
+        import onnxruntime as ort
+
+        name = os.fspath(path)
+        opts = ort.SessionOptions()
+        opts.intra_op_num_threads = 1
+        opts.inter_op_num_threads = 1
+        try:
+            self.session = ort.InferenceSession(name, opts, providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own exception types
+            raise InputError(f"{name}: not a loadable ONNX model ({_first_line(exc)})") from None
+        inputs = self.session.get_inputs()
+        if len(inputs) not in (1, 3) or len(self.session.get_outputs()) != len(inputs):
+            raise InputError(f"{name}: expected inputs x[, h, c] and outputs y[, h_out, c_out]")
+        self.input_names = [i.name for i in inputs]
+        self.output_names = [o.name for o in self.session.get_outputs()]
+        dim = inputs[0].shape[-1]
+        self.n_features = dim if isinstance(dim, int) else None
+        self.stateful = len(inputs) == 3
+        self.state_shape: tuple[int, ...] = ()
+        if self.stateful:
+            shape = inputs[1].shape
+            if not all(isinstance(d, int) for d in shape):
+                raise InputError(f"{name}: LSTM state input needs a fixed shape, got {shape}")
+            self.state_shape = tuple(int(d) for d in shape)
+        self.reset()
+
+    def reset(self) -> None:
+        self.h = np.zeros(self.state_shape, np.float32)
+        self.c = np.zeros(self.state_shape, np.float32)
+
+    def step(self, features01: np.ndarray) -> np.ndarray:
+        x = np.asarray(features01, np.float32).reshape(1, -1)
+        feed: dict[str, Any] = {self.input_names[0]: x}
+        if self.stateful:
+            feed[self.input_names[1]], feed[self.input_names[2]] = self.h, self.c
+            y, self.h, self.c = self.session.run(self.output_names, feed)
+        else:
+            (y,) = self.session.run(self.output_names, feed)
+        return np.asarray(y, np.float32).reshape(-1)
+
+
+@dataclass(frozen=True, eq=False)
+class LiveModel:
+    """A frame model with what it needs around it: z-norm stats `(F,)`, profile, audio config."""
+
+    model: FrameModel
+    audio_mean: np.ndarray
+    audio_std: np.ndarray
+    profile: str
+    audio: AudioConfig
+
+    @property
+    def features(self) -> str:
+        return self.audio.features
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
+    """The model folder written by `gesturebank train` (module docstring), ready for live use.
+
+    znorm: whose audio statistics normalise the live features — "*" (the whole dataset) or a
+    subject of the training data.
+    """
+    folder = Path(model_dir)
+    onnx_path = folder / STEP_ONNX if (folder / STEP_ONNX).is_file() else folder / MODEL_ONNX
+    for p in (onnx_path, folder / MODEL_JSON, folder / NORMALISERS):
+        if not p.is_file():
+            raise InputError(f"{p}: missing — is {folder} a model folder written by `train`?")
+    try:
+        audio = AudioConfig.model_validate(json.loads((folder / MODEL_JSON).read_text())["audio"])
+        norm = json.loads((folder / NORMALISERS).read_text(encoding="utf-8"))
+        stats = norm["audio_znorm_by_subject"]
+        profile = str(norm["robot_profile"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"{folder}: unreadable model.json or normalisers.json ({exc})") from None
+    if znorm not in stats:
+        raise InputError(f"{folder}: no audio statistics for {znorm!r}; have {', '.join(stats)}")
+    mean = np.asarray(stats[znorm]["mean"], np.float64)
+    std = np.asarray(stats[znorm]["std"], np.float64)
+    pepper.load_profile(profile)  # unknown profile → InputError now, not mid-performance
+    model = OnnxFrameModel(onnx_path)
+    if model.n_features is not None and model.n_features != len(mean):
+        raise InputError(
+            f"{onnx_path}: model takes {model.n_features} features, normalisers have {len(mean)}"
+        )
+    return LiveModel(model, mean, std, profile, audio)
+
+
+# --------------------------------------------------------------------------------------------------
+# The per-frame pipeline (no I/O)
+
+
+class LiveSynth:
+    """Chunk of audio in, safe pose out; holds the audio window, the model, Kalman and safety."""
+
+    def __init__(
+        self,
+        model: LiveModel,
+        *,
+        audio: AudioConfig | None = None,
+        config: PlaybackConfig | None = None,
+        start_pose: np.ndarray | None = None,
+    ) -> None:
+        self.audio = audio or model.audio
+        if self.audio.features != model.features:
+            raise InputError(
+                f"model expects {model.features} features, audio config gives {self.audio.features}"
+            )
+        cfg = config or PlaybackConfig()
+        self.model = model
+        self.hop = frame_step(self.audio)  # 160 samples = 10 ms
+        self.dt = self.hop / self.audio.sample_rate
+        self.profile = speed_profile(pepper.load_profile(model.profile), cfg.speed_fraction)
+        start = safe_pose(pepper.neutral_pose() if start_pose is None else start_pose, self.profile)
+        # +1 sample: pre-emphasis needs the sample just before the window (Eq. 3.1).
+        self.window = np.zeros(frame_length(self.audio) + 1, np.float64)
+        self.kalman = KalmanConstAcc(
+            len(pepper.JOINTS), dt=self.dt, q=cfg.kalman_q, r=cfg.kalman_r, x0=start
+        )
+        self.safety = SafetyFilter(self.profile, start)
+        model.model.reset()
+
+    def push(self, chunk: np.ndarray) -> np.ndarray:
+        """One hop of audio `(hop,)` float in [-1, 1] → the pose to send `(11,)` float32 rad."""
+        x = np.asarray(chunk, np.float64).reshape(-1)
+        if len(x) != self.hop:
+            raise InputError(f"live audio chunks must have {self.hop} samples, got {len(x)}")
+        w = self.window
+        w[: -self.hop] = w[self.hop :]
+        w[-self.hop :] = x
+        feats = frame_features(w[1:], self.audio.sample_rate, self.audio, previous=float(w[0]))
+        z = apply_znorm(feats, self.model.audio_mean, self.model.audio_std)
+        angles01 = self.model.model.step(z)
+        angles = pepper.denormalise(angles01.reshape(1, -1), self.profile)[0]  # ν⁻¹, Eq. 3.14
+        smooth = self.kalman.step(angles)
+        return self.safety.step(smooth, self.dt)
+
+
+# --------------------------------------------------------------------------------------------------
+# Audio sources: yield (chunk (hop,), time.monotonic() at which the chunk became available)
+
+Chunks = Iterator[tuple[np.ndarray, float]]
+
+
+def wav_chunks(path: PathLike, hop: int, sample_rate: int, *, realtime: bool = True) -> Chunks:
+    """Stream an audio file in `hop`-sample chunks; in real time, chunk k becomes available
+    (k + 1) hops after the start, as from a microphone. A partial last chunk is dropped."""
+    from gesturebank.extract.video import read_audio
+
+    track = read_audio(path, sample_rate)
+    if track is None or len(track.signal) < hop:
+        raise InputError(f"{os.fspath(path)}: no audio to stream")
+    signal = track.signal
+    t_start = time.monotonic()
+    for k in range(len(signal) // hop):
+        due = t_start + (k + 1) * hop / sample_rate
+        if realtime:
+            wait = due - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
+        else:
+            due = time.monotonic()
+        yield signal[k * hop : (k + 1) * hop], due
+
+
+def mic_chunks(hop: int, sample_rate: int, *, max_seconds: float | None = None) -> Chunks:
+    """Stream the default microphone; InputError (one line) when there is none."""
+    try:
+        import sounddevice
+    except OSError as exc:  # the PortAudio library itself is missing
+        raise InputError(f"microphone: no audio input available ({_first_line(exc)})") from None
+    chunks: queue.Queue[tuple[np.ndarray, float]] = queue.Queue()
+
+    def callback(indata: np.ndarray, frames: int, time_info: Any, status: Any) -> None:
+        chunks.put((indata[:, 0].astype(np.float64), time.monotonic()))
+
+    try:
+        stream = sounddevice.InputStream(
+            samplerate=sample_rate, blocksize=hop, channels=1, dtype="float32", callback=callback
+        )
+    except Exception as exc:  # sounddevice.PortAudioError: no device / unsupported rate
+        raise InputError(f"microphone: cannot open an input device ({_first_line(exc)})") from None
+    n_max = None if max_seconds is None else int(max_seconds * sample_rate / hop)
+    with stream:
+        k = 0
+        while n_max is None or k < n_max:
+            try:
+                yield chunks.get(timeout=1.0)
+            except queue.Empty:
+                raise InputError("microphone: no audio arrived for 1 s") from None
+            k += 1
+
+
+# --------------------------------------------------------------------------------------------------
+# The loop
+
+
+@dataclass
+class LiveResult:
+    """latencies_s `(K,)`: chunk available → pose handed to the backend, per frame, seconds."""
+
+    status: str
+    n_chunks: int
+    n_sent: int
+    latencies_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def skipped(self) -> int:
+        return self.n_chunks - self.n_sent
+
+    def latency_ms(self) -> tuple[float, float]:
+        """p50, p99 of the per-frame latency, milliseconds."""
+        if not len(self.latencies_s):
+            return (float("nan"), float("nan"))
+        ms = self.latencies_s * 1000
+        return float(np.percentile(ms, 50)), float(np.percentile(ms, 99))
+
+
+def run_live(
+    synth: LiveSynth,
+    chunks: Chunks,
+    backend: Backend,
+    *,
+    config: PlaybackConfig | None = None,
+    clock: Clock | None = None,
+) -> LiveResult:
+    """Move smoothly to neutral, then one pose per chunk until the input ends (or Ctrl-C), then
+    back to neutral. RobotError (one line) if the robot is lost."""
+    cfg = config or PlaybackConfig()
+    clk = clock or (RealClock() if backend.realtime else VirtualClock())
+    run = _Run(backend, clk, cfg, synth.profile)
+    neutral = safe_pose(pepper.neutral_pose(), synth.profile)
+    run.t0 = clk.now()
+    run.move(neutral, "start", cfg.start_s, 0.0)
+    latencies: list[float] = []
+    n_chunks, status, t_live = 0, "completed", 0.0
+    try:
+        t_first: float | None = None
+        for chunk, available in chunks:
+            n_chunks += 1
+            t_first = available - synth.dt if t_first is None else t_first
+            t_live = available - t_first
+            pose = synth.push(chunk)
+            backend.send(Command(t=t_live, angles=pose, phase="live", fraction=cfg.speed_fraction))
+            run.last = pose
+            latencies.append(time.monotonic() - available)
+            log.debug("live frame %d: latency %.3f ms", n_chunks, latencies[-1] * 1000)
+    except KeyboardInterrupt:
+        status = "interrupted"
+    except RobotError:
+        if not backend.connected:
+            raise
+        _back(run, t_live)
+        raise
+    run.t0 = clk.now() - t_live  # the return move continues the live clock
+    run.back_to_neutral()
+    return LiveResult(status, n_chunks, len(latencies), np.asarray(latencies))
+
+
+def _back(run: _Run, t_live: float) -> None:
+    try:
+        run.t0 = run.clock.now() - t_live
+        run.back_to_neutral()
+    except Exception as exc:
+        log.warning("could not return to the neutral pose: %s", exc)
+
+
+def live_command(
+    model_dir: PathLike,
+    backend: str,
+    input: str = "mic",
+    url: str | None = None,
+    out: PathLike | None = None,
+    config: PlaybackConfig | None = None,
+    *,
+    audio_config: AudioConfig | None = None,
+    max_seconds: float | None = None,
+    znorm: str = "*",
+) -> LiveResult:
+    """`gesturebank live MODEL_DIR --backend naoqi|sim|record [--input mic|FILE.wav]`."""
+    cfg = config or PlaybackConfig()
+    model = load_frame_model(model_dir, znorm)
+    synth = LiveSynth(model, audio=audio_config, config=cfg)
+    rate = synth.audio.sample_rate
+    if input == "mic":
+        chunks = mic_chunks(synth.hop, rate, max_seconds=max_seconds)
+        next_chunk = next(chunks)  # fail on a missing microphone before touching the robot
+        source: Chunks = _prepend(next_chunk, chunks)
+    else:
+        source = wav_chunks(input, synth.hop, rate)
+    be = create(backend, url=url, out=out, audio=None if input == "mic" else input, config=cfg)
+    try:
+        result = run_live(synth, source, be, config=cfg)
+    finally:
+        be.close()
+    p50, p99 = result.latency_ms()
+    log.info(
+        "live: %d frames, %d skipped, latency p50 %.2f ms, p99 %.2f ms",
+        result.n_sent,
+        result.skipped,
+        p50,
+        p99,
+    )
+    return result
+
+
+def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:
+    yield first
+    yield from rest

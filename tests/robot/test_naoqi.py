@@ -1,0 +1,135 @@
+"""The `naoqi` backend over real qi TCP, against a recording ALMotion in a subprocess."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gesturebank.errors import RobotError
+from gesturebank.robot import pepper
+from gesturebank.robot.backends.naoqi import NaoqiBackend
+from gesturebank.robot.playback import PlaybackConfig, play, replay_command
+from gesturebank.robot.timeline import Timeline, write_csv
+
+sys.path.insert(0, str(Path(__file__).parent))
+from naoqi_server import PEPPER_JOINTS, NaoqiServer
+from test_playback import ARMS_UP, LOWER, NEUTRAL, UPPER, VELOCITY, wild_timeline
+
+START = dict(zip(pepper.JOINTS, ARMS_UP.tolist(), strict=True))
+FAST = PlaybackConfig(start_s=0.3, return_s=0.3)
+
+
+@pytest.fixture
+def server() -> Iterator[NaoqiServer]:
+    with NaoqiServer(START, lifetime_s=60) as srv:
+        yield srv
+
+
+def _set_angles(calls: list[dict]) -> tuple[np.ndarray, np.ndarray]:
+    sets = [c for c in calls if c["call"] == "setAngles"]
+    for c in sets:
+        assert set(c["names"]) <= set(PEPPER_JOINTS) and len(c["names"]) == 11
+    order = [sets[0]["names"].index(j) for j in pepper.JOINTS]
+    return np.array([c["t"] for c in sets]), np.array([c["angles"] for c in sets])[:, order]
+
+
+def _assert_safe(angles: np.ndarray, dt: float) -> None:
+    assert np.all(angles >= LOWER - 1e-6) and np.all(angles <= UPPER + 1e-6)
+    assert np.all(np.abs(np.diff(angles, axis=0)) <= VELOCITY * dt * (1 + 1e-4) + 1e-6)
+
+
+def test_stream_playback_over_qi(server: NaoqiServer) -> None:
+    tl = wild_timeline(200)
+    backend = NaoqiBackend(server.url)
+    result = play(tl, backend, config=FAST)
+    backend.close()
+    calls = server.calls()
+    assert calls[0]["call"] == "wakeUp" and calls[1]["call"] == "getAngles"
+    t, angles = _set_angles(calls)
+    _assert_safe(np.vstack([ARMS_UP, angles]), dt=0.01)  # every command is 10 ms after the last
+    assert np.max(np.abs(angles[0] - ARMS_UP)) < 0.1  # smooth start from the robot's own pose
+    np.testing.assert_allclose(angles[-1], NEUTRAL, atol=1e-5)  # smooth return to neutral
+    # Timing, measured on the server: arrival of frame i − (t0 + times[i]).
+    frames = slice(result.n_start, result.n_start + len(tl))
+    err_ms = (t[frames] - (result.t0 + tl.times)) * 1000
+    p50, p99 = np.percentile(np.abs(err_ms), [50, 99])
+    print(f"\nstream over qi: frame timing |error| p50 {p50:.2f} ms, p99 {p99:.2f} ms")
+    assert len(err_ms) == len(tl) and p99 < 5.0  # generous: a 10 ms frame period
+
+
+def test_interpolate_playback_over_qi(server: NaoqiServer) -> None:
+    tl = wild_timeline(100)
+    backend = NaoqiBackend(server.url)
+    result = play(tl, backend, config=FAST.model_copy(update={"mode": "interpolate"}))
+    backend.close()
+    calls = [c for c in server.calls() if c["call"] == "angleInterpolation"]
+    assert len(calls) == 3  # start, timeline, return
+    for c in calls:
+        assert set(c["names"]) <= set(PEPPER_JOINTS) and c["isAbsolute"]
+        order = [c["names"].index(j) for j in pepper.JOINTS]
+        keys = np.array(c["angleLists"])[order].T
+        times = np.array(c["timeLists"][0])
+        _assert_safe(keys, dt=float(np.min(np.diff(times))))
+    np.testing.assert_allclose(np.array(calls[-1]["angleLists"])[:, -1], NEUTRAL, atol=1e-5)
+    offset_ms = (calls[1]["t"] - (result.t0 + tl.times[0])) * 1000
+    print(f"\ninterpolate over qi: timeline call arrived {offset_ms:.2f} ms after frame 0 due")
+    assert abs(offset_ms) < 20
+
+
+def test_connection_refused_is_one_line() -> None:
+    url = "tcp://127.0.0.1:1"
+    with pytest.raises(RobotError) as info:
+        NaoqiBackend(url)
+    assert url in str(info.value) and "\n" not in str(info.value)
+
+
+def test_killed_session_mid_playback_stops_with_one_line(server: NaoqiServer) -> None:
+    tl = wild_timeline(300)  # 3 s
+    backend = NaoqiBackend(server.url)
+    threading.Timer(0.8, server.kill).start()
+    t = time.monotonic()
+    with pytest.raises(RobotError) as info:
+        play(tl, backend, config=FAST)
+    backend.close()
+    msg = str(info.value)
+    assert server.url in msg and "lost" in msg and "\n" not in msg
+    assert time.monotonic() - t < 2.0  # stopped at once, did not play on into the void
+
+
+def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_path: Path) -> None:
+    csv = write_csv(tmp_path / "a.csv", wild_timeline(300))
+    script = (
+        "import sys\n"
+        "from gesturebank.errors import GesturebankError\n"
+        "from gesturebank.robot.playback import PlaybackConfig, replay_command\n"
+        "try:\n"
+        f"    replay_command({str(csv)!r}, 'naoqi', url={server.url!r},\n"
+        "                   config=PlaybackConfig(start_s=0.3, return_s=0.3))\n"
+        "except GesturebankError as exc:\n"
+        "    print(exc, file=sys.stderr); sys.exit(1)\n"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    time.sleep(1.5)
+    server.kill()
+    _, err = proc.communicate(timeout=20)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert proc.returncode == 1, err
+    assert len(lines) == 1 and "connection to the robot lost" in lines[0], err
+
+
+def test_replay_command_naoqi(server: NaoqiServer, tmp_path: Path) -> None:
+    n = 50
+    times = np.arange(n) * 0.01
+    csv = write_csv(tmp_path / "a.csv", Timeline.of(times, np.tile(NEUTRAL, (n, 1))))
+    result = replay_command(csv, "naoqi", url=server.url, config=FAST)
+    assert not isinstance(result, Path) and result.status == "completed"
+    assert sum(c["call"] == "setAngles" for c in server.calls()) >= n + 60

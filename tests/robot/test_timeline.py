@@ -1,0 +1,81 @@
+"""Angle timeline CSV and dataset-take reading."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gesturebank.errors import InputError
+from gesturebank.robot.pepper import JOINTS
+from gesturebank.robot.timeline import Timeline, from_take, read_csv, write_csv
+
+
+def test_round_trip(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    times = np.arange(7) * 0.01 + 0.0125
+    angles = rng.uniform(-1, 1, (7, 11)).astype(np.float32)
+    back = read_csv(write_csv(tmp_path / "a.csv", Timeline.of(times, angles)))
+    np.testing.assert_allclose(back.times, times, atol=1e-4)
+    np.testing.assert_allclose(back.angles, angles, atol=1e-6)
+    assert back.angles.dtype == np.float32 and back.angles.shape == (7, 11)
+
+
+def test_columns_in_any_order_come_back_in_joint_order(tmp_path: Path) -> None:
+    header = ["time_s", *reversed(JOINTS)]
+    rows = ["0.0," + ",".join(str(k) for k in range(11, 0, -1)), "0.5," + ",".join(["0"] * 11)]
+    path = tmp_path / "shuffled.csv"
+    path.write_text(",".join(header) + "\n" + "\n".join(rows) + "\n")
+    tl = read_csv(path)
+    # Reversed header + values 11..1 → HeadPitch (first joint, last column) holds 1.
+    np.testing.assert_array_equal(tl.angles[0], np.arange(1, 12))
+    assert tl.period == pytest.approx(0.5) and tl.end == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        ("time_s,HeadPitch\n0,0\n", "lacks column"),
+        ("time_s," + ",".join(JOINTS) + "\n0," + ",".join(["x"] * 11) + "\n", "line 2"),
+        (
+            "time_s,"
+            + ",".join(JOINTS)
+            + "\n0.1,"
+            + ",".join(["0"] * 11)
+            + "\n0.1,"
+            + ",".join(["0"] * 11)
+            + "\n",
+            "line 3: time_s must increase",
+        ),
+        ("time_s," + ",".join(JOINTS) + "\n0," + ",".join(["nan"] * 11) + "\n", "not a finite"),
+        ("time_s," + ",".join(JOINTS) + "\n", "no frames"),
+        ("", "empty file"),
+    ],
+)
+def test_bad_csv_is_one_line_naming_the_file(tmp_path: Path, text: str, needle: str) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(InputError) as info:
+        read_csv(path)
+    msg = str(info.value)
+    assert str(path) in msg and needle in msg and "\n" not in msg
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="no such file"):
+        read_csv(tmp_path / "nope.csv")
+
+
+def test_from_take_reads_angles_and_times(tmp_path: Path) -> None:
+    from gesturebank.datasets import store
+
+    times = np.arange(5) * 0.01 + 0.3
+    angles = np.full((5, 11), 0.25, np.float32)
+    record = store.TakeRecord("t1", "s1", "t1.mp4", "accepted", "x", n_frames=5)
+    store.write_dataset_json(tmp_path, {})
+    store.write_take(tmp_path, record, {"angles": angles, "times": times})
+    store.write_manifest(tmp_path)
+    tl = from_take(tmp_path, "t1")
+    np.testing.assert_array_equal(tl.times, times)
+    np.testing.assert_array_equal(tl.angles, angles)
