@@ -371,5 +371,5 @@ def build_dataset(
     if dashboard:
         from gesturebank.qc.dashboard import write_dashboard
 
-        summary.dashboard = write_dashboard(out, config.qc)
+        summary.dashboard = write_dashboard(out, config.qc, config.build.workers)
     return summary

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -218,6 +218,37 @@ def _to_rgb(frame: av.VideoFrame) -> np.ndarray:
     k = _normalise_rotation(frame.rotation) // 90
     # The display matrix rotates counter-clockwise by `rotation`; np.rot90 turns CCW too.
     return np.ascontiguousarray(np.rot90(rgb, k)) if k else rgb
+
+
+def frames_at(path: PathLike, times: Sequence[float]) -> list[tuple[float, np.ndarray]]:
+    """The frames nearest to `times`, as (timestamp_s, RGB frame), in the order of `times`.
+
+    Decodes up to the last requested time but converts only the chosen frames to RGB (the
+    conversion of every full-resolution frame is what makes `iter_frames` slow for a few
+    thumbnails).
+    """
+    name = os.fspath(path)
+    best: list[tuple[float, av.VideoFrame | None]] = [(np.inf, None)] * len(times)
+    with _open(path) as container:
+        stream = _video_stream(container, name)
+        stream.thread_type = "AUTO"
+        try:
+            for frame in container.decode(stream):
+                t = _frame_time(frame, -np.inf)
+                if t is None:
+                    continue
+                for i, want in enumerate(times):
+                    if abs(t - want) < best[i][0]:
+                        best[i] = (abs(t - want), frame)
+                if t > max(times, default=-np.inf):
+                    break
+        except av.FFmpegError as exc:
+            raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
+    return [
+        (float(f.pts * f.time_base), _to_rgb(f))
+        for _, f in best
+        if f is not None and f.pts is not None and f.time_base is not None
+    ]
 
 
 def frame_timestamps(path: PathLike) -> np.ndarray:

@@ -14,11 +14,16 @@ the table. A Content-Security-Policy forbids every network request. Degrees in a
 from __future__ import annotations
 
 import base64
+import hashlib
 import html
 import io
 import json
 import logging
+import multiprocessing
+import os
+import re
 from collections.abc import Iterable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +31,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gesturebank.datasets import store
+from gesturebank.fileio import write_bytes_atomic
 from gesturebank.qc.checks import QCConfig, dataset_profile, run_qc
 from gesturebank.qc.metrics import spectrum, uniform
 from gesturebank.robot.pepper import JOINTS, RobotProfile
@@ -204,50 +210,61 @@ def _video_frames(video: Path | None, times: Sequence[float]) -> list[np.ndarray
     """RGB frames nearest to `times` (None each when the video cannot be read)."""
     if video is None or not video.is_file() or not len(times):
         return [None] * len(times)
-    from gesturebank.extract.video import iter_frames
+    from gesturebank.extract.video import frames_at
 
-    found: list[np.ndarray | None] = [None] * len(times)
-    best = [np.inf] * len(times)
     try:
-        for t, frame in iter_frames(video):
-            for i, want in enumerate(times):
-                if abs(t - want) < best[i]:
-                    best[i], found[i] = abs(t - want), frame
-            if t > max(times) + 0.5:
-                break
+        found: list[np.ndarray | None] = [frame for _, frame in frames_at(video, times)]
     except Exception as exc:  # a broken video must not stop the dashboard
         log.warning("%s: cannot read frames (%s)", video, exc)
         return [None] * len(times)
-    return found
+    return found + [None] * (len(times) - len(found))
 
 
-def _skeleton_frames(arrays: Mapping[str, np.ndarray], video: Path | None, n: int = 4) -> Figure:
-    """`n` evenly spaced frames with the 2D skeleton drawn on the video (or a blank canvas)."""
+THUMB_HEIGHT = 240  # px of each skeleton thumbnail
+_LEFT_RGB, _RIGHT_RGB = (0, 229, 255), (255, 145, 0)
+
+
+def _skeleton_frames(arrays: Mapping[str, np.ndarray], video: Path | None, n: int = 4) -> str:
+    """An <img> of `n` evenly spaced frames with the 2D skeleton drawn on the video (or a blank
+    canvas), drawn with OpenCV on thumbnails: matplotlib took seconds for full-size frames."""
+    import cv2
+
     kp = to_coco17(arrays["pose2d_keypoints"], str(arrays["pose2d_skeleton"]))
     ts = np.asarray(arrays["pose2d_timestamps"])
-    width, height = (int(v) for v in np.asarray(arrays["pose2d_image_size"]))
+    width, height = (max(int(v), 1) for v in np.asarray(arrays["pose2d_image_size"]))
     picks = np.linspace(0, len(ts) - 1, n).round().astype(int) if len(ts) else np.array([], int)
     frames = _video_frames(video, [float(ts[i]) for i in picks])
-    fig = Figure(figsize=(2.6 * n, 2.6 * max(height, 1) / max(width, 1) + 0.4))
-    axes = np.atleast_1d(fig.subplots(1, max(n, 1)))
+    scale = THUMB_HEIGHT / height
+    size = (max(1, round(width * scale)), THUMB_HEIGHT)
     idx = COCO17.index
-    for ax, i, frame in zip(axes, picks, frames, strict=False):
-        if frame is not None:
-            ax.imshow(frame, extent=(0, width, height, 0))
-        else:
-            ax.set_facecolor("#f4f4f4")
-        for a, b in COCO17_BONES:
-            p, q = kp[i, idx[a]], kp[i, idx[b]]
-            ax.plot([p[0], q[0]], [p[1], q[1]], color="#00e5ff" if "left" in a + b else "#ff9100")
-        ax.scatter(kp[i, :, 0], kp[i, :, 1], s=6, c="w", edgecolors="k", linewidths=0.3)
-        ax.set_xlim(0, width)
-        ax.set_ylim(height, 0)
-        ax.set_title(
-            f"t = {ts[i]:.2f} s" + ("" if frame is not None else " (no video)"), fontsize=8
+    tiles = []
+    for i, frame in zip(picks, frames, strict=True):
+        tile = (
+            cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
+            if frame is not None
+            else np.full((size[1], size[0], 3), 244, np.uint8)
         )
-        ax.set_xticks([])
-        ax.set_yticks([])
-    return fig
+        xy = kp[i, :, :2] * scale
+        for a, b in COCO17_BONES:
+            p, q = xy[idx[a]], xy[idx[b]]
+            if np.isfinite(p).all() and np.isfinite(q).all():
+                colour = _LEFT_RGB if "left" in a + b else _RIGHT_RGB
+                cv2.line(
+                    tile, (int(p[0]), int(p[1])), (int(q[0]), int(q[1])), colour, 2, cv2.LINE_AA
+                )
+        for x, y in xy[np.isfinite(xy).all(axis=1)]:
+            cv2.circle(tile, (int(x), int(y)), 3, (255, 255, 255), -1, cv2.LINE_AA)
+            cv2.circle(tile, (int(x), int(y)), 3, (0, 0, 0), 1, cv2.LINE_AA)
+        label = f"t = {ts[i]:.2f} s" + ("" if frame is not None else " (no video)")
+        cv2.rectangle(tile, (0, 0), (8 + 9 * len(label), 22), (255, 255, 255), -1)
+        cv2.putText(tile, label, (4, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+        tiles.append(tile)
+        tiles.append(np.full((size[1], 6, 3), 255, np.uint8))  # gap between thumbnails
+    if not tiles:
+        return "<p>no frames</p>"
+    ok, png = cv2.imencode(".png", cv2.cvtColor(np.hstack(tiles[:-1]), cv2.COLOR_RGB2BGR))
+    data = base64.b64encode(png.tobytes()).decode() if ok else ""
+    return f'<img alt="2D skeleton on frames" src="data:image/png;base64,{data}">'
 
 
 def _skeleton_3d(joints: np.ndarray, timestamps: np.ndarray, n: int = 3) -> Figure:
@@ -333,7 +350,7 @@ def _take_page(
     ]
     if "pose2d_keypoints" in arrays:
         where = "video" if video is not None and video.is_file() else "blank canvas (no video)"
-        parts += [f"<h2>2D skeleton on the {where}</h2>", _png(_skeleton_frames(arrays, video))]
+        parts += [f"<h2>2D skeleton on the {where}</h2>", _skeleton_frames(arrays, video)]
     if "pose3d_joints" in arrays:
         parts += [
             "<h2>3D skeleton</h2>",
@@ -352,28 +369,83 @@ def _video_path(info: Mapping[str, Any], dataset_dir: Path, source: str) -> Path
     return None
 
 
-def write_dashboard(dataset_dir: str | Path, config: QCConfig | None = None) -> Path:
+def _page_key(
+    record: Mapping[str, Any], npz: Path, video: Path | None, c: QCConfig, cutoff: float
+) -> str:
+    """What a take page shows depends on: its record, its arrays, its video and two settings."""
+    stat = npz.stat()
+    parts = [json.dumps(record, sort_keys=True), stat.st_size, stat.st_mtime_ns, str(video)]
+    parts += [c.analysis_rate_hz, cutoff]
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:16]
+
+
+def _existing_key(page: Path) -> str | None:
+    try:
+        with open(page, encoding="utf-8") as f:
+            head = f.read(200)
+    except OSError:
+        return None
+    found = re.search(r"<!-- page-key (\w+) -->", head)
+    return found.group(1) if found else None
+
+
+def _render_page(
+    out: Path,
+    record: Mapping[str, Any],
+    video: Path | None,
+    analysis_hz: float,
+    cutoff: float,
+    page: Path,
+    key: str,
+) -> None:
+    arrays = store.Dataset(out).load(record["take_id"])
+    html_text = _take_page(record, arrays, dataset_profile(out), video, analysis_hz, cutoff)
+    html_text = html_text.replace("\n", f"\n<!-- page-key {key} -->\n", 1)
+    write_bytes_atomic(page, html_text.encode("utf-8"))
+
+
+def _render_pages(jobs: list[tuple[Any, ...]], workers: int | None) -> None:
+    """Take pages in parallel (matplotlib takes about a second a page)."""
+    n = min(workers or os.cpu_count() or 1, len(jobs))
+    if n <= 1:
+        for job in jobs:
+            _render_page(*job)
+        return
+    ctx = multiprocessing.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=n, mp_context=ctx) as pool:
+        for future in [pool.submit(_render_page, *job) for job in jobs]:
+            future.result()
+
+
+def write_dashboard(
+    dataset_dir: str | Path, config: QCConfig | None = None, workers: int | None = None
+) -> Path:
     """Write OUT/qc/index.html and OUT/qc/takes/<id>.html for the dataset folder; returns the
-    index path. Reads the records as they are (run `run_qc` first to refresh the verdicts)."""
+    index path. Reads the records as they are (run `run_qc` first to refresh the verdicts).
+    Pages of takes that did not change since the last call are kept; the others are rendered
+    by `workers` processes (default: CPU cores)."""
     c = config or QCConfig()
     out = Path(dataset_dir)
     dataset = store.Dataset(out)
-    profile = dataset_profile(out)
     cutoff = float(dataset.info.get("config", {}).get("processing", {}).get("cutoff_hz", 4.0))
     records = sorted(dataset.records(), key=lambda r: r["take_id"])
     qc_dir = out / QC_DIR
     (qc_dir / "takes").mkdir(parents=True, exist_ok=True)
 
     spectra_items = []
+    jobs = []
     for record in records:
         if record["qc_status"] == "failed":
             continue
         arrays = dataset.load(record["take_id"])
-        video = _video_path(dataset.info, out, record["source"])
-        page = _take_page(record, arrays, profile, video, c.analysis_rate_hz, cutoff)
-        (qc_dir / "takes" / f"{record['take_id']}.html").write_text(page, encoding="utf-8")
         raw_u = uniform(arrays["raw_angles"], arrays["timestamps"], c.analysis_rate_hz)
         spectra_items.append((raw_u, c.analysis_rate_hz, np.asarray(arrays["angles"]), 100.0))
+        video = _video_path(dataset.info, out, record["source"])
+        page = qc_dir / "takes" / f"{record['take_id']}.html"
+        key = _page_key(record, store.take_npz(out, record["take_id"]), video, c, cutoff)
+        if _existing_key(page) != key:  # unchanged takes keep their page: resumed builds are fast
+            jobs.append((out, record, video, c.analysis_rate_hz, cutoff, page, key))
+    _render_pages(jobs, workers)
 
     built = [r for r in records if r["qc_status"] != "failed"]
     accepted = [r["metrics"] for r in built if r["qc_status"] == "accepted"]
@@ -412,8 +484,10 @@ def write_dashboard(dataset_dir: str | Path, config: QCConfig | None = None) -> 
     return index
 
 
-def qc_command(out_dir: str | Path, config: QCConfig | None = None) -> Path:
+def qc_command(
+    out_dir: str | Path, config: QCConfig | None = None, workers: int | None = None
+) -> Path:
     """`gesturebank qc OUT_DIR`: re-run the checks on a built dataset (records, manifest,
     dataset.json counts) and write the dashboard; returns OUT/qc/index.html."""
     run_qc(Path(out_dir), config)
-    return write_dashboard(out_dir, config)
+    return write_dashboard(out_dir, config, workers)
