@@ -324,6 +324,17 @@ def finalise(out: Path, config: Config, take_ids: list[str], videos_dir: Path) -
     return write_splits(out, rows)
 
 
+def check_buildable(config: Config) -> None:
+    """InputError for settings a build cannot run with (before any take starts)."""
+    if config.lifter.name == "multiview":
+        # DESIGN's multi-camera takes (a folder of calibrated videos) are not discovered yet
+        raise InputError(
+            "build-dataset lifts single-view takes; the multiview lifter works through the "
+            "library (gesturebank.lift.multiview) for now — use --lifter blazepose-world or "
+            "geometric"
+        )
+
+
 def build_dataset(
     takes: Iterable[Take],
     videos_dir: Path,
@@ -337,6 +348,7 @@ def build_dataset(
     """Build (or resume) the dataset in `out`; see the module docstring."""
     out = Path(out)
     takes = list(takes)
+    check_buildable(config)
     summary = BuildSummary(out)
     if store.remove_stale_temporaries(out):
         log.info("%s: removed temporary files of an interrupted build", out)
