@@ -18,7 +18,6 @@ import hashlib
 import json
 import logging
 import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -28,6 +27,7 @@ from platformdirs import user_cache_dir
 
 from gesturebank.errors import InputError
 from gesturebank.extract.detectors import MultiPose2D
+from gesturebank.fileio import atomic_open
 
 log = logging.getLogger(__name__)
 
@@ -104,17 +104,8 @@ class DetectionCache:
 
     def save(self, key: str, multi: MultiPose2D) -> Path:
         """Write atomically; returns the entry's path."""
-        self.root.mkdir(parents=True, exist_ok=True)
         final = self.path(key)
-        fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=self.root)
-        try:
-            arrays: dict[str, Any] = multi.to_arrays()
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, **arrays)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, final)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        arrays: dict[str, Any] = multi.to_arrays()
+        with atomic_open(final) as f:
+            np.savez(f, allow_pickle=False, **arrays)
         return final
