@@ -11,7 +11,7 @@ VENV       ?= .venv
 PY         := $(VENV)/bin/python
 PIP        := $(PY) -m pip
 EXTRAS     ?= dev,train,robot,multiview,distributed
-MEDIA      ?= $(HOME)/.cache/gesturebank/samples
+MEDIA      ?= $(or $(XDG_CACHE_HOME),$(HOME)/.cache)/gesturebank/samples
 DEMO_OUT   ?= demo-out
 APT_PKGS   := espeak-ng sox libusb-1.0-0 chromium
 MEDIAPIPE  := mediapipe==0.10.14
