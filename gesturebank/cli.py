@@ -204,7 +204,6 @@ def build_dataset(
     Exit code 0 when every take built, 1 when some failed (see the summary), 2 on a usage or
     configuration error.
     """
-    from gesturebank.datasets.build import check_buildable
     from gesturebank.datasets.takes import discover_takes
 
     with user_errors():
@@ -222,7 +221,6 @@ def build_dataset(
                 },
             },
         )
-        check_buildable(config)
         takes = discover_takes(videos_dir, config.build)
         if not takes:
             exts = ", ".join(config.build.video_extensions)

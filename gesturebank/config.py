@@ -104,8 +104,8 @@ class TrackingConfig(Section):
 class LifterConfig(Section):
     name: str = Field(
         "blazepose-world",
-        description="3D lifter: 'blazepose-world' (learned), 'geometric' (assumptions), "
-        "'multiview' (calibrated cameras) or a plug-in name.",
+        description="3D lifter of single-view takes: 'blazepose-world' (learned), 'geometric' "
+        "(assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
     )
 
 

@@ -80,10 +80,6 @@ def test_usage_errors_exit_2_with_one_line(tmp_path: Path) -> None:
         (("build-dataset", str(videos), str(tmp_path / "o")), "no videos found"),
         (("build-dataset", str(videos), str(tmp_path / "o"), "--set", "audio.nfilt=0"), "nfilt"),
         (("config", "--set", "qc.outlier_z=-1"), "qc.outlier_z"),
-        (
-            ("build-dataset", str(videos), str(tmp_path / "o"), "--lifter", "multiview"),
-            "single-view",
-        ),
     ]
     for args, message in cases:
         r = run("gesturebank", *args)

@@ -20,7 +20,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -30,6 +30,11 @@ from gesturebank.datasets import store
 from gesturebank.datasets.splits import write_splits
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError, InputError
+
+if TYPE_CHECKING:
+    from gesturebank.extract.pipeline import TakeInfo
+    from gesturebank.extract.video import Audio
+    from gesturebank.poses import Pose2D, Pose3D
 
 log = logging.getLogger(__name__)
 
@@ -109,10 +114,21 @@ def process_take(take: Take, config: Config) -> tuple[dict[str, np.ndarray], dic
     from gesturebank.robot import pepper
     from gesturebank.robot.retarget import pepper_angles
 
-    pose2d, audio, info = extract_take(take.video, config, use_cache=config.build.cache_detections)
-    if audio is None:
-        raise InputError(f"{take.video}: no audio track and no {take.video.stem}.wav beside it")
-    pose3d = LIFTERS.create(config.lifter.name, config).lift(pose2d)
+    audio: Audio | None
+    if take.multi_camera:
+        pose2d, pose3d, audio, info = _lift_cameras(take, config)
+    else:
+        if config.lifter.name == "multiview":
+            raise InputError(
+                f"{take.video}: the multiview lifter needs a multi-camera take (a folder with a "
+                "calibration file and two or more videos)"
+            )
+        pose2d, audio, info = extract_take(
+            take.video, config, use_cache=config.build.cache_detections
+        )
+        if audio is None:
+            raise InputError(f"{take.video}: no audio track and no {take.video.stem}.wav beside it")
+        pose3d = LIFTERS.create(config.lifter.name, config).lift(pose2d)
     raw = pepper_angles(pose3d)  # (T, 11) at the video's own timestamps
 
     a = config.audio
@@ -162,7 +178,50 @@ def process_take(take: Take, config: Config) -> tuple[dict[str, np.ndarray], dic
         "video_trimmed_s": float(times[0] - pose3d.timestamps[0])
         + float(pose3d.timestamps[-1] - times[-1]),
     }
-    return arrays, {"metrics": metrics, "detector": info.detector, "n_frames": len(times)}
+    lifter = "multiview" if take.multi_camera else config.lifter.name
+    extra = {
+        "metrics": metrics,
+        "detector": info.detector,
+        "lifter": lifter,
+        "n_frames": len(times),
+    }
+    return arrays, extra
+
+
+def _lift_cameras(take: Take, config: Config) -> tuple[Pose2D, Pose3D, Audio, TakeInfo]:
+    """A multi-camera take: every camera detected, triangulated by the multi-view lifter.
+
+    The reference camera's 2D pose and clock stand for the take. The audio is a .wav beside the
+    videos, else the camera track with the most energy, moved onto the reference clock by the
+    camera offsets the lifter used.
+    """
+    from gesturebank.extract.pipeline import extract_take
+    from gesturebank.extract.video import read_audio
+    from gesturebank.lift.multiview.cameras import CameraGroup
+    from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
+
+    assert take.calibration is not None
+    cameras = CameraGroup.load(take.calibration)
+    videos = match_videos(cameras, take.videos)
+    extracted = [extract_take(v, config, use_cache=config.build.cache_detections) for v in videos]
+    poses = [pose for pose, _, _ in extracted]
+    audios = [audio for _, audio, _ in extracted]
+    pose3d, report = MultiviewLifter(config, cameras=cameras).lift_with_report(poses, audios=audios)
+    ref = config.multiview.reference_camera
+    if take.audio is not None:
+        audio = read_audio(take.audio, config.audio.sample_rate)
+        if audio is None:
+            raise InputError(f"{take.audio}: no audio in this file")
+        audio = audio._replace(start_s=float(poses[ref].timestamps[0]))  # recorded with the video
+    else:
+        tracks = [(c, a) for c, a in enumerate(audios) if a is not None and len(a.signal)]
+        if not tracks:
+            raise InputError(
+                f"{take.video}: no camera has an audio track and no .wav is beside them"
+            )
+        c, best = max(tracks, key=lambda ca: float(np.mean(np.square(ca[1].signal))))
+        audio = best._replace(start_s=best.start_s - float(report.offsets_s[c]))
+    return poses[ref], pose3d, audio, extracted[ref][2]
 
 
 def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
@@ -174,7 +233,6 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
         "subject": take.subject,
         "source": source,
         "config_digest": digest,
-        "lifter": config.lifter.name,
         "traits": take.traits,
     }
     try:
@@ -191,6 +249,7 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
             duration_s=metrics["duration_s"],
             video_fps=metrics["video_fps"],
             detector=extra["detector"],
+            lifter=extra["lifter"],
             metrics=metrics,
             n_frames=extra["n_frames"],
             **base,
@@ -214,7 +273,7 @@ def _record_failure(
         qc_reasons=(reason,),
         config_digest=content_digest(config),
         detector=config.detector.name,
-        lifter=config.lifter.name,
+        lifter="multiview" if take.multi_camera else config.lifter.name,
         traits=take.traits,
     )
     store.write_take(out, record, None)
@@ -324,17 +383,6 @@ def finalise(out: Path, config: Config, take_ids: list[str], videos_dir: Path) -
     return write_splits(out, rows)
 
 
-def check_buildable(config: Config) -> None:
-    """InputError for settings a build cannot run with (before any take starts)."""
-    if config.lifter.name == "multiview":
-        # DESIGN's multi-camera takes (a folder of calibrated videos) are not discovered yet
-        raise InputError(
-            "build-dataset lifts single-view takes; the multiview lifter works through the "
-            "library (gesturebank.lift.multiview) for now — use --lifter blazepose-world or "
-            "geometric"
-        )
-
-
 def build_dataset(
     takes: Iterable[Take],
     videos_dir: Path,
@@ -348,7 +396,6 @@ def build_dataset(
     """Build (or resume) the dataset in `out`; see the module docstring."""
     out = Path(out)
     takes = list(takes)
-    check_buildable(config)
     summary = BuildSummary(out)
     if store.remove_stale_temporaries(out):
         log.info("%s: removed temporary files of an interrupted build", out)
@@ -361,9 +408,10 @@ def build_dataset(
             if on_result:
                 on_result(result)
         else:
-            jobs.append((take, str(take.video.relative_to(videos_dir))))
+            jobs.append((take, str(take.video.relative_to(videos_dir))))  # a folder: its path
     # longest first (file size as the cheap proxy), so no worker is left with a long take at the end
-    jobs.sort(key=lambda job: job[0].video.stat().st_size, reverse=True)
+    jobs.sort(key=lambda job: sum(v.stat().st_size for v in job[0].videos or [job[0].video]))
+    jobs.reverse()
     workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(jobs)))
     results = (
         _ray(jobs, out, config, config.build.ray_address)
