@@ -500,7 +500,7 @@ def qc_cmd(
 
     with user_errors():
         config = resolve_config(config_file, sets, {})
-        index = qc_command(out_dir, config.qc, config.build.workers)
+        index = qc_command(out_dir, config.qc, config.build.workers, config.splits)
     out.print(f"QC dashboard: {index}", highlight=False, soft_wrap=True)
 
 

@@ -490,6 +490,27 @@ class PlaybackConfig(Section):
     )
 
 
+class SplitsConfig(Section):
+    folds: int = Field(
+        10, ge=2, description="Subject-independent folds (Table 4.4: 10; capped at the subjects)."
+    )
+    seed: int = Field(0, description="Shuffles the subjects before they are cut into folds.")
+    sd_fractions: tuple[float, float, float] = Field(
+        (0.70, 0.15, 0.15),
+        description="Subject-dependent split: train, validation, test shares of each subject's "
+        "recordings, in time order.",
+    )
+    include_rejected: bool = Field(
+        False, description="Put takes the QC rejected into the splits too (failed ones never)."
+    )
+
+    @model_validator(mode="after")
+    def _fractions(self) -> SplitsConfig:
+        if min(self.sd_fractions) < 0 or abs(sum(self.sd_fractions) - 1) > 1e-9:
+            raise ValueError("sd_fractions must be three non-negative numbers summing to 1")
+        return self
+
+
 class BuildConfig(Section):
     workers: int | None = Field(
         None, ge=1, description="Takes built in parallel (none = number of CPU cores)."
@@ -526,6 +547,7 @@ class Config(Section):
     processing: ProcessingConfig = Field(default_factory=ProcessingConfig)
     audio: AudioConfig = Field(default_factory=AudioConfig)
     qc: QCConfig = Field(default_factory=QCConfig)
+    splits: SplitsConfig = Field(default_factory=SplitsConfig)
     train: TrainConfig = Field(default_factory=TrainConfig)
     playback: PlaybackConfig = Field(default_factory=PlaybackConfig)
     build: BuildConfig = Field(default_factory=BuildConfig)

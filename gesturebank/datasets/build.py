@@ -380,7 +380,7 @@ def finalise(out: Path, config: Config, take_ids: list[str], videos_dir: Path) -
             "takes": {s: sum(r["qc_status"] == s for r in rows) for s in store.STATUSES},
         },
     )
-    return write_splits(out, rows)
+    return write_splits(out, rows, config.splits)
 
 
 def build_dataset(

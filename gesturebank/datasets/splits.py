@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from gesturebank.config import SplitsConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 
@@ -97,21 +98,25 @@ def subject_dependent(
 
 
 def write_splits(
-    out: Path, records: Sequence[Mapping[str, Any]], folds: int = 10, *, seed: int = 0
+    out: Path, records: Sequence[Mapping[str, Any]], config: SplitsConfig | None = None
 ) -> list[str]:
     """Write splits/si_fold_XX.json (when there are ≥ 3 subjects) and splits/sd.json.
 
     Returns notes on what could not be written (e.g. too few subjects for SI)."""
+    c = config or SplitsConfig()
     folder = Path(out) / SPLITS_DIR
     notes = []
     for old in folder.glob("si_fold_*.json"):
         old.unlink()  # a rebuild with fewer subjects must not keep stale folds
     try:
-        for fold in subject_independent(records, folds, seed=seed):
+        folds = subject_independent(
+            records, c.folds, seed=c.seed, include_rejected=c.include_rejected
+        )
+        for fold in folds:
             path = folder / f"si_fold_{fold['fold']:02d}.json"
             write_bytes_atomic(path, json.dumps(fold, indent=1).encode())
     except InputError as exc:
         notes.append(f"no subject-independent splits: {exc}")
-    sd = subject_dependent(records)
+    sd = subject_dependent(records, c.sd_fractions, include_rejected=c.include_rejected)
     write_bytes_atomic(folder / "sd.json", json.dumps(sd, indent=1).encode())
     return notes

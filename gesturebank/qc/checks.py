@@ -22,8 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from gesturebank.config import QCConfig
+from gesturebank.config import QCConfig, SplitsConfig
 from gesturebank.datasets import store
+from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
 from gesturebank.qc.metrics import take_metrics
 from gesturebank.robot import pepper
@@ -194,9 +195,12 @@ def apply_verdicts(
     return result
 
 
-def run_qc(out: Path, config: QCConfig | None = None) -> dict[str, Verdict]:
-    """Re-run the QC on a built dataset: records, manifest.parquet and the status counts in
-    dataset.json are rewritten; the takes in the manifest stay the same."""
+def run_qc(
+    out: Path, config: QCConfig | None = None, splits: SplitsConfig | None = None
+) -> dict[str, Verdict]:
+    """Re-run the QC on a built dataset: records, manifest.parquet, the status counts in
+    dataset.json and the splits (verdicts decide who is in them) are rewritten; the takes in
+    the manifest stay the same."""
     out = Path(out)
     dataset = store.Dataset(out)
     ids = [r["take_id"] for r in dataset.records()]
@@ -206,4 +210,5 @@ def run_qc(out: Path, config: QCConfig | None = None) -> dict[str, Verdict]:
     info = {k: v for k, v in dataset.info.items() if k != "schema_version"}
     info["takes"] = {s: statuses.count(s) for s in store.STATUSES}
     store.write_dataset_json(out, info)
+    write_splits(out, table.to_pylist(), splits)
     return result

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from gesturebank.config import SplitsConfig
 from gesturebank.datasets import store
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.qc.checks import QCConfig, dataset_profile, run_qc
@@ -485,9 +486,12 @@ def write_dashboard(
 
 
 def qc_command(
-    out_dir: str | Path, config: QCConfig | None = None, workers: int | None = None
+    out_dir: str | Path,
+    config: QCConfig | None = None,
+    workers: int | None = None,
+    splits: SplitsConfig | None = None,
 ) -> Path:
     """`gesturebank qc OUT_DIR`: re-run the checks on a built dataset (records, manifest,
-    dataset.json counts) and write the dashboard; returns OUT/qc/index.html."""
-    run_qc(Path(out_dir), config)
+    dataset.json counts, splits) and write the dashboard; returns OUT/qc/index.html."""
+    run_qc(Path(out_dir), config, splits)
     return write_dashboard(out_dir, config, workers)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.config import Config
+from gesturebank.config import Config, SplitsConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.splits import write_splits
 from gesturebank.extract.audio import fit_znorm
@@ -139,5 +139,5 @@ def write_synthetic_dataset(
             "normalisation": {"audio_znorm_by_subject": stats},
         },
     )
-    write_splits(out, table.to_pylist(), folds=subjects)
+    write_splits(out, table.to_pylist(), SplitsConfig(folds=subjects))
     return out

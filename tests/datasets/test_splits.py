@@ -4,6 +4,7 @@ from pathlib import Path
 
 import pytest
 
+from gesturebank.config import SplitsConfig
 from gesturebank.datasets.splits import subject_dependent, subject_independent, write_splits
 from gesturebank.errors import InputError
 
@@ -75,10 +76,23 @@ def test_sd_cuts_each_subject_by_time() -> None:
 
 
 def test_write_splits(tmp_path: Path) -> None:
-    notes = write_splits(tmp_path, manifest(5), folds=10)
+    notes = write_splits(tmp_path, manifest(5), SplitsConfig(folds=10))
     assert notes == []
     assert len(list((tmp_path / "splits").glob("si_fold_*.json"))) == 5
-    notes = write_splits(tmp_path, manifest(2), folds=10)
+    notes = write_splits(tmp_path, manifest(2), SplitsConfig(folds=10))
     assert "at least 3 subjects" in notes[0]
     assert list((tmp_path / "splits").glob("si_fold_*.json")) == []  # no stale folds
     assert json.loads((tmp_path / "splits" / "sd.json").read_text())["variant"] == "sd"
+
+
+def test_rejected_takes_enter_the_splits_only_when_asked(tmp_path: Path) -> None:
+    m = manifest(3)
+    m[0]["qc_status"] = "rejected"
+    write_splits(tmp_path, m, SplitsConfig())
+    sd = json.loads((tmp_path / "splits" / "sd.json").read_text())
+    listed = {t for parts in sd["subjects"].values() for p in parts.values() for t, _, _ in p}
+    assert "s00_t0" not in listed
+    write_splits(tmp_path, m, SplitsConfig(include_rejected=True))
+    sd = json.loads((tmp_path / "splits" / "sd.json").read_text())
+    listed = {t for parts in sd["subjects"].values() for p in parts.values() for t, _, _ in p}
+    assert "s00_t0" in listed

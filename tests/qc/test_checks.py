@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import synthetic_take, write_synthetic_dataset
 from pydantic import ValidationError
+from qc_data import synthetic_take, write_synthetic_dataset
 
 from gesturebank.datasets import open as open_dataset
 from gesturebank.qc.checks import QCConfig, absolute_reasons, robust_z, run_qc, verdicts

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import synthetic_take, write_synthetic_dataset
+from qc_data import synthetic_take, write_synthetic_dataset
 
 from gesturebank.qc.corrupt import corrupt, rederive
 from gesturebank.qc.dashboard import qc_command
