@@ -23,6 +23,7 @@ from typing import Any
 import cv2
 import numpy as np
 import tomli_w
+from scipy.spatial.transform import Rotation
 
 from gesturebank.errors import CalibrationError
 
@@ -36,12 +37,14 @@ _QCA_SUBPIXEL = 64.0
 _QCA_TO_OPENCV = np.diag([1.0, -1.0, -1.0])
 
 
+# scipy rather than cv2.Rodrigues: OpenCV returns a zero vector for rotations under 1e-5 rad,
+# so a nearly aligned camera would not survive a save/load round trip.
 def _rodrigues_to_matrix(rvec: np.ndarray) -> np.ndarray:
-    return np.asarray(cv2.Rodrigues(np.asarray(rvec, np.float64).reshape(3, 1))[0], np.float64)
+    return Rotation.from_rotvec(np.asarray(rvec, np.float64).reshape(3)).as_matrix()
 
 
 def _matrix_to_rodrigues(rotation: np.ndarray) -> np.ndarray:
-    return np.asarray(cv2.Rodrigues(np.asarray(rotation, np.float64))[0], np.float64).ravel()
+    return Rotation.from_matrix(np.asarray(rotation, np.float64)).as_rotvec()
 
 
 @dataclass(frozen=True, eq=False)
