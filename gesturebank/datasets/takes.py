@@ -23,6 +23,7 @@ from gesturebank.errors import CalibrationError, ConfigError, InputError
 log = logging.getLogger(__name__)
 
 SUBJECTS_CSV = "subjects.csv"
+CALIBRATION_NAMES = ("calibration.toml", "*.qca.txt")
 
 
 @dataclass(frozen=True)
@@ -97,10 +98,22 @@ def _files(root: Path) -> list[Path]:
     return found
 
 
+def find_calibration(folder: str | os.PathLike[str]) -> Path:
+    """The calibration file of a multi-camera take folder (DESIGN.md "What a take is"):
+    `calibration.toml` or a Qualisys `*.qca.txt`, in the folder or its `calibration/` subfolder."""
+    root = Path(folder)
+    for where in (root, root / "calibration"):
+        for pattern in CALIBRATION_NAMES:
+            hits = sorted(where.glob(pattern))
+            if len(hits) > 1:
+                raise CalibrationError(f"{where}: several calibration files ({hits[0].name}, …)")
+            if hits:
+                return hits[0]
+    raise CalibrationError(f"{root}: no calibration.toml or *.qca.txt")
+
+
 def _camera_folders(videos: list[Path]) -> dict[Path, tuple[Path, list[Path]]]:
     """Folders that form multi-camera takes: {folder: (calibration, its videos)}."""
-    from gesturebank.lift.multiview.lifter import find_calibration  # imports OpenCV
-
     groups: dict[Path, list[Path]] = {}
     for video in videos:
         folder = video.parent.parent if video.parent.name == "videos" else video.parent

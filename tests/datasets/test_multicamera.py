@@ -7,10 +7,10 @@ import pyarrow.parquet as pq
 
 from gesturebank.config import Config
 from gesturebank.datasets.build import build_dataset
-from gesturebank.datasets.takes import discover_takes
+from gesturebank.datasets.takes import discover_takes, find_calibration
 from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift.multiview.cameras import CameraGroup
-from gesturebank.lift.multiview.lifter import MultiviewLifter, find_calibration, match_videos
+from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 
 QCA = "<QCA_Camera_Calibration></QCA_Camera_Calibration>"
 

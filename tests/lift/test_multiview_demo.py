@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from gesturebank.config import MultiviewConfig
+from gesturebank.datasets.takes import find_calibration
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift.multiview.cameras import CameraGroup
-from gesturebank.lift.multiview.lifter import MultiviewLifter, find_calibration, match_videos
+from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.poses import Pose2D
 from gesturebank.skeletons import COCO17
 

@@ -30,8 +30,6 @@ from gesturebank.skeletons import COCO17
 
 log = logging.getLogger(__name__)
 
-CALIBRATION_NAMES = ("calibration.toml", "*.qca.txt")
-
 
 @dataclass(frozen=True)
 class MultiviewReport:
@@ -198,20 +196,6 @@ class MultiviewLifter:
 def _nanmedian(values: np.ndarray) -> float:
     finite = values[np.isfinite(values)]
     return float(np.median(finite)) if finite.size else float("nan")
-
-
-def find_calibration(folder: str | os.PathLike[str]) -> Path:
-    """The calibration file of a multi-camera take folder (DESIGN.md "What a take is"):
-    `calibration.toml` or a Qualisys `*.qca.txt`, in the folder or its `calibration/` subfolder."""
-    root = Path(folder)
-    for where in (root, root / "calibration"):
-        for pattern in CALIBRATION_NAMES:
-            hits = sorted(where.glob(pattern))
-            if len(hits) > 1:
-                raise CalibrationError(f"{where}: several calibration files ({hits[0].name}, …)")
-            if hits:
-                return hits[0]
-    raise CalibrationError(f"{root}: no calibration.toml or *.qca.txt")
 
 
 def match_videos(cameras: CameraGroup, videos: Sequence[str | os.PathLike[str]]) -> list[Path]:
