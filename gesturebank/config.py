@@ -519,6 +519,13 @@ class BuildConfig(Section):
         "local", description="'local' process pool, or 'ray' for a cluster."
     )
     ray_address: str | None = Field(None, description="Ray cluster address ('auto', host:port).")
+    decode_threads: int | None = Field(
+        None,
+        ge=1,
+        description="FFmpeg threads decoding one video (none = CPU cores / workers: a lone "
+        "worker decodes on the spare cores, a full pool does not oversubscribe them; "
+        "1 for Ray tasks).",
+    )
     cache_detections: bool = Field(
         True,
         description="Reuse 2D detections of a video already seen with the same detector "

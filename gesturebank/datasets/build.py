@@ -224,6 +224,19 @@ def _lift_cameras(take: Take, config: Config) -> tuple[Pose2D, Pose3D, Audio, Ta
     return poses[ref], pose3d, audio, extracted[ref][2]
 
 
+def with_decode_threads(config: Config, workers: int, cores: int) -> Config:
+    """`config` with build.decode_threads resolved: as set, else the cores each worker has to
+    itself (Ray tasks reserve one CPU each, so 1). On 2 cores two workers build ~4 % faster
+    with single-threaded decoding, one worker ~6 % faster with frame threads.
+    """
+    if config.build.decode_threads is not None:
+        return config
+    threads = 1 if config.build.executor == "ray" else max(1, cores // workers)
+    return config.model_copy(
+        update={"build": config.build.model_copy(update={"decode_threads": threads})}
+    )
+
+
 def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
     """Build one take and write it; every failure becomes a `failed` record, never an exception."""
     start = time.perf_counter()
@@ -413,6 +426,7 @@ def build_dataset(
     jobs.sort(key=lambda job: sum(v.stat().st_size for v in job[0].videos or [job[0].video]))
     jobs.reverse()
     workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(jobs)))
+    config = with_decode_threads(config, workers, os.cpu_count() or 1)
     results = (
         _ray(jobs, out, config, config.build.ray_address)
         if config.build.executor == "ray"

@@ -63,7 +63,7 @@ class TakeInfo:
 
 def _frames_or_fail(path: Path, config: Config) -> Iterator[Frame]:
     """The selected frames; InputError naming the file if there are none."""
-    frames = iter_frames(path, config.video)
+    frames = iter_frames(path, config.video, threads=config.build.decode_threads)
     first = next(frames, None)
     if first is None:
         raise InputError(f"{path}: no decodable video frames (in the selected time range)")

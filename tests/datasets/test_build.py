@@ -13,7 +13,12 @@ import pyarrow.parquet as pq
 import pytest
 
 from gesturebank.config import Config
-from gesturebank.datasets.build import audio_clock, build_dataset
+from gesturebank.datasets.build import (
+    audio_clock,
+    build_dataset,
+    content_digest,
+    with_decode_threads,
+)
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.errors import InputError
 
@@ -66,6 +71,20 @@ def test_audio_clock_is_the_common_span() -> None:
     np.testing.assert_allclose(t, 0.0125 + 0.01 * np.arange(i0, i1 + 1))
     with pytest.raises(InputError, match="do not overlap"):
         audio_clock(pose_t + 10, 0.0, 150, 0.01, 0.025)
+
+
+def test_decode_threads_share_the_cores_between_workers() -> None:
+    def threads(workers: int, cores: int, **build: object) -> int | None:
+        config = Config.model_validate({"build": build})
+        resolved = with_decode_threads(config, workers, cores)
+        assert content_digest(resolved) == content_digest(config)  # how, not what
+        return resolved.build.decode_threads
+
+    assert threads(1, 2) == 2  # a lone worker decodes on the spare core
+    assert threads(2, 2) == 1 and threads(3, 2) == 1  # a full pool: no oversubscription
+    assert threads(2, 8) == 4
+    assert threads(1, 8, executor="ray") == 1  # a Ray task reserves one CPU
+    assert threads(2, 2, decode_threads=3) == 3  # as set
 
 
 def dataset_contents(out: Path) -> dict:

@@ -101,6 +101,21 @@ def test_probe_and_decode_real_videos(samples: Path) -> None:
     assert demo.duration_s == pytest.approx(230 / 30, abs=0.05)
 
 
+@pytest.mark.parametrize(
+    "clip", ["pose2sim/Demo_SinglePerson/videos/cam01.mp4", "sports2d/Demo/demo.mp4"]
+)
+def test_decode_threads_give_the_same_frames(samples: Path, clip: str) -> None:
+    """Frame threads (h264) and slice threads (vp9) only change the speed, never a pixel."""
+    window = VideoConfig(end_s=0.5)
+    single = list(iter_frames(samples / clip, window, threads=1))
+    assert len(single) >= 15
+    for threads in (None, 2):
+        many = list(iter_frames(samples / clip, window, threads=threads))
+        assert [t for t, _ in many] == [t for t, _ in single]
+        for (_, a), (_, b) in zip(many, single, strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
 def test_video_without_audio_gives_none(samples: Path) -> None:
     assert read_audio(samples / "pose2sim" / "Demo_SinglePerson" / "videos" / "cam01.mp4") is None
 
