@@ -191,8 +191,8 @@ def iter_frames(
 
 
 def _set_threads(stream: av.video.stream.VideoStream, threads: int | None) -> None:
-    """Frame threads decode a lone video ~1.5x faster on 2 cores; when every core already runs a
-    worker they only add switching, so the builder asks for 1."""
+    """Frame threads let a lone video's decoding use the spare cores; when every core already
+    runs a worker they only add switching, so the builder asks for 1 (build.decode_threads)."""
     stream.codec_context.thread_count = threads or 0  # 0: one per core
     if threads != 1:
         stream.thread_type = "AUTO"  # frame and slice threads
