@@ -3,6 +3,7 @@
 What `gesturebank fetch-samples DIR` puts in DIR:
 
     pose2sim/Demo_SinglePerson/   4 calibrated 60 fps cameras of one person + calibration photos
+    pose2sim/Demo_MultiPerson/    4 calibrated cameras of several people (+ Qualisys calibration)
     pose2sim/LICENSE              (BSD-3-Clause, from the pose2sim wheel)
     sports2d/Demo/demo.mp4        outdoor clip, two people (+ its calibration), sports2d/LICENSE
     speech/arctic_a0007.wav       real speech (CMU ARCTIC, from the pysptk sdist) + COPYING
@@ -19,6 +20,7 @@ intact.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import logging
@@ -36,7 +38,7 @@ import numpy as np
 from platformdirs import user_cache_dir
 
 from gesturebank.errors import FetchError
-from gesturebank.fileio import write_bytes_atomic
+from gesturebank.fileio import sha256_file, write_bytes_atomic
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +72,7 @@ ARCHIVES = (
         "403e0dc4065898ba6a595e72a8970950310979253d60e24c2e00b16b36bf21e1",
         {
             "Pose2Sim/Demo_SinglePerson/": "pose2sim/Demo_SinglePerson/",
+            "Pose2Sim/Demo_MultiPerson/": "pose2sim/Demo_MultiPerson/",
             "pose2sim-0.10.49.dist-info/licenses/LICENSE": "pose2sim/LICENSE",
         },
     ),
@@ -102,28 +105,34 @@ ARCHIVES = (
     ),
 )
 
-# Pipeline demos: (output, video, speech files played one after the other).
+# Pipeline demos: (output, video, speech files played one after the other, loop). With loop the
+# video is ping-ponged (forward, backward, …) to the speech's length: the lab clips last 1.7 s,
+# shorter than a clip (clips.min_s); without it the speech is cut or padded to the video.
 TALKING = (
     (
-        "talking/lab/cam01_arctic_a0007.mp4",
+        "talking/lab/cam01_arctic.mp4",
         "pose2sim/Demo_SinglePerson/videos/cam01.mp4",
-        ("speech/arctic_a0007.wav",),
+        ("speech/arctic_a0007.wav", "speech/arctic_a0009.wav"),
+        True,
     ),
     (
-        "talking/lab/cam03_arctic_a0009.mp4",
+        "talking/lab/cam03_arctic.mp4",
         "pose2sim/Demo_SinglePerson/videos/cam03.mp4",
-        ("speech/arctic_a0009.wav",),
+        ("speech/arctic_a0009.wav", "speech/arctic_a0007.wav"),
+        True,
     ),
     (
         "talking/outdoor/sports2d_arctic.mp4",
         "sports2d/Demo/demo.mp4",
         ("speech/arctic_a0007.wav", "speech/arctic_a0009.wav"),
+        False,
     ),
 )
 
 TALKING_README = """\
 Pipeline demos made by `gesturebank fetch-samples`: real speech (CMU ARCTIC, see
-../speech/COPYING.*) muxed onto real videos (Pose2Sim and Sports2D demos, see ../*/LICENSE).
+../speech/COPYING.*) muxed onto real videos (Pose2Sim and Sports2D demos, see ../*/LICENSE);
+the short lab videos are played forward and backward to last as long as the speech.
 The speech and the motion are unrelated. Subject = folder name (lab, outdoor).
 """
 
@@ -142,20 +151,17 @@ class FetchReport:
         return bool(self.downloaded or self.written)
 
 
+SAMPLES_ENV = "GESTUREBANK_SAMPLES"
+
+
 def default_samples_dir() -> Path:
-    return Path(user_cache_dir("gesturebank")) / "samples"
+    """$GESTUREBANK_SAMPLES if set, else `<user cache dir>/gesturebank/samples`."""
+    env = os.environ.get(SAMPLES_ENV)
+    return Path(env) if env else Path(user_cache_dir("gesturebank")) / "samples"
 
 
 def default_download_dir() -> Path:
     return Path(user_cache_dir("gesturebank")) / "downloads"
-
-
-def sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _download(archive: Archive, cache: Path) -> tuple[Path, bool]:
@@ -218,6 +224,15 @@ def _members(archive: Archive, path: Path) -> Iterator[tuple[str, bytes]]:
                     yield target, zf.read(name)
 
 
+def _covers(archive: Archive, files: dict[str, str]) -> bool:
+    """Every member of `archive` has a recorded file (a member added since the last fetch has
+    none, so the archive is extracted again)."""
+    return all(
+        any(rel.startswith(dst) if dst.endswith("/") else rel == dst for rel in files)
+        for dst in archive.members.values()
+    )
+
+
 def _intact(root: Path, files: dict[str, str]) -> bool:
     return bool(files) and all(
         (root / rel).is_file() and sha256_file(root / rel) == digest
@@ -267,6 +282,15 @@ def mux_speech(video: Path, speech: list[Path], out: Path, rate: int = 16000) ->
     os.replace(tmp, out)
 
 
+def _loop_speech(video: Path, speech: list[Path], out: Path, rate: int = 16000) -> None:
+    """`video` ping-ponged to the length of the speech, re-encoded, with the speech as AAC."""
+    from gesturebank import footage
+
+    signal = _read_speech(speech, rate)
+    frames = footage.ping_pong(footage.load(video), seconds=len(signal) / rate)
+    footage.write(frames, out, speech=signal[: round(frames.duration_s * rate)])
+
+
 def fetch_samples(
     root: str | os.PathLike[str] | None = None, download_dir: str | os.PathLike[str] | None = None
 ) -> FetchReport:
@@ -279,11 +303,12 @@ def fetch_samples(
         manifest = json.loads(manifest_path.read_text())
     except (OSError, ValueError):
         manifest = {}
-    groups: dict[str, dict[str, str]] = manifest.get("groups", {})
+    # a copy: the manifest is rewritten only when something in it changed
+    groups: dict[str, dict[str, str]] = copy.deepcopy(manifest.get("groups", {}))
 
     for archive in ARCHIVES:
         files = groups.get(archive.requirement, {})
-        if _intact(root, files):
+        if _covers(archive, files) and _intact(root, files):
             report.verified += len(files)
             continue
         path, downloaded = _download(archive, cache)
@@ -302,14 +327,21 @@ def fetch_samples(
             raise FetchError(f"{path}: none of the expected sample files are in this archive")
         groups[archive.requirement] = files
 
-    for out, video, speech in TALKING:
+    for out, video, speech, loop in TALKING:
         files = groups.get(out, {})
         if _intact(root, files):
             report.verified += 1
             continue
-        mux_speech(root / video, [root / s for s in speech], root / out)
+        if loop:
+            _loop_speech(root / video, [root / s for s in speech], root / out)
+        else:
+            mux_speech(root / video, [root / s for s in speech], root / out)
         groups[out] = {out: sha256_file(root / out)}
         report.written.append(out)
+    demos = {out for out, *_ in TALKING}
+    for old in [k for k in groups if k.startswith("talking/") and k not in demos]:
+        (root / old).unlink(missing_ok=True)  # a demo of an older version: not a take any more
+        del groups[old]
     readme = root / "talking" / "README.txt"
     if not readme.is_file() or readme.read_text() != TALKING_README:
         write_bytes_atomic(readme, TALKING_README.encode())

@@ -83,7 +83,7 @@ def test_download_not_matching_the_pin_fails_naming_the_file(tmp_path, monkeypat
 @pytest.mark.parametrize(
     ("clip", "frames", "seconds"),
     [
-        ("talking/lab/cam01_arctic_a0007.mp4", 100, 1.67),
+        ("talking/lab/cam01_arctic.mp4", 426, 7.1),
         ("talking/outdoor/sports2d_arctic.mp4", 230, 7.67),
     ],
 )
@@ -96,3 +96,14 @@ def test_talking_clips_have_the_real_video_and_speech(samples, clip, frames, sec
         n_audio = sum(f.samples for f in c.decode(audio=0))
     assert n_video == frames
     assert n_audio / 16000 == pytest.approx(seconds, abs=0.15)
+
+
+def test_a_demo_no_longer_made_is_removed_and_the_manifest_kept(fresh, monkeypatch) -> None:
+    """An older version's demo would be built as a take: it goes, and the manifest says so."""
+    root, _ = fresh
+    monkeypatch.setattr(S, "TALKING", tuple(t for t in S.TALKING if "outdoor" in t[0]))
+    S.fetch_samples(root)
+    assert not (root / "talking/lab/cam01_arctic.mp4").exists()
+    assert "talking/lab/cam01_arctic.mp4" not in (root / S.MANIFEST).read_text()
+    again = S.fetch_samples(root)
+    assert (again.downloaded, again.written) == ([], [])
