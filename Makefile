@@ -15,6 +15,7 @@ MEDIA      ?= $(or $(XDG_CACHE_HOME),$(HOME)/.cache)/gesturebank/samples
 DEMO_OUT   ?= demo-out
 APT_PKGS   := espeak-ng sox libusb-1.0-0 chromium
 MEDIAPIPE  := mediapipe==0.10.14
+SCENEDETECT := scenedetect==0.7.2
 
 .PHONY: demo test lint typecheck pytest setup system-deps samples clean help
 
@@ -37,6 +38,10 @@ $(VENV)/.installed: pyproject.toml Makefile
 	# mediapipe without its declared deps: they would add a second cv2 (the GUI build) and jax.
 	# Its real runtime deps are in pyproject's dependencies.
 	$(PIP) install -q --no-deps $(MEDIAPIPE)
+	# scenedetect without its declared deps: opencv-python (scenedetect-headless: the headless
+	# build) would be a second cv2 beside opencv-contrib-python-headless. Its pure-Python deps
+	# (click, platformdirs, tqdm) are in pyproject's dependencies.
+	$(PIP) install -q --no-deps $(SCENEDETECT)
 	touch $@
 
 setup: system-deps $(VENV)/.installed
