@@ -7,6 +7,8 @@ Pure functions over arrays, radians and seconds inside:
 - `butter_lowpass`: the dissertation's zero-phase 5th-order Butterworth low-pass (§4.2.3).
 - `KalmanConstAcc` / `kalman_const_acc`: the online constant-acceleration Kalman filter of the
   dissertation's live mode (§4.4.2), vectorised over joints.
+- `OneEuro` / `one_euro`: the speed-adaptive one-euro low-pass (Casiez et al. 2012) on the
+  samples' own timestamps, vectorised over values (landmark smoothing of the detectors).
 
 Clamping and [0, 1] normalisation to the robot's limits (Eq. 3.13–3.14) live in
 `gesturebank.robot.pepper`, not here.
@@ -336,3 +338,93 @@ def kalman_const_acc(
     for i, row in enumerate(arr):
         out[i] = kf.step(row)
     return out.astype(arr.dtype, copy=False)
+
+
+def _alpha(cutoff_hz: FloatArray | float, dt: float) -> FloatArray:
+    """Smoothing factor of a first-order low-pass at `cutoff_hz` for a step of `dt` seconds:
+    α = 1 / (1 + τ / dt), τ = 1 / (2π f_c) (Casiez et al. 2012)."""
+    tau = 1.0 / (2.0 * np.pi * np.asarray(cutoff_hz, dtype=np.float64))
+    return 1.0 / (1.0 + tau / dt)
+
+
+class OneEuro:
+    """One-euro filter (Casiez, Roussel & Vogel, CHI 2012), vectorised over any array of values.
+
+    Each value is smoothed by an exponential low-pass whose cut-off grows with its speed:
+    f_c = min_cutoff + beta · |ẋ|, where ẋ is the speed (change per second, times `scale`)
+    low-passed at `d_cutoff`. Slow values are smoothed hard (no jitter), fast ones barely (no
+    lag). The speed comes from consecutive raw samples, as in the authors' reference code (and
+    mediapipe's copy of it). Steps are timed by the samples' own timestamps, so variable frame
+    rates need no resampling. The first sample passes unchanged; a NaN value comes out NaN and
+    restarts that value's filter; a timestamp not after the last one returns the input as is.
+
+    `scale` multiplies the speed (mediapipe divides pixel speeds by the person's size in pixels,
+    so one beta suits near and far people).
+    """
+
+    def __init__(self, *, min_cutoff: float, beta: float, d_cutoff: float = 1.0) -> None:
+        for name, value in (("min_cutoff", min_cutoff), ("d_cutoff", d_cutoff)):
+            if not np.isfinite(value) or value <= 0:
+                raise InputError(f"{name} must be finite and positive, got {value!r}")
+        if not np.isfinite(beta) or beta < 0:
+            raise InputError(f"beta must be finite and >= 0, got {beta!r}")
+        self.min_cutoff = float(min_cutoff)
+        self.beta = float(beta)
+        self.d_cutoff = float(d_cutoff)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the past: the next sample passes unchanged."""
+        self._state: _OneEuroState | None = None
+
+    def step(self, value: ArrayLike, t: float, *, scale: float = 1.0) -> NDArray[np.float64]:
+        """Filter one sample `value (...)` taken at `t` seconds; returns the smoothed `(...)`."""
+        x = np.asarray(value, dtype=np.float64)
+        s = self._state
+        if s is None or s.raw.shape != x.shape:
+            self._state = _OneEuroState(float(t), x, x.copy(), np.zeros_like(x))
+            return x.copy()
+        if not t > s.t:
+            return x.copy()
+        dt = t - s.t
+        fresh = ~np.isfinite(s.raw)  # values restarting after a NaN
+        speed = np.where(fresh, 0.0, (x - s.raw) * scale / dt)
+        dx = np.where(fresh, speed, s.dx + _alpha(self.d_cutoff, dt) * (speed - s.dx))
+        a = _alpha(self.min_cutoff + self.beta * np.abs(dx), dt)
+        out = np.where(fresh, x, s.x + a * (x - s.x))
+        self._state = _OneEuroState(float(t), x, out, dx)
+        return out.copy()
+
+
+@dataclass(frozen=True)
+class _OneEuroState:
+    """Last timestamp, raw sample, output and smoothed speed of a OneEuro filter."""
+
+    t: float
+    raw: NDArray[np.float64]
+    x: NDArray[np.float64]
+    dx: NDArray[np.float64]
+
+
+def one_euro(
+    values: ArrayLike,
+    timestamps: ArrayLike,
+    *,
+    min_cutoff: float,
+    beta: float,
+    d_cutoff: float = 1.0,
+    scale: ArrayLike = 1.0,
+) -> FloatArray:
+    """`OneEuro` over the rows of `values (T, ...)` taken at strictly increasing `timestamps (T,)`;
+    `scale` is one number or `(T,)`. Returns the smoothed `(T, ...)` in the input's float dtype."""
+    arr = np.asarray(values)
+    if arr.ndim < 1 or len(arr) == 0:
+        raise InputError(f"values must have at least one row, got shape {arr.shape}")
+    ts = np.asarray(timestamps, dtype=np.float64)
+    if ts.shape != arr.shape[:1] or not np.all(np.isfinite(ts)) or np.any(np.diff(ts) <= 0):
+        raise InputError(f"timestamps must be ({len(arr)},), finite and strictly increasing")
+    scales = np.broadcast_to(np.asarray(scale, dtype=np.float64), ts.shape)
+    dtype = arr.dtype if np.issubdtype(arr.dtype, np.floating) else np.dtype(np.float64)
+    f = OneEuro(min_cutoff=min_cutoff, beta=beta, d_cutoff=d_cutoff)
+    out = np.stack([f.step(row, t, scale=s) for row, t, s in zip(arr, ts, scales, strict=True)])
+    return out.astype(dtype, copy=False)

@@ -24,6 +24,7 @@ class Registry(Generic[T]):
         self.kind = kind
         self.group = group
         self._factories: dict[str, Callable[..., T]] = {}
+        self._lazy: dict[str, str] = {}  # name → "module:attribute", imported on first use
 
     def register(self, name: str) -> Callable[[Callable[..., T]], Callable[..., T]]:
         def add(factory: Callable[..., T]) -> Callable[..., T]:
@@ -35,26 +36,24 @@ class Registry(Generic[T]):
     def register_lazy(self, name: str, target: str) -> None:
         """Register "module:attribute", imported only when `name` is first used, so listing the
         names never imports heavy dependencies (mediapipe, torch)."""
-
-        def factory(*args: object, **kwargs: object) -> T:
-            module, _, attr = target.partition(":")
-            real: Callable[..., T] = getattr(importlib.import_module(module), attr)
-            self._factories[name] = real
-            return real(*args, **kwargs)
-
-        self._factories[name] = factory
+        self._lazy[name] = target
 
     def _plugins(self) -> dict[str, object]:
         return {ep.name: ep for ep in entry_points(group=self.group)}
 
     def names(self) -> list[str]:
         """Built-in and plug-in names, sorted."""
-        return sorted(set(self._factories) | set(self._plugins()))
+        return sorted(set(self._factories) | set(self._lazy) | set(self._plugins()))
 
     def get(self, name: str) -> Callable[..., T]:
         """The factory registered as `name`; InputError listing the known names otherwise."""
         if name in self._factories:
             return self._factories[name]
+        if name in self._lazy:
+            module, _, attr = self._lazy[name].partition(":")
+            real: Callable[..., T] = getattr(importlib.import_module(module), attr)
+            self._factories[name] = real  # the class itself: its signature can be inspected
+            return real
         plugin = self._plugins().get(name)
         if plugin is None:
             raise InputError(

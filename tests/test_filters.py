@@ -9,9 +9,11 @@ from scipy.linalg import solve_discrete_are
 from gesturebank.errors import InputError
 from gesturebank.filters import (
     KalmanConstAcc,
+    OneEuro,
     butter_lowpass,
     fill_gaps,
     kalman_const_acc,
+    one_euro,
     resample_to_clock,
 )
 
@@ -260,3 +262,86 @@ def test_kalman_rejects_bad_input() -> None:
         KalmanConstAcc(2).step(np.zeros(3))
     with pytest.raises(InputError):
         KalmanConstAcc(2, r=0.0)
+
+
+# --- one-euro -------------------------------------------------------------------------------
+
+
+def test_one_euro_passes_a_constant_unchanged_on_irregular_timestamps() -> None:
+    ts = np.cumsum(np.random.default_rng(0).uniform(0.01, 0.05, 200))
+    x = np.tile([3.5, -2.0, 1e4], (200, 1))
+    np.testing.assert_array_equal(one_euro(x, ts, min_cutoff=0.05, beta=80.0), x)
+
+
+def test_one_euro_without_beta_is_the_exponential_low_pass_of_the_formula() -> None:
+    """beta = 0: a fixed cut-off, so a unit step decays as Π (1 − α_i), α = 1 / (1 + τ / Δt)."""
+    ts = np.cumsum(np.r_[0.0, np.random.default_rng(1).uniform(0.01, 0.04, 99)])
+    x = np.r_[0.0, np.ones(99)]
+    y = one_euro(x, ts, min_cutoff=2.0, beta=0.0)
+    tau = 1 / (2 * np.pi * 2.0)
+    alpha = 1 / (1 + tau / np.diff(ts))
+    np.testing.assert_allclose(y[1:], 1 - np.cumprod(1 - alpha), rtol=1e-12)
+
+
+def test_one_euro_step_converges_and_faster_with_beta() -> None:
+    ts = np.arange(300) / 30.0
+    x = np.r_[np.zeros(30), np.full(270, 10.0)]
+    slow = one_euro(x, ts, min_cutoff=0.5, beta=0.0)
+    fast = one_euro(x, ts, min_cutoff=0.5, beta=1.0)
+    assert abs(slow[-1] - 10) < 0.01 and abs(fast[-1] - 10) < 0.01
+    assert np.all(np.diff(slow[30:]) >= 0) and np.all(fast[30:] <= 10 + 1e-9)  # no overshoot
+    assert np.all(fast[31:60] > slow[31:60])  # the jump's speed opens the filter
+
+
+@pytest.mark.parametrize("speed", [1.0, 10.0, 100.0])
+def test_one_euro_cutoff_grows_with_speed_as_the_formula_says(speed: float) -> None:
+    """On a ramp the smoothed speed is the ramp's, so the cut-off settles at
+    f_c = min_cutoff + beta · speed · scale and the lag behind the ramp at speed · τ."""
+    min_cutoff, beta, scale = 0.1, 0.5, 0.2
+    ts = np.arange(3000) / 100.0
+    y = one_euro(speed * ts, ts, min_cutoff=min_cutoff, beta=beta, scale=scale)
+    cutoff = min_cutoff + beta * speed * scale
+    lag = speed / (2 * np.pi * cutoff)  # an exponential low-pass trails a ramp by speed · τ
+    np.testing.assert_allclose(speed * ts[-1] - y[-1], lag, rtol=1e-6)
+
+
+def test_one_euro_lags_less_on_faster_ramps() -> None:
+    ts = np.arange(1000) / 60.0
+    lags = [v * ts[-1] - one_euro(v * ts, ts, min_cutoff=0.05, beta=80.0)[-1] for v in (0.1, 1, 10)]
+    assert lags[0] / 0.1 > lags[1] / 1 > lags[2] / 10  # relative lag shrinks with speed
+
+
+def test_one_euro_follows_time_not_sample_count() -> None:
+    """The same motion sampled at 30 and 60 fps gives nearly the same smoothed curve."""
+
+    def run(fps: float) -> tuple[np.ndarray, np.ndarray]:
+        ts = np.arange(int(3 * fps)) / fps
+        x = np.where(ts >= 0.5, 1.0, 0.0) + 0.2 * np.sin(2 * np.pi * 0.7 * ts)
+        return ts, one_euro(x, ts, min_cutoff=1.0, beta=0.5)
+
+    t30, y30 = run(30.0)
+    t60, y60 = run(60.0)
+    assert np.max(np.abs(np.interp(t30, t60, y60) - y30)[t30 > 1.0]) < 0.02
+
+
+def test_one_euro_nan_restarts_only_that_value_and_old_times_pass_through() -> None:
+    f = OneEuro(min_cutoff=0.1, beta=0.0)
+    f.step([0.0, 0.0], 0.0)
+    out = f.step([np.nan, 1.0], 0.1)
+    assert np.isnan(out[0]) and 0 < out[1] < 1
+    out = f.step([5.0, 1.0], 0.2)
+    assert out[0] == 5.0 and 0 < out[1] < 1  # a new start passes unchanged
+    np.testing.assert_array_equal(f.step([7.0, 7.0], 0.2), [7.0, 7.0])  # not after the last
+    f.reset()
+    np.testing.assert_array_equal(f.step([9.0, -9.0], 0.3), [9.0, -9.0])
+
+
+def test_one_euro_keeps_float32_and_rejects_bad_input() -> None:
+    x = np.ones((5, 3), np.float32)
+    assert one_euro(x, np.arange(5.0), min_cutoff=1, beta=0).dtype == np.float32
+    with pytest.raises(InputError, match="strictly increasing"):
+        one_euro(x, [0, 1, 1, 2, 3], min_cutoff=1, beta=0)
+    with pytest.raises(InputError, match="min_cutoff"):
+        OneEuro(min_cutoff=0.0, beta=1.0)
+    with pytest.raises(InputError, match="beta"):
+        OneEuro(min_cutoff=1.0, beta=-1.0)

@@ -1,4 +1,5 @@
-"""Detector registry (built-ins, entry-point plug-ins), mediapipe on real media, openpose-json."""
+"""Detector registry (built-ins, entry-point plug-ins, the constructor convention), mediapipe and
+blazepose on real media, openpose-json."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import av
 import numpy as np
 import pytest
 
-from gesturebank.config import Config, DetectorConfig
+from gesturebank.config import Config, DetectorConfig, VideoConfig
 from gesturebank.errors import ConfigError, DetectionError, InputError
 from gesturebank.extract.cache import DetectionCache
 from gesturebank.extract.detectors import DETECTORS, MultiPose2D
@@ -30,10 +31,20 @@ def test_builtins_are_registered_without_importing_mediapipe() -> None:
         "import sys, gesturebank\n"
         "from gesturebank.extract.detectors import DETECTORS\n"
         "names = DETECTORS.names()\n"
-        "assert 'mediapipe' in names and 'openpose-json' in names, names\n"
-        "assert 'mediapipe' not in sys.modules\n"
+        "assert {'blazepose', 'mediapipe', 'openpose-json'} <= set(names), names\n"
+        "assert 'mediapipe' not in sys.modules and 'ai_edge_litert' not in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_every_builtin_takes_config_video_and_threads(tmp_path: Path) -> None:
+    """One constructor convention: (config, *, video, threads)."""
+    video = tmp_path / "grey.mp4"
+    write_grey_video(video, n=2)
+    (tmp_path / "grey_json").mkdir()
+    for name in ("blazepose", "mediapipe", "openpose-json"):
+        det = DETECTORS.create(name, DetectorConfig(), video=video, threads=1)
+        assert det.name == name
 
 
 PLUGIN = '''
@@ -93,8 +104,9 @@ def test_entry_point_plugin_is_found_and_used(plugin: str, tmp_path: Path) -> No
     write_grey_video(video, n=5)
     config = Config()
     config.detector.name = plugin
-    pose, audio, info = extract_take(video, config, cache=DetectionCache(tmp_path / "cache"))
-    assert info.detector == "corner" and audio is None
+    ex = extract_take(video, config, cache=DetectionCache(tmp_path / "cache"))
+    pose = ex.tracked.pose
+    assert ex.info.detector == "corner" and ex.audio is None
     assert pose.skeleton == "coco17" and pose.keypoints.shape == (5, 17, 3)
     np.testing.assert_allclose(pose.timestamps, np.arange(5) / 25)
     assert pose.image_size == (64, 48)
@@ -171,7 +183,7 @@ def plausible(kp: np.ndarray, skeleton: str, min_conf: float = 0.5) -> np.ndarra
 def cam01_pose(samples: Path):
     det = DETECTORS.create("mediapipe", DetectorConfig())
     video = samples / "pose2sim" / "Demo_SinglePerson" / "videos" / "cam01.mp4"
-    return det.detect(iter_frames(video))
+    return det.detect(iter_frames(video, VideoConfig(max_fps=None)))  # all 100 frames
 
 
 def test_mediapipe_finds_the_person_on_pose2sim_cam01(cam01_pose) -> None:
@@ -193,23 +205,24 @@ def test_mediapipe_finds_the_person_on_pose2sim_cam01(cam01_pose) -> None:
 
 
 def sports2d_people(samples: Path, base: Path) -> MultiPose2D:
-    """Two-person mediapipe on the Sports2D demo, cached in the session's temp dir (the tracking
-    tests reuse the same cache entry)."""
-    multi, _, _ = detect_people(
+    """Everybody on the Sports2D demo with the default detector (blazepose) through the
+    pipeline, cached in the session's temp dir."""
+    multi, _, name, _, _ = detect_people(
         samples / "sports2d" / "Demo" / "demo.mp4",
         Config(),
         cache=DetectionCache(base / "detections"),
-        max_people=2,
     )
+    assert name == "blazepose"
     return multi
 
 
-def test_mediapipe_finds_people_on_sports2d(samples: Path, tmp_path_factory) -> None:
+def test_blazepose_finds_both_people_on_sports2d(samples: Path, tmp_path_factory) -> None:
     multi = sports2d_people(samples, tmp_path_factory.getbasetemp())
-    assert multi.keypoints.shape[:2] == (230, 2) and multi.image_size == (1768, 994)
+    assert multi.keypoints.shape[0] == 230 and multi.image_size == (1768, 994)
+    assert multi.ids is not None and multi.world is not None
     anyone = multi.present.any(axis=1)
     assert anyone.mean() >= 0.95  # somebody is visible in every frame of the demo
-    assert multi.present.all(axis=1).sum() >= 60  # both people, while the woman walks past
+    assert (multi.present.sum(axis=1) >= 2).sum() >= 120  # both, while the woman walks past
     kp = multi.keypoints[multi.present]
     assert plausible(kp, multi.skeleton).mean() >= 0.9  # he jumps and flips: some are upside down
 
@@ -285,7 +298,7 @@ def test_openpose_json_bad_file_is_named(tmp_path: Path) -> None:
 def test_openpose_json_from_real_two_person_detections(
     samples: Path, tmp_path: Path, tmp_path_factory
 ) -> None:
-    """Real mediapipe detections of both Sports2D people, written as BODY_25 OpenPose JSON
+    """Real blazepose detections of both Sports2D people, written as BODY_25 OpenPose JSON
     beside a copy of the video, come back through the openpose-json detector unchanged."""
     video = samples / "sports2d" / "Demo" / "demo.mp4"
     multi = sports2d_people(samples, tmp_path_factory.getbasetemp())
@@ -296,7 +309,7 @@ def test_openpose_json_from_real_two_person_detections(
     write_openpose(tmp_path / "demo_json", frames, stem="demo")
     config = Config()
     config.detector.name = "openpose-json"
-    back, name, hit = detect_people(copy, config, cache=DetectionCache(tmp_path / "c"))
+    back, _, name, hit, _ = detect_people(copy, config, cache=DetectionCache(tmp_path / "c"))
     assert name == "openpose-json" and hit is None  # JSON is read, never cached
     assert back.skeleton == "body25" and len(back) == 230
     np.testing.assert_allclose(back.timestamps, np.arange(230) / 30, atol=1e-6)

@@ -52,6 +52,8 @@ class MultiPose2D:
                 slot nobody fills is all NaN.
     timestamps: (T,) float64 seconds; skeleton, image_size (w, h) as in Pose2D.
     world:      optional (T, P, K, 3) float32 metric landmarks (BlazePose), same slots.
+    ids:        optional (T, P) int64 track id of each slot from a detector that tracks people
+                itself (-1 = empty slot); None = no identities yet (`extract.tracking` links them).
     """
 
     keypoints: np.ndarray
@@ -59,6 +61,7 @@ class MultiPose2D:
     skeleton: str
     image_size: tuple[int, int]
     world: np.ndarray | None = None
+    ids: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         kp = np.asarray(self.keypoints, dtype=np.float32)
@@ -73,6 +76,10 @@ class MultiPose2D:
             object.__setattr__(self, "world", np.asarray(self.world, dtype=np.float32))
             if self.world.shape != kp.shape:
                 raise InputError("MultiPose2D: world must have the shape of keypoints")
+        if self.ids is not None:
+            object.__setattr__(self, "ids", np.asarray(self.ids, dtype=np.int64))
+            if self.ids.shape != kp.shape[:2]:
+                raise InputError("MultiPose2D: ids must have shape (T, P)")
         w, h = (int(v) for v in self.image_size)
         object.__setattr__(self, "image_size", (w, h))
 
@@ -92,17 +99,22 @@ class MultiPose2D:
         skeleton: str,
         image_size: tuple[int, int],
         world: list[np.ndarray] | None = None,
+        ids: list[np.ndarray] | None = None,
     ) -> MultiPose2D:
-        """Pack per-frame arrays `(N_t, K, 3)` (N_t may be 0) into padded slots."""
+        """Pack per-frame arrays `(N_t, K, 3)` (N_t may be 0; `ids`: `(N_t,)` track ids) into
+        padded slots."""
         k = len(get_skeleton(skeleton))
         p = max((len(x) for x in people), default=0)
         kp = np.full((len(people), max(p, 1), k, 3), np.nan, np.float32)
         wd = None if world is None else np.full_like(kp, np.nan)
+        track = None if ids is None else np.full(kp.shape[:2], -1, np.int64)
         for t, x in enumerate(people):
             kp[t, : len(x)] = x
             if wd is not None and world is not None:
                 wd[t, : len(world[t])] = world[t]
-        return cls(kp, timestamps, skeleton, image_size, wd)
+            if track is not None and ids is not None:
+                track[t, : len(ids[t])] = ids[t]
+        return cls(kp, timestamps, skeleton, image_size, wd, track)
 
     @classmethod
     def from_pose2d(cls, pose: Pose2D) -> MultiPose2D:
@@ -113,8 +125,14 @@ class MultiPose2D:
     def take(self, indices: np.ndarray) -> MultiPose2D:
         """The frames at `indices` (e.g. from `video.select_indices`)."""
         world = None if self.world is None else self.world[indices]
+        ids = None if self.ids is None else self.ids[indices]
         return MultiPose2D(
-            self.keypoints[indices], self.timestamps[indices], self.skeleton, self.image_size, world
+            self.keypoints[indices],
+            self.timestamps[indices],
+            self.skeleton,
+            self.image_size,
+            world,
+            ids,
         )
 
     def slot(self, p: int) -> Pose2D:
@@ -131,6 +149,8 @@ class MultiPose2D:
         }
         if self.world is not None:
             out["world"] = self.world
+        if self.ids is not None:
+            out["ids"] = self.ids
         return out
 
     @classmethod
@@ -142,6 +162,7 @@ class MultiPose2D:
             str(arrays["skeleton"]),
             (int(size[0]), int(size[1])),
             np.asarray(arrays["world"]) if "world" in arrays else None,
+            np.asarray(arrays["ids"]) if "ids" in arrays else None,
         )
 
 
@@ -149,6 +170,7 @@ DETECTORS: Registry[Detector] = Registry("detector", "gesturebank.detectors")
 
 # Built-ins: name -> "module:attribute", imported on first use.
 _BUILTINS = {
+    "blazepose": "gesturebank.extract.detectors.blazepose:BlazePoseDetector",
     "mediapipe": "gesturebank.extract.detectors.mediapipe:MediaPipeDetector",
     "openpose-json": "gesturebank.extract.detectors.openpose_json:OpenPoseJsonDetector",
 }

@@ -3,9 +3,8 @@
 Video mode with tracking (static_image_mode=False), 33 landmarks in BLAZEPOSE33 order (the same
 order mediapipe uses), x/y scaled to pixels, visibility as confidence, world landmarks kept.
 
-BlazePose is single-person. With `max_people > 1` this detector finds more people by masking
-each one it found and running another (independently tracking) BlazePose on the masked frame;
-the slots carry no identity, `extract.tracking` links them.
+The single-person reference for the `blazepose` detector (the same models, several people):
+it follows one person and ignores `max_people`.
 """
 
 from __future__ import annotations
@@ -74,13 +73,17 @@ def _quiet_startup() -> Iterator[None]:
 
 
 class MediaPipeDetector:
-    """mediapipe BlazePose Full; `detect` for one person, `detect_people` for up to max_people."""
+    """mediapipe BlazePose Full, one person: `detect`, or `detect_people` with one slot."""
 
     name = "mediapipe"
     skeleton = BLAZEPOSE33.name
 
     def __init__(
-        self, config: DetectorConfig | None = None, *, video: object = None, max_people: int = 1
+        self,
+        config: DetectorConfig | None = None,
+        *,
+        video: object = None,
+        threads: int | None = None,  # mediapipe's graph sets its own; accepted for the convention
     ) -> None:
         self.config = config or DetectorConfig()
         # Checked before mediapipe is touched: any other complexity makes it download a model.
@@ -91,9 +94,6 @@ class MediaPipeDetector:
                 "gesturebank never downloads models; set detector.model_complexity = 1 "
                 f"(mediapipe install: {INSTALL})"
             )
-        if max_people < 1:
-            raise ConfigError(f"max_people must be at least 1, got {max_people}")
-        self.max_people = max_people
         _check_install()
 
     def _new_pose(self) -> Any:
@@ -113,31 +113,28 @@ class MediaPipeDetector:
         return pose
 
     def detect(self, frames: Iterable[Frame]) -> Pose2D:
-        """(T, 33, 3) keypoints of the one person BlazePose tracks (NaN where none)."""
-        if self.max_people == 1:
-            return self.detect_people(frames).slot(0)
-        from gesturebank.extract.tracking import main_speaker
-
-        return main_speaker(self.detect_people(frames)).pose
+        """(T, 33, 3) keypoints of the one person BlazePose tracks (NaN where none), world
+        landmarks (T, 33, 3) metres."""
+        return self.detect_people(frames).slot(0)
 
     def detect_people(self, frames: Iterable[Frame]) -> MultiPose2D:
-        """Up to `max_people` people per frame: keypoints (T, P, 33, 3), world (T, P, 33, 3)."""
-        poses = [self._new_pose() for _ in range(self.max_people)]
+        """The tracked person in one slot: keypoints (T, 1, 33, 3), world (T, 1, 33, 3)."""
+        pose = self._new_pose()
         times: list[float] = []
         people: list[np.ndarray] = []
         worlds: list[np.ndarray] = []
         size: tuple[int, int] | None = None
+        empty = np.zeros((0, len(BLAZEPOSE33), 3), np.float32)
         try:
             for t, image in frames:
                 h, w = image.shape[:2]
                 size = size or (w, h)
-                kp, wd = _detect_frame(poses, image)
+                hit = _landmarks(pose.process(image), w, h)
                 times.append(t)
-                people.append(kp)
-                worlds.append(wd)
+                people.append(empty if hit is None else hit[0][None])
+                worlds.append(empty if hit is None else hit[1][None])
         finally:
-            for p in poses:
-                p.close()
+            pose.close()
         if size is None:
             raise DetectionError("mediapipe: no frames to detect on")
         return MultiPose2D.from_people(people, np.asarray(times), self.skeleton, size, worlds)
@@ -156,45 +153,3 @@ def _landmarks(result: Any, w: int, h: int) -> tuple[np.ndarray, np.ndarray] | N
     else:
         world = np.full((len(lm), 3), np.nan, np.float32)
     return kp, world
-
-
-def _detect_frame(poses: list[Any], image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Run each BlazePose in turn, masking everyone already found. Returns (N, 33, 3) twice."""
-    h, w = image.shape[:2]
-    found: list[tuple[np.ndarray, np.ndarray]] = []
-    current = image
-    for i, pose in enumerate(poses):
-        hit = _landmarks(pose.process(current), w, h)
-        if hit is not None and not any(_same_person(hit[0], f[0]) for f in found):
-            found.append(hit)
-        if i + 1 < len(poses) and hit is not None:
-            current = _mask(current if current is not image else image.copy(), hit[0])
-    if not found:
-        empty = np.zeros((0, len(BLAZEPOSE33), 3), np.float32)
-        return empty, empty
-    return np.stack([f[0] for f in found]), np.stack([f[1] for f in found])
-
-
-def _bbox(kp: np.ndarray, pad: float = 0.1) -> tuple[float, float, float, float]:
-    x0, y0 = np.nanmin(kp[:, :2], axis=0)
-    x1, y1 = np.nanmax(kp[:, :2], axis=0)
-    px, py = pad * (x1 - x0), pad * (y1 - y0)
-    return x0 - px, y0 - py, x1 + px, y1 + py
-
-
-def _mask(image: np.ndarray, kp: np.ndarray) -> np.ndarray:
-    """Blank the padded bounding box of `kp` in place (so the next BlazePose looks elsewhere)."""
-    h, w = image.shape[:2]
-    x0, y0, x1, y1 = _bbox(kp)
-    c0, r0 = max(int(x0), 0), max(int(y0), 0)
-    c1, r1 = min(int(np.ceil(x1)), w), min(int(np.ceil(y1)), h)
-    if c1 > c0 and r1 > r0:
-        image[r0:r1, c0:c1] = 0
-    return image
-
-
-def _same_person(a: np.ndarray, b: np.ndarray) -> bool:
-    """Two detections of one person: mean keypoint distance under 10 % of the body's size."""
-    x0, y0, x1, y1 = _bbox(b, pad=0.0)
-    scale = max(x1 - x0, y1 - y0, 1.0)
-    return float(np.nanmean(np.linalg.norm(a[:, :2] - b[:, :2], axis=-1))) < 0.1 * scale

@@ -134,6 +134,7 @@ class OpenPoseJsonDetector:
         fps: float | None = None,
         image_size: tuple[int, int] | None = None,
         tracking: TrackingConfig | None = None,
+        threads: int | None = None,  # the constructor convention of every detector; no model
     ) -> None:
         self.config = config or DetectorConfig()
         self.video = None if video is None else Path(video)
