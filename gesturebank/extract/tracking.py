@@ -1,255 +1,420 @@
-"""Identity across frames and the choice of the main speaker, for multi-person detections.
+"""Which one person per shot is the main speaker (identities: `extract.identity`; the speech
+term: `extract.speech`).
 
-1. `link`: frame by frame, Hungarian assignment (scipy's linear_sum_assignment) of detections to
-   live tracks on mean keypoint distance, with a gate (a fraction of the image diagonal, widened
-   for a track that has been lost for a while). Unmatched detections start new tracks.
-2. `track_scores`: per track, the sum over its frames of a weighted score — upper-body size,
-   closeness to the image centre, keypoint confidence (TrackingConfig weights) — divided by T,
-   so a person seen all along beats a passer-by.
-3. `find_switches`: a track vanishing and another appearing shortly after is reported as an
-   identity switch (the detector probably jumped from one person to another, or lost one).
+Score of person k over a span S of frames (a shot, or the rest of one), from the frames F_k ⊆ S
+in which k is seen; every term lies in [0, 1]:
+
+    size_k        = median_{F_k} d_k / max_j median_{F_j} d_j     d = upper-body box diagonal, px
+    centrality_k  = mean_{F_k} max(0, 1 − |c_k − image centre| / (image diagonal / 2))
+    confidence_k  = mean_{F_k} mean upper-body keypoint confidence (a missing joint counts 0)
+    persistence_k = |F_k| / |S|
+    speech_k      = min(1, D_k / W) · max(0, max_{|ℓ| ≤ 0.3 s} mean_w ncc_w(v_k(t), e(t + ℓ)))
+    total_k       = Σ_i w_i · term_i / Σ_i w_i      (w_i: the TrackingConfig *_weight fields)
+
+c_k is the upper-body centroid. v_k is the person's head-and-hand speed (mean speed of nose and
+both wrists, in shoulder widths per second, so neither the person's size in the image nor the
+frame rate matters); e is the RMS envelope of the audio centred on each frame's timestamp. Both
+are smoothed over SMOOTH_S, so that syllable flicker does not dominate the slower rhythm gestures
+share with speech. ncc_w is their normalised cross-correlation over the frames of window w
+(`speech_window_s` long, windows overlapping by half); its mean over the windows is maximised
+over one lag ℓ per person and span. ℓ > 0 pairs motion with later speech: gesture strokes and
+head nods lead the stressed syllable by up to a few hundred ms; the search is symmetric
+because detector smoothing delays the motion and muxed audio can be a frame or two off.
+Anti-correlation is not following (clipped at 0). Windows where the audio is flat (silence) or
+the person is seen in less than half the frames are left out of the mean; D_k is the time the
+windows kept cover, W = speech_window_s, so that less than one window of evidence (a short
+shot) counts proportionally less. With no audio, or silent audio, speech_k = 0 for everybody.
+
+Choice, per shot: candidates are the people seen in at least MIN_SHARE of the span (everybody
+seen, when nobody is); the best total is the main speaker, and stays so to the end of the shot
+unless absent longer than `max_lost_s`. Then the rest of the shot is chosen again (reason
+"left"). A choice who first appears more than `max_lost_s` into its span is given the frames from
+its arrival on (reason "arrived"); the frames before are chosen among the others, by the same
+rules.
 """
 
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from gesturebank.config import TrackingConfig
 from gesturebank.errors import DetectionError
 from gesturebank.extract.detectors import MultiPose2D
+from gesturebank.extract.identity import (
+    Switch,
+    find_switches,
+    gather,
+    link,
+    shot_index,
+    split_at_cuts,
+)
+from gesturebank.extract.speech import (
+    SILENCE_RMS,
+    frame_step,
+    head_hand_speed,
+    speech_envelope,
+    speech_following,
+)
 from gesturebank.poses import Pose2D
 from gesturebank.skeletons import COCO17, get_skeleton
 
+if TYPE_CHECKING:  # only for annotations: tracking needs no video decoder
+    from gesturebank.extract.video import Audio
+
 UPPER_BODY = tuple(j for j in COCO17.joints if "knee" not in j and "ankle" not in j)
+TERMS = ("size", "centrality", "confidence", "persistence", "speech")
+
+MIN_SHARE = 0.25  # seen in less of the span: a passer-by, not a candidate
+_MIN_PAIRS = 4  # fewest frames a window's correlation is computed on
 _FAR = 1e12  # cost of a gated-out pair
+_CUT_EPS_S = 1e-6  # a frame this close before a cut time already belongs to the new shot
 
 
 @dataclass(frozen=True)
-class Switch:
-    """Track `old_id` was last seen shortly before `new_id` first appeared at `timestamp`."""
+class Choice:
+    """One main speaker over [start_s, end_s) of one shot.
 
-    timestamp: float
-    old_id: int
-    new_id: int
+    main_id: chosen track (-1: nobody seen there); runner_up: second-best candidate (None when
+    alone); reason: why the segment starts — "shot" (a shot begins), "left" (the previous main
+    speaker left), "arrived" (the chosen person came in after somebody else had the floor).
+    scores: per candidate track, each of TERMS and "total", over the span the choice was made on
+    (this segment and the rest of its shot).
+    """
+
+    start_s: float
+    end_s: float
+    shot: int
+    reason: str
+    main_id: int
+    runner_up: int | None
+    scores: dict[int, dict[str, float]] = field(default_factory=dict)
+
+    def to_json_dict(self) -> dict[str, Any]:
+        out = asdict(self)
+        out["scores"] = {str(k): dict(v) for k, v in self.scores.items()}
+        return out
+
+    @classmethod
+    def from_json_dict(cls, data: Mapping[str, Any]) -> Choice:
+        scores = {int(k): {t: float(x) for t, x in v.items()} for k, v in data["scores"].items()}
+        runner = data["runner_up"]
+        return cls(
+            float(data["start_s"]),
+            float(data["end_s"]),
+            int(data["shot"]),
+            str(data["reason"]),
+            int(data["main_id"]),
+            None if runner is None else int(runner),
+            scores,
+        )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TrackReport:
     """Outcome of tracking one take.
 
-    main_id: chosen track; scores: score per track id; main_coverage: fraction of frames where
-    the main speaker is present; switches: every switch; main_switches: those involving main_id.
+    main_ids:      (T,) int64 chosen track of each frame (-1: no main speaker); constant within
+                   a Choice — the person may still be unseen in some of its frames.
+    n_people:      (T,) int64 people seen in each frame.
+    choices:       the segments, in time order; they tile the take.
+    switches:      suspected identity switches inside shots (`find_switches`).
+    scores:        total score of every track over its whole shot.
+    n_tracks:      identities after splitting at cuts.
+    main_id:       main speaker of the longest segment.
+    main_coverage: share of frames in which the frame's main speaker is seen.
     """
 
+    main_ids: np.ndarray
+    n_people: np.ndarray
+    choices: tuple[Choice, ...]
+    switches: tuple[Switch, ...]
+    scores: dict[int, float]
     n_tracks: int
     main_id: int
-    scores: dict[int, float]
     main_coverage: float
-    switches: tuple[Switch, ...]
 
     @property
     def main_switches(self) -> tuple[Switch, ...]:
-        return tuple(s for s in self.switches if self.main_id in (s.old_id, s.new_id))
+        """Switches involving any chosen main speaker."""
+        chosen = {c.main_id for c in self.choices if c.main_id >= 0}
+        return tuple(s for s in self.switches if chosen & {s.old_id, s.new_id})
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """Plain JSON types only (track ids become string keys)."""
+        return {
+            "n_tracks": self.n_tracks,
+            "main_id": self.main_id,
+            "main_coverage": self.main_coverage,
+            "scores": {str(k): v for k, v in self.scores.items()},
+            "choices": [c.to_json_dict() for c in self.choices],
+            "switches": [asdict(s) for s in self.switches],
+            "main_ids": [int(v) for v in self.main_ids],
+            "n_people": [int(v) for v in self.n_people],
+        }
+
+    @classmethod
+    def from_json_dict(cls, data: Mapping[str, Any]) -> TrackReport:
+        return cls(
+            main_ids=np.asarray(data["main_ids"], dtype=np.int64),
+            n_people=np.asarray(data["n_people"], dtype=np.int64),
+            choices=tuple(Choice.from_json_dict(c) for c in data["choices"]),
+            switches=tuple(
+                Switch(float(s["timestamp"]), int(s["old_id"]), int(s["new_id"]))
+                for s in data["switches"]
+            ),
+            scores={int(k): float(v) for k, v in data["scores"].items()},
+            n_tracks=int(data["n_tracks"]),
+            main_id=int(data["main_id"]),
+            main_coverage=float(data["main_coverage"]),
+        )
 
 
 @dataclass(frozen=True)
 class Tracked:
-    """The main speaker's Pose2D, the (T, P) track id of every slot (-1 = empty), the report."""
+    """The main speaker's Pose2D (NaN where there is none), the (T, P) track id of every slot
+    (-1 = empty), the report."""
 
     pose: Pose2D
     ids: np.ndarray
     report: TrackReport
 
 
-def pose_distance(a: np.ndarray, b: np.ndarray) -> float:
-    """Confidence-weighted mean pixel distance of two poses `(K, 3)`; inf if no joint in common."""
-    d = np.linalg.norm(a[:, :2] - b[:, :2], axis=-1)
-    w = np.clip(np.minimum(a[:, 2], b[:, 2]), 0.05, 1.0)
-    ok = np.isfinite(d) & np.isfinite(w)
-    if not ok.any():
-        return float("inf")
-    return float(np.sum(d[ok] * w[ok]) / np.sum(w[ok]))
+# ------------------------------------------------------------------------------- the choice
 
 
-def _centroid(kp: np.ndarray) -> np.ndarray:
-    return np.nanmean(kp[:, :2], axis=0)
+class _Scene:
+    """Per-slot measures of one take, computed once, and the scores of any span of frames."""
+
+    def __init__(
+        self,
+        multi: MultiPose2D,
+        ids: np.ndarray,
+        config: TrackingConfig,
+        envelope: np.ndarray | None,
+    ) -> None:
+        self.multi, self.ids, self.config, self.envelope = multi, ids, config, envelope
+        self.ts = multi.timestamps
+        self.end_t = float(self.ts[-1] + frame_step(self.ts)) if len(self.ts) else 0.0
+        coco = get_skeleton(multi.skeleton).convert(multi.keypoints, COCO17)
+        ub = coco[..., [COCO17.index[j] for j in UPPER_BODY], :]  # (T, P, U, 3)
+        xy = ub[..., :2]
+        with warnings.catch_warnings():  # empty slots: all-NaN slices are expected
+            warnings.simplefilter("ignore", RuntimeWarning)
+            lo, hi = np.nanmin(xy, axis=-2), np.nanmax(xy, axis=-2)
+            centre = np.nanmean(xy, axis=-2)
+        w, h = multi.image_size
+        off = np.linalg.norm(centre - np.array([w / 2, h / 2]), axis=-1) / (np.hypot(w, h) / 2)
+        self.size = np.linalg.norm(hi - lo, axis=-1)  # (T, P) px, NaN = no upper body
+        self.central = np.clip(1.0 - off, 0.0, 1.0)
+        self.conf = np.nan_to_num(ub[..., 2], nan=0.0).mean(axis=-1)
+        self._speed: dict[int, tuple[int, np.ndarray]] = {}
+        self._scores: dict[tuple[int, int, frozenset[int]], dict[int, dict[str, float]]] = {}
+
+    def time_at(self, i: int) -> float:
+        """Start time of frame i; the end of the take for i = T."""
+        return float(self.ts[i]) if i < len(self.ts) else self.end_t
+
+    def _speed_of(self, k: int) -> tuple[int, np.ndarray]:
+        """(first frame, speed over the track's frame range) of track k, cached."""
+        if k not in self._speed:
+            t_idx = np.flatnonzero((self.ids == k).any(axis=1))
+            lo, hi = int(t_idx[0]), int(t_idx[-1]) + 1
+            part = gather(self.multi.take(np.arange(lo, hi)), self.ids[lo:hi], k)
+            speed = head_hand_speed(
+                keypoints=part.keypoints, timestamps=part.timestamps, skeleton=part.skeleton
+            )
+            self._speed[k] = (lo, speed)
+        return self._speed[k]
+
+    def _speech(self, k: int, start: int, stop: int) -> float:
+        if self.envelope is None or self.config.speech_weight == 0:
+            return 0.0
+        first, speed = self._speed_of(k)
+        span = np.full(stop - start, np.nan)
+        a, b = max(start, first), min(stop, first + len(speed))
+        span[a - start : b - start] = speed[a - first : b - first]
+        return speech_following(
+            speed=span,
+            envelope=self.envelope[start:stop],
+            timestamps=self.ts[start:stop],
+            window_s=self.config.speech_window_s,
+        )
+
+    def scores(
+        self, start: int, stop: int, exclude: frozenset[int] = frozenset()
+    ) -> dict[int, dict[str, float]]:
+        """TERMS and "total" of every track seen in frames [start, stop), except `exclude`."""
+        key = (start, stop, exclude)
+        if key not in self._scores:
+            self._scores[key] = self._score(start, stop, exclude)
+        return self._scores[key]
+
+    def _score(self, start: int, stop: int, exclude: frozenset[int]) -> dict[int, dict[str, float]]:
+        ids = self.ids[start:stop]
+        tracks = [int(k) for k in np.unique(ids[ids >= 0]) if int(k) not in exclude]
+        c = self.config
+        weights = {
+            "size": c.size_weight,
+            "centrality": c.center_weight,
+            "confidence": c.confidence_weight,
+            "persistence": c.persistence_weight,
+            "speech": c.speech_weight,
+        }
+        out: dict[int, dict[str, float]] = {}
+        sizes: dict[int, float] = {}
+        for k in tracks:
+            mask = ids == k  # (n, P), one slot per frame at most
+            seen = mask.any(axis=1)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                sizes[k] = float(np.nan_to_num(np.nanmedian(self.size[start:stop][mask])))
+            out[k] = {
+                "centrality": float(np.nan_to_num(np.nanmean(self.central[start:stop][mask]))),
+                "confidence": float(self.conf[start:stop][mask].mean()),
+                "persistence": float(seen.mean()),
+                "speech": self._speech(k, start, stop),
+            }
+        biggest = max(sizes.values(), default=0.0)
+        total_w = sum(weights.values())
+        for k in tracks:
+            out[k]["size"] = sizes[k] / biggest if biggest > 0 else 0.0
+            terms = {t: out[k][t] for t in TERMS}
+            total = sum(weights[t] * terms[t] for t in TERMS) / total_w if total_w > 0 else 0.0
+            out[k] = {**terms, "total": float(total)}
+        return out
+
+    def absent_s(self, first_unseen: int, seen_again: int) -> float:
+        """How long a person is unseen from frame `first_unseen` until frame `seen_again`."""
+        return self.time_at(seen_again) - self.time_at(first_unseen)
+
+    def stay_end(self, k: int, first: int, stop: int) -> int:
+        """Frame after k's last sighting before an absence longer than max_lost_s (or `stop`)."""
+        seen = first + np.flatnonzero((self.ids[first:stop] == k).any(axis=1))
+        for g in np.flatnonzero(np.diff(seen) > 1):
+            if self.absent_s(int(seen[g]) + 1, int(seen[g + 1])) > self.config.max_lost_s:
+                return int(seen[g]) + 1
+        last = int(seen[-1]) + 1
+        if last < stop and self.absent_s(last, stop) > self.config.max_lost_s:
+            return last
+        return stop
 
 
-def link(
-    multi: MultiPose2D,
-    gate: float = TrackingConfig().gate,
-    *,
-    max_lost_s: float = 2.0,
-    predict_s: float = 0.2,
-) -> np.ndarray:
-    """Track id of every slot, `(T, P)` int64, -1 where the slot is empty.
-
-    gate: largest match distance as a fraction of the image diagonal for consecutive frames; a
-    track lost for `lost` seconds accepts `gate × (1 + lost / 1 s)` (people move while unseen).
-    Tracks unseen for more than `max_lost_s` end. Over gaps up to `predict_s` the last pose is
-    shifted by the track's centroid velocity (helps people crossing each other).
-    """
-    w, h = multi.image_size
-    gate_px = gate * float(np.hypot(w, h))
-    present = multi.present
-    ids = np.full(present.shape, -1, np.int64)
-    # Per live track: last pose (K, 3), last time, centroid velocity (px/s).
-    last: dict[int, np.ndarray] = {}
-    seen: dict[int, float] = {}
-    vel: dict[int, np.ndarray] = {}
-    next_id = 0
-    for t, now in enumerate(multi.timestamps):
-        for tid in [k for k, s in seen.items() if now - s > max_lost_s]:
-            del last[tid], seen[tid], vel[tid]
-        slots = np.flatnonzero(present[t])
-        tracks = list(last)
-        cost = np.full((len(tracks), len(slots)), _FAR)
-        for i, tid in enumerate(tracks):
-            lost = now - seen[tid]
-            ref = last[tid].copy()
-            if lost <= predict_s:
-                ref[:, :2] += vel[tid] * lost
-            limit = gate_px * (1.0 + lost)
-            for j, p in enumerate(slots):
-                d = pose_distance(ref, multi.keypoints[t, p])
-                if d <= limit:
-                    cost[i, j] = d
-        rows, cols = linear_sum_assignment(cost) if cost.size else ([], [])
-        matched = set()
-        for i, j in zip(rows, cols, strict=True):
-            if cost[i, j] >= _FAR:
-                continue
-            tid, p = tracks[i], slots[j]
-            kp = multi.keypoints[t, p]
-            dt = now - seen[tid]
-            vel[tid] = (_centroid(kp) - _centroid(last[tid])) / dt if dt > 0 else vel[tid]
-            last[tid], seen[tid] = kp, now
-            ids[t, p] = tid
-            matched.add(j)
-        for j, p in enumerate(slots):
-            if j not in matched:
-                ids[t, p] = next_id
-                last[next_id] = multi.keypoints[t, p]
-                seen[next_id] = now
-                vel[next_id] = np.zeros(2)
-                next_id += 1
-    return ids
+def _candidates(scores: dict[int, dict[str, float]]) -> dict[int, dict[str, float]]:
+    keep = {k: v for k, v in scores.items() if v["persistence"] >= MIN_SHARE}
+    return keep or scores
 
 
-def _upper_body(multi: MultiPose2D) -> np.ndarray:
-    """(T, P, U, 3) upper-body joints (COCO-17 names) of every slot; NaN where absent."""
-    skel = get_skeleton(multi.skeleton)
-    coco = skel.convert(multi.keypoints, COCO17)
-    return coco[..., [COCO17.index[j] for j in UPPER_BODY], :]
-
-
-def frame_scores(multi: MultiPose2D, config: TrackingConfig) -> np.ndarray:
-    """(T, P) speaker score of every slot (NaN where empty): weighted size, centrality, confidence.
-
-    size: upper-body bounding-box diagonal / the largest in the take; centrality: 1 − distance of
-    the upper-body centroid to the image centre / half the diagonal; confidence: mean of the
-    upper-body joints (missing joints count 0).
-    """
-    ub = _upper_body(multi)
-    conf = np.nan_to_num(ub[..., 2], nan=0.0).mean(axis=-1)
-    xy = ub[..., :2]
-    has = np.isfinite(xy[..., 0]).any(axis=-1)
-    with warnings.catch_warnings():  # empty slots: all-NaN slices are expected
-        warnings.simplefilter("ignore", RuntimeWarning)
-        lo, hi = np.nanmin(xy, axis=-2), np.nanmax(xy, axis=-2)
-        centre = np.nanmean(xy, axis=-2)
-    size = np.linalg.norm(hi - lo, axis=-1)
-    size = size / max(float(np.nanmax(np.where(has, size, np.nan), initial=0.0)), 1e-9)
-    w, h = multi.image_size
-    half_diag = np.hypot(w, h) / 2
-    central = 1.0 - np.linalg.norm(centre - np.array([w / 2, h / 2]), axis=-1) / half_diag
-    score = (
-        config.size_weight * size
-        + config.center_weight * np.clip(central, 0.0, 1.0)
-        + config.confidence_weight * conf
-    )
-    return np.where(has, score, np.nan)
-
-
-def track_scores(multi: MultiPose2D, ids: np.ndarray, config: TrackingConfig) -> dict[int, float]:
-    """Score of every track id: sum of its frame scores / T (presence counts)."""
-    scores = frame_scores(multi, config)
-    n = max(len(multi), 1)
-    out: dict[int, float] = {}
-    for tid in np.unique(ids[ids >= 0]):
-        out[int(tid)] = float(np.nansum(np.where(ids == tid, scores, np.nan)) / n)
+def _choose(
+    scene: _Scene, start: int, stop: int, *, shot: int, reason: str, exclude: frozenset[int]
+) -> list[tuple[int, int, Choice]]:
+    """(first frame, end frame, Choice) of the segments tiling frames [start, stop) of a shot."""
+    out: list[tuple[int, int, Choice]] = []
+    while start < stop:
+        cands = _candidates(scene.scores(start, stop, exclude))
+        if not cands:
+            out.append((start, stop, _segment(scene, start, stop, shot, reason, -1, None, {})))
+            break
+        ranked = sorted(cands, key=lambda k: (-cands[k]["total"], -cands[k]["persistence"], k))
+        main, runner = ranked[0], (ranked[1] if len(ranked) > 1 else None)
+        first = start + int(np.flatnonzero((scene.ids[start:stop] == main).any(axis=1))[0])
+        if scene.absent_s(start, first) > scene.config.max_lost_s:
+            # The choice comes in late: whoever is best among the others has the floor until then.
+            out += _choose(scene, start, first, shot=shot, reason=reason, exclude=exclude | {main})
+            start, reason = first, "arrived"
+        end = scene.stay_end(main, first, stop)
+        out.append((start, end, _segment(scene, start, end, shot, reason, main, runner, cands)))
+        start, reason = end, "left"
     return out
 
 
-def find_switches(
-    timestamps: np.ndarray, ids: np.ndarray, window_s: float = 0.5
-) -> tuple[Switch, ...]:
-    """Hand-overs: a track (re)appears within `window_s` after another one vanished.
-
-    ids: (T, P) from `link`. A single-person detector jumping from one person to another shows
-    up exactly like this; a person merely leaving, or appearing next to others, does not. Each
-    disappearance pairs with at most one appearance (the nearest in time).
-    """
-    ts = np.asarray(timestamps, dtype=np.float64)
-    present = {int(k): (ids == k).any(axis=1) for k in np.unique(ids[ids >= 0])}
-    appear = sorted(
-        (int(b) + 1, k) for k, p in present.items() for b in np.flatnonzero(~p[:-1] & p[1:])
-    )
-    vanish = [(int(a), k) for k, p in present.items() for a in np.flatnonzero(p[:-1] & ~p[1:])]
-    out: list[Switch] = []
-    used: set[tuple[int, int]] = set()
-    for b, new in appear:
-        gone = [
-            (a, old)
-            for a, old in vanish
-            if old != new
-            and (a, old) not in used
-            and a < b
-            and not present[old][a + 1 : b + 1].any()
-            and ts[b] - ts[a] <= window_s
-        ]
-        if gone:
-            a, old = max(gone)
-            used.add((a, old))
-            out.append(Switch(float(ts[b]), old, new))
-    return tuple(out)
+def _segment(
+    scene: _Scene,
+    start: int,
+    end: int,
+    shot: int,
+    reason: str,
+    main: int,
+    runner: int | None,
+    scores: dict[int, dict[str, float]],
+) -> Choice:
+    return Choice(scene.time_at(start), scene.time_at(end), shot, reason, main, runner, scores)
 
 
-def gather(multi: MultiPose2D, ids: np.ndarray, track_id: int) -> Pose2D:
-    """The Pose2D of one track: (T, K, 3), NaN in frames where the track is absent."""
-    t_idx, p_idx = np.nonzero(ids == track_id)
-    kp = np.full(multi.keypoints.shape[:1] + multi.keypoints.shape[2:], np.nan, np.float32)
-    kp[t_idx] = multi.keypoints[t_idx, p_idx]
-    world = None
-    if multi.world is not None:
-        world = np.full_like(kp, np.nan)
-        world[t_idx] = multi.world[t_idx, p_idx]
-    return Pose2D(kp, multi.timestamps, multi.skeleton, multi.image_size, world)
+def _identities(multi: MultiPose2D, config: TrackingConfig, shot: np.ndarray) -> np.ndarray:
+    """(T, P) ids, one set per shot: the detector's, else `link` run on each shot alone."""
+    present = multi.present
+    if multi.ids is not None:
+        raw = np.where(present, multi.ids, -1)
+    else:
+        raw = np.full(present.shape, -1, np.int64)
+        for s in np.unique(shot):
+            frames = np.flatnonzero(shot == s)
+            linked = link(
+                multi.take(frames),
+                config.gate,
+                max_lost_s=config.max_lost_s,
+                predict_s=config.predict_s,
+            )
+            raw[frames] = np.where(linked >= 0, linked, -1)
+    return split_at_cuts(ids=raw, shot=shot)
 
 
 def main_speaker(
-    multi: MultiPose2D, config: TrackingConfig | None = None, *, source: str = "take"
+    multi: MultiPose2D,
+    config: TrackingConfig | None = None,
+    *,
+    cuts: np.ndarray | None = None,
+    audio: Audio | None = None,
+    source: str = "take",
 ) -> Tracked:
-    """Link identities, pick the best-scoring track, return its Pose2D and the report.
+    """One main speaker per shot (module docstring): their Pose2D over the take, ids, report.
 
-    Raises DetectionError (naming `source`) when nobody is found in any frame.
+    multi: everybody, (T, P, K, 3), with `ids` when the detector tracks people; cuts: (S,)
+    seconds, the first frame of each new shot (None: one shot); audio: the take's audio for the
+    speech term (None: speech term 0). Raises DetectionError (naming `source`) when nobody is
+    found in any frame.
     """
     config = config or TrackingConfig()
-    ids = link(multi, config.gate, max_lost_s=config.max_lost_s, predict_s=config.predict_s)
-    scores = track_scores(multi, ids, config)
-    if not scores:
+    shot = shot_index(timestamps=multi.timestamps, cuts=cuts)
+    ids = _identities(multi, config, shot)
+    if not (ids >= 0).any():
         raise DetectionError(f"{source}: no person detected in any of {len(multi)} frames")
-    main_id = max(scores, key=lambda k: scores[k])
-    coverage = float((ids == main_id).any(axis=1).mean())
+    envelope = None
+    if audio is not None and config.speech_weight > 0:
+        env = speech_envelope(audio=audio, timestamps=multi.timestamps)
+        if np.isfinite(env).any() and float(np.nanmax(env)) >= SILENCE_RMS:
+            envelope = env
+    scene = _Scene(multi, ids, config, envelope)
+
+    segments: list[tuple[int, int, Choice]] = []
+    scores: dict[int, float] = {}
+    switches: list[Switch] = []
+    for s in np.unique(shot):
+        frames = np.flatnonzero(shot == s)
+        a, b = int(frames[0]), int(frames[-1]) + 1
+        scores.update({k: v["total"] for k, v in scene.scores(a, b).items()})
+        segments += _choose(scene, a, b, shot=int(s), reason="shot", exclude=frozenset())
+        switches += find_switches(multi.timestamps[a:b], ids[a:b], config.switch_window_s)
+
+    main_ids = np.full(len(multi), -1, np.int64)
+    for a, b, choice in segments:
+        main_ids[a:b] = choice.main_id
+    pose = gather(multi, ids, main_ids)
+    spoken = [c for _, _, c in segments if c.main_id >= 0]
+    longest = max(spoken, key=lambda c: c.end_s - c.start_s)
     report = TrackReport(
-        n_tracks=len(scores),
-        main_id=main_id,
+        main_ids=main_ids,
+        n_people=(ids >= 0).sum(axis=1).astype(np.int64),
+        choices=tuple(c for _, _, c in segments),
+        switches=tuple(switches),
         scores=scores,
-        main_coverage=coverage,
-        switches=find_switches(multi.timestamps, ids, config.switch_window_s),
+        n_tracks=len(scores),
+        main_id=longest.main_id,
+        main_coverage=float(np.isfinite(pose.keypoints[..., 0]).any(axis=1).mean()),
     )
-    return Tracked(gather(multi, ids, main_id), ids, report)
+    return Tracked(pose, ids, report)
