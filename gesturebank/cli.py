@@ -68,13 +68,17 @@ def _main(
 
 
 def resolve_config(
-    config_file: Path | None, sets: list[str] | None, flags: dict[str, dict[str, Any]]
+    config_file: Path | None,
+    sets: list[str] | None,
+    flags: dict[str, dict[str, Any]],
+    *,
+    base: Config | None = None,
 ) -> Config:
-    """Defaults < config file < --set KEY=VALUE < dedicated flags (those given)."""
+    """Defaults (or `base`) < config file < --set KEY=VALUE < dedicated flags (those given)."""
     overrides = [parse_override(s) for s in sets or []]
     given = {sec: {k: v for k, v in keys.items() if v is not None} for sec, keys in flags.items()}
     overrides.append({sec: keys for sec, keys in given.items() if keys})
-    return load_config(config_file, overrides)
+    return load_config(config_file, overrides, base=base)
 
 
 def _version(dist: str) -> str:
@@ -257,22 +261,38 @@ def build_dataset(
 
 
 def _print_summary(console: Console, summary: BuildSummary) -> None:
-    statuses = [status for status, _ in summary.qc.values()]
     table = Table(title=f"dataset {summary.out}")
-    for name in ("built", "skipped", "failed", "accepted", "rejected"):
+    columns = ("takes built", "skipped", "failed", "clips kept", "rejected", "usable s", "seen s")
+    for name in (*columns, "kept"):
         table.add_column(name, justify="right")
+    visible = summary.visible_s
     table.add_row(
         *(str(summary.count(n)) for n in ("built", "skipped", "failed")),
-        *(str(statuses.count(s)) for s in ("accepted", "rejected")),
+        *(str(summary.clip_count(s)) for s in ("accepted", "rejected")),
+        f"{summary.usable_s:.1f}",
+        f"{visible:.1f}",
+        f"{summary.usable_s / visible:.0%}" if visible > 0 else "–",
     )
     console.print(table)
-    for take_id, (status, reasons) in summary.qc.items():
-        if status != "accepted":
-            colour = "red" if status == "failed" else "yellow"
-            text = "; ".join(reasons)
+    for record in summary.takes:
+        if record.failed:
             console.print(
-                f"[{colour}]{status}[/{colour}] {take_id}: {text}", highlight=False, soft_wrap=True
+                f"[red]failed[/red] {record.take_id}: {record.failed}",
+                highlight=False,
+                soft_wrap=True,
             )
+            continue
+        kept = sum(c.qc_status == "accepted" for c in record.data_clips)
+        reasons = sorted(
+            {r for c in record.clips if c.qc_status != "accepted" for r in c.qc_reasons}
+        )
+        why = f" — dropped or rejected: {'; '.join(reasons)}" if reasons else ""
+        console.print(
+            f"{record.take_id}: {kept} of {len(record.data_clips)} clips kept, "
+            f"{record.usable_s:.1f} of {record.visible_s:.1f} s{why}",
+            highlight=False,
+            soft_wrap=True,
+        )
     for note in summary.notes:
         console.print(f"note: {note}", highlight=False, soft_wrap=True)
     if summary.dashboard:
@@ -360,7 +380,7 @@ def synthesize(
 @app.command()
 def replay(
     angles: Annotated[
-        Path, typer.Argument(help="Angle CSV (from `synthesize`), or a dataset folder with --take.")
+        Path, typer.Argument(help="Angle CSV (from `synthesize`), or a dataset folder with --clip.")
     ],
     backend: Annotated[str, typer.Option(help="naoqi (a robot), sim (MP4) or record (JSONL).")],
     url: Annotated[
@@ -372,8 +392,8 @@ def replay(
     audio: Annotated[
         Path | None, typer.Option(help="Speech to play (naoqi: here; sim: muxed into the video).")
     ] = None,
-    take: Annotated[
-        str | None, typer.Option(help="Play this take of the dataset folder ANGLES instead.")
+    clip: Annotated[
+        str | None, typer.Option(help="Play this clip of the dataset folder ANGLES instead.")
     ] = None,
     compare: Annotated[
         Path | None, typer.Option(help="sim: a second CSV rendered side by side.")
@@ -402,7 +422,7 @@ def replay(
             out_file,
             audio,
             config.playback,
-            take=take,
+            clip=clip,
             compare=compare,
             profile=config.robot.profile,
         )
@@ -492,15 +512,29 @@ def qc_cmd(
 ) -> None:
     """Re-run the quality checks on a dataset and write its dashboard.
 
-    Measures every built take (jerk, gaps, bone lengths, limits, jitter, swaps, spikes, static
-    or frozen takes), judges them against the [qc] thresholds and against each other, updates
-    the manifest, and writes OUT_DIR/qc/index.html with a page per take.
+    Judges every clip (jerk, unseen head or arms, bone lengths, limits, jitter, swaps, spikes,
+    static or frozen poses, framing) against the [qc] thresholds and against each other, updates
+    the records, manifest, dataset.json and splits, and writes OUT_DIR/qc/index.html with a page
+    per take. The dataset's own configuration is the base: only what --config and --set change
+    differs (the [qc] and [splits] sections; the clips stay as built).
     """
-    from gesturebank.qc.dashboard import qc_command
+    from gesturebank.datasets import store
+    from gesturebank.datasets.pipeline import CONTENT_SECTIONS
+    from gesturebank.datasets.refresh import refresh
+    from gesturebank.qc.dashboard import write_dashboard
 
     with user_errors():
-        config = resolve_config(config_file, sets, {})
-        index = qc_command(out_dir, config.qc, config.build.workers, config.splits)
+        built = store.read_dataset_json(out_dir).config
+        config = resolve_config(config_file, sets, {}, base=built)
+        changed = [s for s in CONTENT_SECTIONS if config.digest(s) != built.digest(s)]
+        if changed:
+            raise InputError(
+                f"{out_dir}: `gesturebank qc` re-judges the clips as built; [{changed[0]}] "
+                "changes what they contain: run build-dataset with it instead"
+            )
+        for note in refresh(out_dir, config):
+            out.print(f"note: {note}", highlight=False, soft_wrap=True)
+        index = write_dashboard(out_dir)
     out.print(f"QC dashboard: {index}", highlight=False, soft_wrap=True)
 
 

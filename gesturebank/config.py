@@ -33,6 +33,14 @@ class VideoConfig(Section):
     end_s: float | None = Field(
         None, gt=0, description="End of the used time range, seconds (none = end of video)."
     )
+    max_fps: float | None = Field(
+        30.0,
+        gt=0,
+        description="Footage above this frame rate is detected on a regular subset of its "
+        "frames (a frame is kept when at least 0.75 / max_fps s passed since the last kept one); "
+        "timestamps stay the real ones. The 4 Hz low-pass keeps nothing above 15 Hz; none = "
+        "every frame.",
+    )
 
     @model_validator(mode="after")
     def _range(self) -> VideoConfig:
@@ -43,7 +51,10 @@ class VideoConfig(Section):
 
 class DetectorConfig(Section):
     name: str = Field(
-        "mediapipe", description="2D detector: 'mediapipe', 'openpose-json' or a plug-in name."
+        "blazepose",
+        description="2D detector: 'blazepose' (multi-person BlazePose on the TFLite runtime), "
+        "'mediapipe' (mediapipe's single-person solution, the reference), 'openpose-json' or a "
+        "plug-in name.",
     )
     model_complexity: int = Field(
         1,
@@ -53,23 +64,70 @@ class DetectorConfig(Section):
         "0 and 2 would need a download.",
     )
     min_detection_confidence: float = Field(
-        0.5, ge=0, le=1, description="Detector threshold; lower it for small or far people."
+        0.5, ge=0, le=1, description="Person detector threshold; lower it for small or far people."
     )
     min_tracking_confidence: float = Field(
-        0.5, ge=0, le=1, description="Below this the detector re-detects instead of tracking."
+        0.5,
+        ge=0,
+        le=1,
+        description="Pose presence below which a person's track is lost and the detector runs "
+        "again.",
     )
     max_people: int = Field(
-        1,
+        4,
         ge=1,
-        le=4,
-        description="People looked for per frame. BlazePose tracks one; with 2+ each person found "
-        "is masked and BlazePose runs again, so the main speaker survives someone walking past "
-        "(slower: one more BlazePose per person).",
+        le=8,
+        description="Most people followed per frame ('blazepose'; the 'mediapipe' reference "
+        "follows one). Each costs one landmark pass per frame.",
+    )
+    detect_every_s: float = Field(
+        0.5,
+        gt=0,
+        description="'blazepose': the person detector runs at least this often (seconds) to find "
+        "people who come in; at once when a track is lost or fewer than max_people are tracked "
+        "only at this interval.",
+    )
+    smoothing: bool = Field(
+        True, description="One-euro smoothing of the landmarks on the video's own timestamps."
+    )
+    smoothing_min_cutoff: float = Field(
+        0.05, gt=0, description="One-euro minimum cut-off of image landmarks, Hz (mediapipe: 0.05)."
+    )
+    smoothing_beta: float = Field(
+        80.0, ge=0, description="One-euro speed coefficient of image landmarks (mediapipe: 80)."
+    )
+    world_smoothing_min_cutoff: float = Field(
+        0.1, gt=0, description="One-euro minimum cut-off of world landmarks, Hz (mediapipe: 0.1)."
+    )
+    world_smoothing_beta: float = Field(
+        40.0, ge=0, description="One-euro speed coefficient of world landmarks (mediapipe: 40)."
     )
     json_suffix: str = Field(
         "_json",
         description="Folder '<video stem><suffix>' next to a video holds precomputed "
         "OpenPose-format JSON keypoints.",
+    )
+
+
+class ShotsConfig(Section):
+    """Shot boundaries (scene cuts) found in the decoded frames (config section `shots`)."""
+
+    detector: Literal["content", "none"] = Field(
+        "content",
+        description="'content': PySceneDetect's ContentDetector on the frames the detector sees; "
+        "'none': a take is one shot (footage known to be uncut).",
+    )
+    threshold: float = Field(
+        27.0,
+        gt=0,
+        description="ContentDetector threshold on the HSV change between frames (0–255; "
+        "PySceneDetect's default 27). Lower it to find softer cuts, raise it against false cuts "
+        "on fast camera motion.",
+    )
+    min_shot_s: float = Field(
+        0.5,
+        ge=0,
+        description="Shortest shot, seconds: a cut closer than this to the last is ignored.",
     )
 
 
@@ -79,6 +137,20 @@ class TrackingConfig(Section):
     )
     center_weight: float = Field(1.0, ge=0, description="Weight of closeness to image centre.")
     confidence_weight: float = Field(1.0, ge=0, description="Weight of mean keypoint confidence.")
+    persistence_weight: float = Field(
+        1.0, ge=0, description="Weight of the share of the shot in which the person is seen."
+    )
+    speech_weight: float = Field(
+        1.0,
+        ge=0,
+        description="Weight of how well the person's head and hand motion follows the speech "
+        "envelope of the take's audio (0 = ignore the audio).",
+    )
+    speech_window_s: float = Field(
+        4.0,
+        gt=0,
+        description="Sliding window of the motion–speech cross-correlation, seconds.",
+    )
     gate: float = Field(
         0.25,
         gt=0,
@@ -99,6 +171,83 @@ class TrackingConfig(Section):
         description="A track appearing within this many seconds of another vanishing is "
         "reported as an identity switch.",
     )
+
+
+class RepairConfig(Section):
+    """Repair of the main speaker's keypoints before they are judged (config section `repair`)."""
+
+    hampel_half_window_s: float = Field(
+        0.1,
+        gt=0,
+        description="Half the Hampel filter window, seconds: round(0.1 s × fps) frames each side, "
+        "i.e. the 7-frame window of Pose2Sim and Sports2D at 30 fps, scaled with the frame rate.",
+    )
+    hampel_z: float = Field(
+        2.0,
+        gt=0,
+        description="A keypoint whose modified z-score 0.6745·|x − median| / MAD in its window "
+        "exceeds this is an outlier, replaced from its neighbours (Pose2Sim, Sports2D: 2).",
+    )
+    hampel_floor: float = Field(
+        0.02,
+        ge=0,
+        description="Smallest MAD, in shoulder widths, so that a keypoint held still is not "
+        "'repaired' for sub-pixel noise.",
+    )
+    max_gap_s: float = Field(
+        0.25,
+        ge=0,
+        description="Gaps in a keypoint up to this long (seconds) are interpolated; longer ones "
+        "stay missing (masked).",
+    )
+    swaps: bool = Field(
+        True,
+        description="Repair left/right swaps of monocular video: runs of frames whose left and "
+        "right labels disagree with their neighbours are flipped back.",
+    )
+    max_swap_s: float = Field(
+        1.0, gt=0, description="Longest run of swapped frames that is flipped back, seconds."
+    )
+    visible_confidence: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Keypoints less confident than this (BlazePose visibility) count as unseen: "
+        "the angles that need them are masked (NaN) there.",
+    )
+    max_spike: float = Field(
+        0.75,
+        gt=0,
+        description="A keypoint that still jumps out and back by more than this in one frame "
+        "after repair (in 2D or in the lifted 3D), in shoulder widths, is unseen in that frame "
+        "(masked); qc.max_spike judges what is left.",
+    )
+
+
+class ClipsConfig(Section):
+    """How a take is cut into clips, the unit of the dataset (config section `clips`)."""
+
+    min_s: float = Field(
+        3.0,
+        gt=0,
+        description="Shorter clips are dropped (with their reason), seconds. 3 s = the LSTM's "
+        "training window and youtube-gesture-dataset's rule.",
+    )
+    max_s: float | None = Field(
+        None, gt=0, description="Longer clips are split into equal parts, seconds (none = never)."
+    )
+    max_gap_s: float = Field(
+        0.5,
+        ge=0,
+        description="A clip ends where the main speaker is absent (or no usable pose is left "
+        "after repair) for longer than this, seconds; shorter gaps stay inside, masked.",
+    )
+
+    @model_validator(mode="after")
+    def _lengths(self) -> ClipsConfig:
+        if self.max_s is not None and self.max_s < self.min_s:
+            raise ValueError("max_s must be at least min_s")
+        return self
 
 
 class LifterConfig(Section):
@@ -281,38 +430,38 @@ class AudioConfig(Section):
 
 
 class QCConfig(Section):
-    """Thresholds of the QC (config section `qc`). Defaults were set on the real sample takes
-    (see benchmarks/qc.py); loosen them for unusual footage rather than editing takes."""
+    """Thresholds of the QC (config section `qc`), judged per clip. Every one is a share of time,
+    seconds, a value on the analysis clock or a size in shoulder widths, so footage at any frame
+    rate is judged alike. Defaults were set on the real sample takes (benchmarks/qc.py);
+    loosen them for unusual footage rather than editing clips."""
 
     analysis_rate_hz: float = Field(
         30.0,
         gt=0,
         description="Uniform clock the raw angles are resampled to for jerk and jitter, Hz, so "
-        "takes filmed at different frame rates compare (noise jerk grows as rate⁵).",
-    )
-    min_confidence: float = Field(
-        0.5, ge=0, le=1, description="A 2D keypoint less confident than this counts as missing."
+        "clips filmed at different frame rates compare (noise jerk grows as rate⁵).",
     )
     jitter_above_hz: float = Field(
         7.0, gt=0, description="Power above this frequency of the raw angles counts as jitter, Hz."
     )
-    min_duration_s: float = Field(1.0, ge=0, description="Shorter takes are rejected, seconds.")
-    max_missing_fraction: float = Field(
-        0.25,
-        ge=0,
-        le=1,
-        description="Largest share of frames with a missing or low-confidence upper-body keypoint.",
-    )
-    max_keypoint_gap_s: float = Field(
+    max_head_unknown_fraction: float = Field(
         0.5,
         ge=0,
-        description="Longest run of such frames, seconds (the builder bridges up to "
-        "processing.max_gap_s by interpolation).",
+        le=1,
+        description="Largest share of the clip in which the head angles are unknown (face unseen).",
+    )
+    max_arms_unknown_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Largest share of the clip in which both arms are unknown (one unseen arm "
+        "is only masked).",
     )
     max_bone_cv: float = Field(
         0.25,
         ge=0,
-        description="Largest coefficient of variation of a 3D bone length (rigid body: 0).",
+        description="Largest coefficient of variation of a 3D bone length over the frames in "
+        "which both its ends were seen (rigid body: 0).",
     )
     max_limit_fraction: float = Field(
         0.6,
@@ -324,12 +473,14 @@ class QCConfig(Section):
         0.15, ge=0, le=1, description="Largest share of raw-angle power above jitter_above_hz."
     )
     max_swap_events: int = Field(
-        0, ge=0, description="Left/right exchanges of the arms tolerated in a take."
+        0,
+        ge=0,
+        description="Left/right exchanges of the arms left after repair tolerated in a clip.",
     )
     max_spike: float = Field(
         0.75,
         gt=0,
-        description="Largest one-frame jump of a keypoint out and back, in shoulder widths.",
+        description="Largest one-frame jump of a seen keypoint out and back, in shoulder widths.",
     )
     max_frozen_fraction: float = Field(
         0.1, ge=0, le=1, description="Largest share of frames where the pose is exactly repeated."
@@ -337,8 +488,39 @@ class QCConfig(Section):
     min_motion_range: float = Field(
         0.035,
         ge=0,
-        description="A take whose every joint moves less than this (5–95 % range, rad; "
+        description="A clip whose every joint moves less than this (5–95 % range, rad; "
         "0.035 rad = 2°) is static.",
+    )
+    max_facing_away_fraction: float = Field(
+        0.3,
+        ge=0,
+        le=1,
+        description="Largest share of frames in which the speaker faces away (their right "
+        "shoulder right of their left in the image; youtube-gesture-dataset: 30 %).",
+    )
+    max_sideways_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Largest share of frames in which the speaker is seen from the side (nose "
+        "outside the shoulders; youtube-gesture-dataset: 50 %).",
+    )
+    min_shoulder_width: float = Field(
+        0.03,
+        ge=0,
+        description="Smallest median shoulder width, as a share of the frame height: smaller "
+        "speakers are too far for a reliable pose (youtube-gesture-dataset: 100 px of 720).",
+    )
+    min_image_change: float = Field(
+        0.05,
+        ge=0,
+        description="Smallest median change between frames (the shot detector's HSV content "
+        "value): below it the video is a still picture.",
+    )
+    max_people: float = Field(
+        5.0,
+        gt=0,
+        description="Most people in the frame on average (youtube-gesture-dataset: 5).",
     )
     max_jerk_raw: float | None = Field(
         None,
@@ -350,12 +532,12 @@ class QCConfig(Section):
         ["jerk_raw", "jerk"],
         description="Metrics checked for dataset-relative outliers (robust z of their log).",
     )
-    outlier_z: float = Field(3.5, gt=0, description="Robust z-score above which a take stands out.")
+    outlier_z: float = Field(3.5, gt=0, description="Robust z-score above which a clip stands out.")
     outlier_min_ratio: float = Field(
         3.0, ge=1, description="…and its metric must also exceed this × the dataset median."
     )
-    outlier_min_takes: int = Field(
-        5, ge=3, description="Fewer built takes than this: no dataset-relative check."
+    outlier_min_clips: int = Field(
+        5, ge=3, description="Fewer clips than this: no dataset-relative check."
     )
 
 
@@ -526,6 +708,12 @@ class BuildConfig(Section):
         "worker decodes on the spare cores, a full pool does not oversubscribe them; "
         "1 for Ray tasks).",
     )
+    inference_threads: int | None = Field(
+        None,
+        ge=1,
+        description="Threads of each detector model interpreter (none = CPU cores / workers, so "
+        "workers × threads ≈ cores; 1 for Ray tasks).",
+    )
     cache_detections: bool = Field(
         True,
         description="Reuse 2D detections of a video already seen with the same detector "
@@ -546,7 +734,10 @@ class Config(Section):
 
     video: VideoConfig = Field(default_factory=VideoConfig)
     detector: DetectorConfig = Field(default_factory=DetectorConfig)
+    shots: ShotsConfig = Field(default_factory=ShotsConfig)
     tracking: TrackingConfig = Field(default_factory=TrackingConfig)
+    repair: RepairConfig = Field(default_factory=RepairConfig)
+    clips: ClipsConfig = Field(default_factory=ClipsConfig)
     lifter: LifterConfig = Field(default_factory=LifterConfig)
     geometric: GeometricConfig = Field(default_factory=GeometricConfig)
     multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
@@ -612,17 +803,19 @@ def parse_override(item: str) -> dict[str, Any]:
 def load_config(
     path: str | os.PathLike[str] | None = None,
     overrides: Iterable[Mapping[str, Any]] = (),
+    *,
+    base: Config | None = None,
 ) -> Config:
-    """Defaults < the TOML file at `path` < each mapping of `overrides` in turn.
+    """Defaults (or `base`) < the TOML file at `path` < each mapping of `overrides` in turn.
 
     Raises ConfigError with one line naming the file (or "command line") and the key.
     """
-    data: dict[str, Any] = {}
+    data: dict[str, Any] = {} if base is None else base.to_json_dict()
     source = "defaults"
     if path is not None:
         source = os.fspath(path)
         try:
-            data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+            from_file = tomllib.loads(Path(path).read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise ConfigError(f"{source}: config file not found") from None
         except (OSError, UnicodeDecodeError) as exc:
@@ -630,9 +823,10 @@ def load_config(
         except tomllib.TOMLDecodeError as exc:
             raise ConfigError(f"{source}: not valid TOML ({exc})") from None
         try:
-            Config.model_validate(data)
+            Config.model_validate(from_file)
         except ValidationError as exc:
             raise ConfigError(_error_line(source, exc)) from None
+        data = _merge(data, from_file)
     for over in overrides:
         data = _merge(data, over)
     try:

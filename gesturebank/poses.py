@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -91,6 +91,16 @@ class Pose2D:
         """(T, K) confidence."""
         return self.keypoints[..., 2]
 
+    def frames(self, start: int, stop: int, *, origin_s: float = 0.0) -> Pose2D:
+        """Frames [start, stop), on a clock whose 0 is `origin_s` of this one."""
+        world = None if self.world is None else self.world[start:stop]
+        return replace(
+            self,
+            keypoints=self.keypoints[start:stop],
+            timestamps=self.timestamps[start:stop] - origin_s,
+            world=world,
+        )
+
     def to_coco17(self) -> Pose2D:
         """The same pose in COCO-17 order (joints the skeleton lacks become NaN)."""
         src = get_skeleton(self.skeleton)
@@ -171,6 +181,15 @@ class Pose3D:
 
     def __len__(self) -> int:
         return len(self.joints)
+
+    def frames(self, start: int, stop: int, *, origin_s: float = 0.0) -> Pose3D:
+        """Frames [start, stop), on a clock whose 0 is `origin_s` of this one."""
+        return replace(
+            self,
+            joints=self.joints[start:stop],
+            confidence=self.confidence[start:stop],
+            timestamps=self.timestamps[start:stop] - origin_s,
+        )
 
     def joint(self, name: str) -> np.ndarray:
         """(T, 3) trajectory of one COCO-17 joint."""

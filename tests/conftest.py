@@ -13,7 +13,7 @@ def samples() -> Path:
     """Folder of real sample media (see `gesturebank fetch-samples`), fetched on first use."""
     from gesturebank.samples import default_samples_dir, fetch_samples
 
-    root = Path(os.environ.get("GESTUREBANK_SAMPLES") or default_samples_dir())
+    root = default_samples_dir()  # $GESTUREBANK_SAMPLES (the Makefile sets it) or the cache dir
     fetch_samples(root)
     return root
 

@@ -1,13 +1,15 @@
-"""Train/validation/test splits (dissertation Table 4.4).
+"""Train/validation/test splits (dissertation Table 4.4), over the dataset's clips.
 
 Subject-independent (SI): k-fold over subjects. Subjects are shuffled once (seeded) and cut into
 k groups; fold i tests on group i, validates on group i+1 and trains on the rest — with 19
-subjects and k = 10 that is the dissertation's 15 / 2 / 2 subjects per fold.
+subjects and k = 10 that is the dissertation's 15 / 2 / 2 subjects per fold. Each part lists
+the clips of its subjects.
 
-Subject-dependent (SD): within each subject, their recordings in take order are cut by time into
-the first 70 %, the next 15 % and the last 15 %, as (take_id, start_frame, end_frame) segments.
+Subject-dependent (SD): within each subject, their clips in time order (take, then start in the
+take) are cut by time into the first 70 %, the next 15 % and the last 15 %, as
+(clip_id, start_frame, end_frame) segments.
 
-Failed takes never enter a split; rejected ones only when asked.
+Dropped spans and failed takes never enter a split; clips the QC rejected only when asked.
 """
 
 from __future__ import annotations
@@ -29,8 +31,14 @@ PARTS = ("train", "val", "test")
 
 
 def _usable(records: Sequence[Mapping[str, Any]], include_rejected: bool) -> list[Mapping]:
+    """Manifest rows of the clips a split may use, in time order."""
     ok = {"accepted", "rejected"} if include_rejected else {"accepted"}
-    return [r for r in records if r["qc_status"] in ok and int(r.get("n_frames", 0)) > 0]
+    rows = [
+        r
+        for r in records
+        if r.get("kind", "clip") == "clip" and r["qc_status"] in ok and int(r["n_frames"]) > 0
+    ]
+    return sorted(rows, key=lambda r: (r["take_id"], float(r["start_s"])))
 
 
 def subject_independent(
@@ -40,7 +48,7 @@ def subject_independent(
     seed: int = 0,
     include_rejected: bool = False,
 ) -> list[dict[str, Any]]:
-    """SI folds: each a dict of take ids and subjects per part. Needs ≥ 3 subjects."""
+    """SI folds: each a dict of clip ids and subjects per part. Needs ≥ 3 subjects."""
     usable = _usable(records, include_rejected)
     subjects = sorted({r["subject"] for r in usable})
     if len(subjects) < 3:
@@ -59,10 +67,7 @@ def subject_independent(
                 "variant": "si",
                 "fold": i,
                 "subjects": {p: sorted(parts[p]) for p in PARTS},
-                **{
-                    p: sorted(r["take_id"] for r in usable if r["subject"] in parts[p])
-                    for p in PARTS
-                },
+                **{p: [r["clip_id"] for r in usable if r["subject"] in parts[p]] for p in PARTS},
             }
         )
     return result
@@ -74,7 +79,7 @@ def subject_dependent(
     *,
     include_rejected: bool = False,
 ) -> dict[str, Any]:
-    """SD split: per subject, (take_id, start, end) frame segments for train, val and test."""
+    """SD split: per subject, (clip_id, start, end) frame segments for train, val and test."""
     if len(fractions) != 3 or not np.isclose(sum(fractions), 1.0) or min(fractions) < 0:
         raise InputError(
             f"split fractions must be three non-negative numbers summing to 1, got {fractions}"
@@ -82,17 +87,17 @@ def subject_dependent(
     usable = _usable(records, include_rejected)
     per_subject: dict[str, dict[str, list[list[Any]]]] = {}
     for subject in sorted({r["subject"] for r in usable}):
-        takes = sorted((r for r in usable if r["subject"] == subject), key=lambda r: r["take_id"])
-        lengths = np.array([int(r["n_frames"]) for r in takes])
-        starts = np.concatenate([[0], np.cumsum(lengths)])  # take j spans starts[j]:starts[j+1]
+        clips = [r for r in usable if r["subject"] == subject]
+        lengths = np.array([int(r["n_frames"]) for r in clips])
+        starts = np.concatenate([[0], np.cumsum(lengths)])  # clip j spans starts[j]:starts[j+1]
         total = int(starts[-1])
         cuts = [0, round(total * fractions[0]), round(total * (fractions[0] + fractions[1])), total]
         parts: dict[str, list[list[Any]]] = {p: [] for p in PARTS}
         for p, (lo, hi) in zip(PARTS, pairwise(cuts), strict=True):
-            for r, a, b in zip(takes, starts[:-1], starts[1:], strict=True):
+            for r, a, b in zip(clips, starts[:-1], starts[1:], strict=True):
                 s, e = max(lo, int(a)), min(hi, int(b))
                 if e > s:
-                    parts[p].append([r["take_id"], s - int(a), e - int(a)])
+                    parts[p].append([r["clip_id"], s - int(a), e - int(a)])
         per_subject[subject] = parts
     return {"variant": "sd", "fractions": list(fractions), "subjects": per_subject}
 

@@ -1,99 +1,198 @@
-"""The dataset on disk (DESIGN.md "Dataset on disk"), written take by take, read lazily.
+"""The dataset on disk (DESIGN.md "Dataset on disk"), schema 2: clips, written take by take.
 
-    out/dataset.json         schema version, tool version, resolved config, joints, limits, rates,
-                             audio feature spec, normalisation stats
-    out/manifest.parquet     one row per take (take_id, subject, source, duration_s, video_fps,
-                             detector, lifter, qc_status, qc_reasons, metrics, …)
-    out/takes/<id>.npz       the arrays of a built take
-    out/takes/<id>.json      its manifest row; written after the .npz, so it marks a take as done
+    out/dataset.json              `DatasetInfo`: schema version, tool version, resolved config,
+                                  joints, limits, rates, audio features, normalisation, per-take
+                                  summary (clips, usable seconds, share kept)
+    out/manifest.parquet          one row per clip and per dropped span (`MANIFEST_SCHEMA`)
+    out/takes/<take_id>.json      the take's record (`TakeRecord`, its clips and dropped spans);
+                                  written last, so it marks a take as done
+    out/takes/<take_id>/<clip_id>.npz   the arrays of one clip (`datasets.clip.Clip`)
+    out/takes/<take_id>/preview.jpg     a strip of video frames for the dashboard
 
-Every file is written atomically (temporary name, then rename). A take whose record carries the
-current config digest is "built" and skipped on a re-run; failed takes are retried. The manifest
-is consolidated from the per-take records, which is also how Ray workers hand back results.
-Nothing is ever unpickled.
+A take's clips are written into a hidden temporary folder that replaces the take's folder when
+complete, then the record is written (atomically): a killed build never leaves a half-written
+take under its final name, and a take whose record carries the current config digest is
+"built" and skipped on a re-run. Failed takes are retried. The manifest is consolidated from the
+per-take records, which is also how Ray workers hand back results. Nothing is ever unpickled.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+import shutil
+import tempfile
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from gesturebank.config import Config
+from gesturebank.datasets.clip import Clip
 from gesturebank.errors import InputError
-from gesturebank.fileio import atomic_open, write_bytes_atomic
+from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
 TAKES_DIR = "takes"
+PREVIEW = "preview.jpg"
 
 Status = Literal["accepted", "rejected", "failed"]
 STATUSES: tuple[Status, ...] = ("accepted", "rejected", "failed")
+Kind = Literal["clip", "span"]  # a clip has arrays; a span is time that gave none (dropped, failed)
 
 # Manifest columns every reader can rely on (more may follow; none is ever renamed).
 MANIFEST_SCHEMA = pa.schema(
     [
+        ("clip_id", pa.string()),
         ("take_id", pa.string()),
+        ("kind", pa.string()),
         ("subject", pa.string()),
         ("source", pa.string()),
+        ("start_s", pa.float64()),
+        ("end_s", pa.float64()),
         ("duration_s", pa.float64()),
+        ("n_frames", pa.int64()),
         ("video_fps", pa.float64()),
         ("detector", pa.string()),
         ("lifter", pa.string()),
         ("qc_status", pa.string()),
         ("qc_reasons", pa.list_(pa.string())),
         ("metrics", pa.map_(pa.string(), pa.float64())),
-        ("n_frames", pa.int64()),
+        ("repairs", pa.map_(pa.string(), pa.int64())),
+        ("masked", pa.map_(pa.string(), pa.float64())),
         ("config_digest", pa.string()),
         ("traits", pa.map_(pa.string(), pa.string())),
     ]
 )
 
 
-@dataclass(frozen=True)
-class TakeRecord:
-    """One manifest row."""
+# --------------------------------------------------------------------------------------------------
+# Records
 
-    take_id: str
-    subject: str
-    source: str
+
+@dataclass(frozen=True)
+class ClipRecord:
+    """One clip of a take, or one span of it that gave no clip (kind "span", with its reason).
+
+    start_s, end_s: the span in the source video, seconds. duration_s: seconds of the clip's
+    100 Hz clock (n_frames frames). repairs: what the repair changed (counts). masked: share of
+    the clip's frames where each Pepper joint is unknown. measured: digest of the QC settings the
+    metrics were measured with (so `refresh` knows when to measure again).
+    """
+
+    clip_id: str
+    kind: Kind
+    start_s: float
+    end_s: float
     qc_status: Status
-    config_digest: str
-    duration_s: float = float("nan")
-    video_fps: float = float("nan")
-    detector: str = ""
-    lifter: str = ""
     qc_reasons: tuple[str, ...] = ()
-    metrics: Mapping[str, float] | None = None
+    duration_s: float = 0.0
     n_frames: int = 0
-    traits: Mapping[str, str] | None = None
+    metrics: Mapping[str, float] = field(default_factory=dict)
+    repairs: Mapping[str, int] = field(default_factory=dict)
+    masked: Mapping[str, float] = field(default_factory=dict)
+    measured: str = ""
 
     def __post_init__(self) -> None:
         if self.qc_status not in STATUSES:
             raise ValueError(f"qc_status must be one of {STATUSES}, got {self.qc_status!r}")
+        if self.kind not in ("clip", "span"):
+            raise ValueError(f"kind must be 'clip' or 'span', got {self.kind!r}")
+
+    def to_json_dict(self) -> dict[str, Any]:
+        return {
+            "clip_id": self.clip_id,
+            "kind": self.kind,
+            "start_s": float(self.start_s),
+            "end_s": float(self.end_s),
+            "qc_status": self.qc_status,
+            "qc_reasons": list(self.qc_reasons),
+            "duration_s": float(self.duration_s),
+            "n_frames": int(self.n_frames),
+            "metrics": {k: float(v) for k, v in self.metrics.items()},
+            "repairs": {k: int(v) for k, v in self.repairs.items()},
+            "masked": {k: float(v) for k, v in self.masked.items()},
+            "measured": self.measured,
+        }
+
+    @classmethod
+    def from_json_dict(cls, d: Mapping[str, Any]) -> ClipRecord:
+        return cls(
+            clip_id=d["clip_id"],
+            kind=d["kind"],
+            start_s=float(d["start_s"]),
+            end_s=float(d["end_s"]),
+            qc_status=d["qc_status"],
+            qc_reasons=tuple(d.get("qc_reasons", ())),
+            duration_s=float(d.get("duration_s", 0.0)),
+            n_frames=int(d.get("n_frames", 0)),
+            metrics=dict(d.get("metrics", {})),
+            repairs=dict(d.get("repairs", {})),
+            masked=dict(d.get("masked", {})),
+            measured=str(d.get("measured", "")),
+        )
+
+
+@dataclass(frozen=True)
+class TakeRecord:
+    """What one take gave: its clips and dropped spans, or the reason it failed.
+
+    seconds: time of the take that was looked at (the used range of the video); visible_s: the
+    seconds in which the main speaker was seen; tracking: the main-speaker report (JSON); audio:
+    per-feature sums over every clip frame ({"n", "sum", "sumsq"}), for the z-normalisation
+    stats; preview_times: source times of the frames in preview.jpg.
+    """
+
+    take_id: str
+    subject: str
+    source: str
+    config_digest: str
+    failed: str = ""  # the one-line reason when the take failed as a whole
+    detector: str = ""
+    lifter: str = ""
+    video_fps: float = float("nan")
+    seconds: float = 0.0
+    visible_s: float = 0.0
+    clips: tuple[ClipRecord, ...] = ()
+    tracking: Mapping[str, Any] = field(default_factory=dict)
+    audio: Mapping[str, Any] = field(default_factory=dict)
+    preview_times: tuple[float, ...] = ()
+    traits: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def data_clips(self) -> tuple[ClipRecord, ...]:
+        """The clips that have arrays on disk."""
+        return tuple(c for c in self.clips if c.kind == "clip")
+
+    @property
+    def usable_s(self) -> float:
+        """Seconds in accepted clips."""
+        return float(sum(c.duration_s for c in self.clips if c.qc_status == "accepted"))
 
     def to_json_dict(self) -> dict[str, Any]:
         return {
             "take_id": self.take_id,
             "subject": self.subject,
             "source": self.source,
-            "duration_s": self.duration_s,
-            "video_fps": self.video_fps,
+            "config_digest": self.config_digest,
+            "failed": self.failed,
             "detector": self.detector,
             "lifter": self.lifter,
-            "qc_status": self.qc_status,
-            "qc_reasons": list(self.qc_reasons),
-            "metrics": {k: float(v) for k, v in (self.metrics or {}).items()},
-            "n_frames": int(self.n_frames),
-            "config_digest": self.config_digest,
-            "traits": dict(self.traits or {}),
+            "video_fps": float(self.video_fps),
+            "seconds": float(self.seconds),
+            "visible_s": float(self.visible_s),
+            "clips": [c.to_json_dict() for c in self.clips],
+            "tracking": dict(self.tracking),
+            "audio": dict(self.audio),
+            "preview_times": [float(t) for t in self.preview_times],
+            "traits": dict(self.traits),
         }
 
     @classmethod
@@ -102,38 +201,170 @@ class TakeRecord:
             take_id=d["take_id"],
             subject=d["subject"],
             source=d["source"],
-            qc_status=d["qc_status"],
             config_digest=d["config_digest"],
-            duration_s=float(d.get("duration_s", float("nan"))),
-            video_fps=float(d.get("video_fps", float("nan"))),
+            failed=str(d.get("failed", "")),
             detector=d.get("detector", ""),
             lifter=d.get("lifter", ""),
-            qc_reasons=tuple(d.get("qc_reasons", ())),
-            metrics=dict(d.get("metrics", {})),
-            n_frames=int(d.get("n_frames", 0)),
+            video_fps=float(d.get("video_fps", float("nan"))),
+            seconds=float(d.get("seconds", 0.0)),
+            visible_s=float(d.get("visible_s", 0.0)),
+            clips=tuple(ClipRecord.from_json_dict(c) for c in d.get("clips", ())),
+            tracking=dict(d.get("tracking", {})),
+            audio=dict(d.get("audio", {})),
+            preview_times=tuple(float(t) for t in d.get("preview_times", ())),
             traits=dict(d.get("traits", {})),
         )
 
 
-def take_npz(out: Path, take_id: str) -> Path:
-    return Path(out) / TAKES_DIR / f"{take_id}.npz"
+# --------------------------------------------------------------------------------------------------
+# dataset.json
+
+
+class _Info(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Rates(_Info):
+    pose_hz: float
+    audio_hz: float
+
+
+class AudioFeatures(_Info):
+    kind: str
+    dim: int
+    params: dict[str, Any]
+    frame_time: str = "window centre: start + i·winstep_s + winlen_s / 2"
+
+
+class ZNorm(_Info):
+    mean: list[float]
+    std: list[float]
+
+
+class TakeSummary(_Info):
+    """One take in dataset.json: what it gave."""
+
+    status: Literal["built", "failed"]
+    clips: int = Field(description="Clips with arrays (accepted or rejected by the QC).")
+    accepted: int
+    seconds: float = Field(description="Seconds of the take that were looked at.")
+    visible_s: float = Field(description="Seconds in which the main speaker was seen.")
+    usable_s: float = Field(description="Seconds in accepted clips.")
+
+    @property
+    def kept_share(self) -> float:
+        """Usable seconds over the seconds the speaker was visible (0 when never visible)."""
+        return self.usable_s / self.visible_s if self.visible_s > 0 else 0.0
+
+
+class DatasetInfo(_Info):
+    """dataset.json: everything a reader needs besides the manifest and the arrays."""
+
+    schema_version: int = SCHEMA_VERSION
+    tool: str = "gesturebank"
+    tool_version: str
+    videos_dir: str
+    config: Config
+    config_digest: str
+    joints: list[str]
+    limits: dict[str, dict[str, float]]
+    robot_profile: str
+    rates: Rates
+    audio_features: AudioFeatures
+    audio_znorm_by_subject: dict[str, ZNorm] = Field(
+        description="Per subject (and '*' for all) mean and std of every audio feature (§3.2)."
+    )
+    clip_counts: dict[str, int] = Field(description="Manifest rows per QC status.")
+    takes: dict[str, TakeSummary]
+
+    @property
+    def usable_s(self) -> float:
+        return float(sum(t.usable_s for t in self.takes.values()))
+
+    @property
+    def visible_s(self) -> float:
+        return float(sum(t.visible_s for t in self.takes.values()))
+
+
+def write_dataset_json(out: Path, info: DatasetInfo) -> None:
+    write_bytes_atomic(Path(out) / DATASET_JSON, info.model_dump_json(indent=1).encode())
+
+
+def read_dataset_json(out: Path) -> DatasetInfo:
+    """The dataset's DatasetInfo; InputError with one line when missing, old or broken."""
+    meta = Path(out) / DATASET_JSON
+    try:
+        raw = json.loads(meta.read_text())
+    except FileNotFoundError:
+        raise InputError(f"{meta}: not found — is {meta.parent} a gesturebank dataset?") from None
+    except ValueError as exc:
+        raise InputError(f"{meta}: not valid JSON ({exc})") from None
+    version = raw.get("schema_version") if isinstance(raw, dict) else None
+    if version != SCHEMA_VERSION:
+        raise InputError(
+            f"{meta}: schema_version {version}, this gesturebank reads {SCHEMA_VERSION} (clips): "
+            f"rebuild it with build-dataset VIDEOS_DIR {meta.parent} --force"
+        )
+    try:
+        return DatasetInfo.model_validate(raw)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        raise InputError(f"{meta}: {where}: {first['msg']}") from None
+
+
+# --------------------------------------------------------------------------------------------------
+# Where things are
 
 
 def take_json(out: Path, take_id: str) -> Path:
     return Path(out) / TAKES_DIR / f"{take_id}.json"
 
 
-def write_take(out: Path, record: TakeRecord, arrays: Mapping[str, np.ndarray] | None) -> None:
-    """Write a take's arrays (none for a failed take), then its record, each atomically."""
-    npz = take_npz(out, record.take_id)
-    if arrays is not None:
-        for name, value in arrays.items():
-            if np.asarray(value).dtype == object:
-                raise InputError(f"{npz}: array {name!r} has dtype object")
-        with atomic_open(npz) as f:
-            np.savez_compressed(f, allow_pickle=False, **arrays)
-    else:
-        npz.unlink(missing_ok=True)  # a failed rebuild must not leave an older take behind
+def take_dir(out: Path, take_id: str) -> Path:
+    return Path(out) / TAKES_DIR / take_id
+
+
+def clip_npz(out: Path, take_id: str, clip_id: str) -> Path:
+    return take_dir(out, take_id) / f"{clip_id}.npz"
+
+
+# --------------------------------------------------------------------------------------------------
+# Writing
+
+
+def write_take(
+    out: Path, record: TakeRecord, clips: Sequence[Clip] = (), preview: bytes | None = None
+) -> None:
+    """Write a take: its clips (none for a failed take) and preview into a temporary folder that
+    then replaces the take's folder, then its record — each step atomic."""
+    out = Path(out)
+    folder = take_dir(out, record.take_id)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    wanted = {c.clip_id for c in record.data_clips}
+    if {c.clip_id for c in clips} != wanted:
+        raise ValueError(f"{record.take_id}: the record's clips and the arrays differ")
+    tmp = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{record.take_id}.", suffix=".tmp"))
+    os.chmod(tmp, permissions(folder=True))
+    try:
+        for clip in clips:
+            arrays = clip.to_arrays()
+            for name, value in arrays.items():
+                if value.dtype == object:
+                    raise InputError(f"{clip.clip_id}: array {name!r} has dtype object")
+            with atomic_open(tmp / f"{clip.clip_id}.npz") as f:
+                np.savez_compressed(f, allow_pickle=False, **arrays)
+        if preview is not None:
+            write_bytes_atomic(tmp / PREVIEW, preview)
+        old = folder.with_name(f".{record.take_id}.old")
+        if folder.exists():
+            shutil.rmtree(old, ignore_errors=True)
+            os.replace(folder, old)
+        os.replace(tmp, folder)
+        shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     write_record(out, record)
 
 
@@ -144,11 +375,19 @@ def write_record(out: Path, record: TakeRecord) -> None:
 
 
 def remove_stale_temporaries(out: Path) -> int:
-    """Delete temporary files a killed build left in takes/ (call before any worker starts)."""
-    stale = list((Path(out) / TAKES_DIR).glob(".*.tmp"))
+    """Delete what a killed build left in takes/ (call before any worker starts)."""
+    folder = Path(out) / TAKES_DIR
+    stale = [*folder.glob(".*.tmp"), *folder.glob(".*.old")]
     for path in stale:
-        path.unlink(missing_ok=True)
+        if path.is_dir():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)
     return len(stale)
+
+
+# --------------------------------------------------------------------------------------------------
+# Reading records
 
 
 def read_record(out: Path, take_id: str) -> TakeRecord | None:
@@ -160,92 +399,125 @@ def read_record(out: Path, take_id: str) -> TakeRecord | None:
 
 
 def is_built(out: Path, take_id: str, config_digest: str) -> bool:
-    """True when the take was built (accepted or rejected) with this config and its data exist."""
+    """True when the take was built with this config and every clip's arrays exist."""
     record = read_record(out, take_id)
     return (
         record is not None
         and record.config_digest == config_digest
-        and record.qc_status != "failed"
-        and take_npz(out, take_id).is_file()
+        and not record.failed
+        and all(clip_npz(out, take_id, c.clip_id).is_file() for c in record.data_clips)
     )
 
 
-def records(out: Path) -> list[TakeRecord]:
-    """Every readable per-take record, sorted by take id."""
+def records(out: Path, take_ids: Sequence[str] | None = None) -> list[TakeRecord]:
+    """Every readable take record (only `take_ids` when given), sorted by take id."""
     folder = Path(out) / TAKES_DIR
-    found = []
-    for path in sorted(folder.glob("*.json")):
-        record = read_record(out, path.stem)
-        if record is not None:
-            found.append(record)
-    return found
+    names = sorted(p.stem for p in folder.glob("*.json")) if take_ids is None else take_ids
+    found = [read_record(out, name) for name in sorted(names)]
+    return [r for r in found if r is not None]
 
 
-def write_manifest(out: Path, take_ids: list[str] | None = None) -> pa.Table:
-    """Consolidate the per-take records (only `take_ids` when given) into manifest.parquet."""
-    rows = [r.to_json_dict() for r in records(out)]
-    if take_ids is not None:
-        wanted = set(take_ids)
-        rows = [r for r in rows if r["take_id"] in wanted]
-    for r in rows:
-        r["metrics"] = list(r["metrics"].items())
-        r["traits"] = list(r["traits"].items())
+def with_clips(record: TakeRecord, clips: Sequence[ClipRecord]) -> TakeRecord:
+    return replace(record, clips=tuple(clips))
+
+
+def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
+    """The manifest rows of one take: its clips and spans (a failed take: one span)."""
+    base = {
+        "take_id": record.take_id,
+        "subject": record.subject,
+        "source": record.source,
+        "video_fps": float(record.video_fps),
+        "detector": record.detector,
+        "lifter": record.lifter,
+        "config_digest": record.config_digest,
+        "traits": list(record.traits.items()),
+    }
+    if record.failed:
+        failed = ClipRecord(record.take_id, "span", 0.0, record.seconds, "failed", (record.failed,))
+        clips: Sequence[ClipRecord] = (failed,)
+    else:
+        clips = record.clips
+    rows = []
+    for c in clips:
+        d = c.to_json_dict()
+        rows.append(
+            {
+                **base,
+                **{k: d[k] for k in ("clip_id", "kind", "start_s", "end_s", "qc_status")},
+                **{k: d[k] for k in ("qc_reasons", "duration_s", "n_frames")},
+                "metrics": list(d["metrics"].items()),
+                "repairs": list(d["repairs"].items()),
+                "masked": list(d["masked"].items()),
+            }
+        )
+    return rows
+
+
+def write_manifest(out: Path, takes: Sequence[TakeRecord]) -> pa.Table:
+    """Consolidate the records of `takes` into manifest.parquet (one row per clip and span)."""
+    rows = [row for record in takes for row in manifest_rows(record)]
     table = pa.Table.from_pylist(rows, schema=MANIFEST_SCHEMA)
     with atomic_open(Path(out) / MANIFEST) as f:
         pq.write_table(table, f)
     return table
 
 
-def write_dataset_json(out: Path, info: Mapping[str, Any]) -> None:
-    data = {"schema_version": SCHEMA_VERSION, **info}
-    write_bytes_atomic(Path(out) / DATASET_JSON, json.dumps(data, indent=1).encode())
+# --------------------------------------------------------------------------------------------------
+# The reader
 
 
 class Dataset:
-    """A built dataset folder, read lazily: arrays are loaded one take at a time."""
+    """A built dataset folder, read lazily: a clip's arrays are loaded when asked for."""
 
     def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = Path(path)
-        meta = self.path / DATASET_JSON
-        try:
-            self.info: dict[str, Any] = json.loads(meta.read_text())
-        except FileNotFoundError:
-            raise InputError(f"{meta}: not found — is {self.path} a gesturebank dataset?") from None
-        except ValueError as exc:
-            raise InputError(f"{meta}: not valid JSON ({exc})") from None
-        version = self.info.get("schema_version")
-        if version != SCHEMA_VERSION:
-            raise InputError(f"{meta}: schema_version {version}, this gesturebank reads 1")
+        self.info: DatasetInfo = read_dataset_json(self.path)
         try:
             self.manifest: pa.Table = pq.read_table(self.path / MANIFEST)
         except (OSError, pa.ArrowInvalid) as exc:
             raise InputError(f"{self.path / MANIFEST}: cannot read ({exc})") from None
+        self._rows = self.manifest.to_pylist()
+        for r in self._rows:
+            for key in ("metrics", "repairs", "masked", "traits"):
+                r[key] = dict(r[key] or [])
+        self._take_of = {r["clip_id"]: r["take_id"] for r in self._rows if r["kind"] == "clip"}
 
     def __len__(self) -> int:
-        return self.manifest.num_rows
+        """Clips with arrays (accepted or rejected)."""
+        return len(self._take_of)
 
-    def records(self) -> list[dict[str, Any]]:
-        rows = self.manifest.to_pylist()
-        for r in rows:
-            r["metrics"] = dict(r["metrics"] or [])
-            r["traits"] = dict(r["traits"] or [])
-        return rows
+    def rows(self) -> list[dict[str, Any]]:
+        """Every manifest row (clips and spans) as a dict; maps as dicts."""
+        return [dict(r) for r in self._rows]
 
-    def take_ids(self, status: Status | None = "accepted") -> list[str]:
-        """Take ids with this QC status (all statuses when None)."""
-        return [r["take_id"] for r in self.records() if status is None or r["qc_status"] == status]
+    def clips(self, status: Status | None = "accepted") -> list[dict[str, Any]]:
+        """Manifest rows of the clips with arrays with this QC status (any when None)."""
+        return [
+            dict(r)
+            for r in self._rows
+            if r["kind"] == "clip" and (status is None or r["qc_status"] == status)
+        ]
 
-    def load(self, take_id: str) -> dict[str, np.ndarray]:
-        """All arrays of one take (never unpickled)."""
-        path = take_npz(self.path, take_id)
+    def clip_ids(self, status: Status | None = "accepted") -> list[str]:
+        return [r["clip_id"] for r in self.clips(status)]
+
+    def load_arrays(self, clip_id: str) -> dict[str, np.ndarray]:
+        """All arrays of one clip as plain numpy (never unpickled)."""
+        if clip_id not in self._take_of:
+            raise InputError(f"{self.path}: no clip {clip_id!r} in the manifest")
+        path = clip_npz(self.path, self._take_of[clip_id], clip_id)
         try:
             with np.load(path, allow_pickle=False) as data:
                 return {k: data[k] for k in data.files}
         except (OSError, ValueError) as exc:
-            raise InputError(f"{path}: cannot read take ({exc})") from None
+            raise InputError(f"{path}: cannot read clip ({exc})") from None
 
-    def __iter__(self) -> Iterator[tuple[dict[str, Any], dict[str, np.ndarray]]]:
-        """(record, arrays) of every built (accepted or rejected) take, loaded one at a time."""
-        for record in self.records():
-            if record["qc_status"] != "failed":
-                yield record, self.load(record["take_id"])
+    def load(self, clip_id: str) -> Clip:
+        """One clip, typed."""
+        return Clip.from_arrays(self.load_arrays(clip_id))
+
+    def __iter__(self) -> Iterator[tuple[dict[str, Any], Clip]]:
+        """(manifest row, Clip) of every clip with arrays, loaded one at a time."""
+        for row in self.clips(None):
+            yield row, self.load(row["clip_id"])

@@ -1,7 +1,7 @@
 """PyTorch datasets over a built dataset's splits: frame pairs (MLP) and sequence windows (LSTM).
 
 A split part (SI fold or SD subject, see `datasets.splits`) is loaded as `Segment`s — one per
-take (SI) or per (take, start, end) piece (SD). Audio features are z-normalised with the stats of
+clip (SI) or per (clip, start, end) piece (SD). Audio features are z-normalised with the stats of
 the segment's own subject from dataset.json (`normalisation.audio_znorm_by_subject`, §3.2), which
 is how the dissertation normalised every speaker, test speakers included.
 
@@ -31,24 +31,24 @@ from torch.utils.data import Dataset as TorchDataset
 from gesturebank.datasets.splits import SPLITS_DIR
 from gesturebank.datasets.store import Dataset
 from gesturebank.errors import InputError
-from gesturebank.extract.audio import apply_znorm, fit_znorm
+from gesturebank.extract.audio import apply_znorm
 
 log = logging.getLogger(__name__)
 
-SplitItem = tuple[str, int, int]  # (take_id, start_frame, end_frame)
+SplitItem = tuple[str, int, int]  # (clip_id, start_frame, end_frame)
 Batch = tuple[torch.Tensor, torch.Tensor, torch.Tensor]  # x, y, mask
 
 
 @dataclass(frozen=True)
 class Segment:
-    """A contiguous piece of one take, ready for a model.
+    """A contiguous piece of one clip, ready for a model.
 
     audio: (n, F) float32 z-normalised features; target: (n, 11) float32 angles in [0, 1] with
     unknown entries 0; mask: (n, 11) bool, True where the target is known; angles: (n, 11)
     float32 radians, NaN where unknown (for metrics).
     """
 
-    take_id: str
+    clip_id: str
     subject: str
     start: int
     audio: np.ndarray
@@ -68,15 +68,15 @@ def split_items(
     fold: int | None = None,
     subject: str | None = None,
 ) -> list[SplitItem]:
-    """(take_id, start, end) items of one part ('train' | 'val' | 'test') of a split.
+    """(clip_id, start, end) items of one part ('train' | 'val' | 'test') of a split.
 
-    SI: `fold` selects splits/si_fold_XX.json, whole takes. SD: `subject` selects that subject's
+    SI: `fold` selects splits/si_fold_XX.json, whole clips. SD: `subject` selects that subject's
     segments in splits/sd.json.
     """
     if part not in ("train", "val", "test"):
         raise InputError(f"split part must be train, val or test, got {part!r}")
     folder = dataset.path / SPLITS_DIR
-    n_frames = {r["take_id"]: int(r["n_frames"]) for r in dataset.records()}
+    n_frames = {r["clip_id"]: int(r["n_frames"]) for r in dataset.clips(None)}
     if variant == "si":
         if fold is None:
             raise InputError("a subject-independent split needs a fold number")
@@ -106,47 +106,37 @@ def _read_json(path: Any) -> Any:
 def znorm_stats(dataset: Dataset, subject: str) -> tuple[np.ndarray, np.ndarray]:
     """(mean, std) `(F,)` of a subject's audio features ("*" = all subjects).
 
-    From dataset.json, which holds them for the subjects of accepted takes; a subject with only
-    QC-rejected takes (trained on when a split includes them) gets them fitted here, over its
-    built takes, the same way.
+    From dataset.json, which holds them for every subject with a clip.
     """
-    stats = dataset.info.get("normalisation", {}).get("audio_znorm_by_subject", {})
-    if subject in stats:
-        return np.asarray(stats[subject]["mean"]), np.asarray(stats[subject]["std"])
-    takes = [
-        r["take_id"]
-        for r in dataset.records()
-        if r["subject"] == subject and r["qc_status"] != "failed"
-    ]
-    if not takes:
-        raise InputError(f"{dataset.path}: no audio normalisation and no takes for {subject!r}")
-    log.info("%s: fitting audio z-norm of %r over its %d takes", dataset.path, subject, len(takes))
-    return fit_znorm([dataset.load(t)["audio"] for t in takes])
+    stats = dataset.info.audio_znorm_by_subject
+    if subject not in stats:
+        raise InputError(f"{dataset.path}: no audio normalisation for subject {subject!r}")
+    return np.asarray(stats[subject].mean), np.asarray(stats[subject].std)
 
 
 def load_segments(dataset: Dataset, items: Sequence[SplitItem]) -> list[Segment]:
     """Load the items' frames, z-normalise audio per subject, build targets and masks."""
-    subjects = {r["take_id"]: r["subject"] for r in dataset.records()}
+    subjects = {r["clip_id"]: r["subject"] for r in dataset.clips(None)}
     stats: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     cache: dict[str, dict[str, np.ndarray]] = {}
     out = []
-    for take_id, start, end in items:
-        if take_id not in cache:
-            cache = {take_id: dataset.load(take_id)}  # items come grouped by take
-        arrays = cache[take_id]
-        subject = subjects[take_id]
+    for clip_id, start, end in items:
+        if clip_id not in cache:
+            cache = {clip_id: dataset.load_arrays(clip_id)}  # items come grouped by clip
+        arrays = cache[clip_id]
+        subject = subjects[clip_id]
         if subject not in stats:
             stats[subject] = znorm_stats(dataset, subject)
         mean, std = stats[subject]
         audio = apply_znorm(arrays["audio"][start:end], mean, std)
         angles01 = np.asarray(arrays["angles01"][start:end], dtype=np.float32)
         angles = np.asarray(arrays["angles"][start:end], dtype=np.float32)
-        out.append(make_segment(take_id, subject, start, audio, angles01, angles))
+        out.append(make_segment(clip_id, subject, start, audio, angles01, angles))
     return out
 
 
 def make_segment(
-    take_id: str,
+    clip_id: str,
     subject: str,
     start: int,
     audio: np.ndarray,
@@ -158,7 +148,7 @@ def make_segment(
     bad_audio = ~np.isfinite(audio).all(axis=1)
     mask = np.isfinite(angles01) & ~bad_audio[:, None]
     return Segment(
-        take_id=take_id,
+        clip_id=clip_id,
         subject=subject,
         start=start,
         audio=np.where(bad_audio[:, None], 0.0, audio).astype(np.float32),

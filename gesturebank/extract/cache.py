@@ -1,4 +1,5 @@
-"""Detection cache: raw detector output keyed by (video content, detector name + settings).
+"""Detection cache: raw detector output and shot cuts keyed by (video content, detector name +
+settings).
 
 Rebuilding a dataset with another lifter or other filters reuses the detections. Entries are
 `<key>.npz` files (no pickle) written atomically (temporary file in the same folder, fsync,
@@ -27,12 +28,14 @@ from platformdirs import user_cache_dir
 
 from gesturebank.errors import InputError
 from gesturebank.extract.detectors import MultiPose2D
+from gesturebank.extract.shots import Shots
 from gesturebank.fileio import atomic_open
 
 log = logging.getLogger(__name__)
 
 ENV = "GESTUREBANK_CACHE"
-FORMAT = 1  # bump when the stored arrays change meaning
+FORMAT = 2  # bump when the stored arrays change meaning (2: track ids and shots)
+_SHOTS = "shots_"
 _HEAD = _TAIL = 1 << 20
 _BLOCK = 64 << 10
 _N_BLOCKS = 16
@@ -89,23 +92,27 @@ class DetectionCache:
     def path(self, key: str) -> Path:
         return self.root / f"{key}.npz"
 
-    def load(self, key: str) -> MultiPose2D | None:
+    def load(self, key: str) -> tuple[MultiPose2D, Shots] | None:
         """The cached result, or None when absent or unreadable (a bad entry is removed)."""
         path = self.path(key)
         if not path.is_file():
             return None
         try:
             with np.load(path, allow_pickle=False) as data:
-                return MultiPose2D.from_arrays({k: data[k] for k in data.files})
+                arrays = {k: data[k] for k in data.files}
+            shots = {k[len(_SHOTS) :]: v for k, v in arrays.items() if k.startswith(_SHOTS)}
+            multi = {k: v for k, v in arrays.items() if not k.startswith(_SHOTS)}
+            return MultiPose2D.from_arrays(multi), Shots.from_arrays(shots)
         except (OSError, ValueError, KeyError, EOFError, InputError) as exc:
             log.warning("%s: unreadable cache entry dropped (%s)", path, exc)
             path.unlink(missing_ok=True)
             return None
 
-    def save(self, key: str, multi: MultiPose2D) -> Path:
+    def save(self, key: str, multi: MultiPose2D, shots: Shots) -> Path:
         """Write atomically; returns the entry's path."""
         final = self.path(key)
         arrays: dict[str, Any] = multi.to_arrays()
+        arrays.update({f"{_SHOTS}{k}": v for k, v in shots.to_arrays().items()})
         with atomic_open(final) as f:
             np.savez(f, allow_pickle=False, **arrays)
         return final

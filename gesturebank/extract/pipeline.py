@@ -1,16 +1,20 @@
-"""One take through extraction: decode → detect (cached) → main speaker, plus the audio track.
+"""One video through extraction: decode → detect everybody + find shot cuts (one pass, cached) →
+the main speaker per shot, plus the audio track.
 
-`extract_take` is what the dataset builder calls per video. Every failure is an InputError or
-DetectionError whose one-line message starts with the video's path.
+`extract_take` is what the dataset builder calls per video. Decoding runs in a thread that feeds a
+small queue, so FFmpeg and the detector's interpreters work at the same time. Every failure is
+an InputError or DetectionError whose one-line message starts with the video's path.
 """
 
 from __future__ import annotations
 
-import itertools
+import inspect
 import logging
 import os
+import queue
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,26 +30,31 @@ from gesturebank.extract.detectors import (
     MultiPersonDetector,
     MultiPose2D,
 )
-from gesturebank.extract.tracking import TrackReport, main_speaker
+from gesturebank.extract.shots import ShotDetector, Shots
+from gesturebank.extract.tracking import Tracked, main_speaker
 from gesturebank.extract.video import (
     Audio,
     VideoInfo,
     first_frame_time,
+    frames_at,
     iter_frames,
     probe,
     read_audio,
 )
 from gesturebank.extract.video import select_indices as _select
-from gesturebank.poses import Pose2D
 
 log = logging.getLogger(__name__)
+
+PREFETCH = 8  # decoded frames queued ahead of the detector (bounded: frames are large)
+N_PREVIEW = 4  # frames kept for the dashboard's preview strip
+PREVIEW_HEIGHT = 240  # px
 
 
 @dataclass(frozen=True)
 class TakeInfo:
-    """What happened to one take.
+    """What happened to one video.
 
-    n_frames: frames used; person_fraction: frames where anybody was found; main_fraction:
+    n_frames: frames analysed; person_fraction: frames where anybody was found; main_fraction:
     frames where the main speaker was; cache_hit: None when the detector is not cached;
     audio_source: file the audio came from (None = no audio track).
     """
@@ -55,30 +64,174 @@ class TakeInfo:
     n_frames: int
     person_fraction: float
     main_fraction: float
-    tracking: TrackReport
     cache_hit: bool | None
     audio_source: str | None
     detect_seconds: float
 
 
-def _frames_or_fail(path: Path, config: Config) -> Iterator[Frame]:
-    """The selected frames; InputError naming the file if there are none."""
-    frames = iter_frames(path, config.video, threads=config.build.decode_threads)
+@dataclass(frozen=True)
+class Extraction:
+    """Everybody (`multi`), the shots, the main speaker (`tracked`), the audio, and the frames
+    decoded for the preview strip — (source time, RGB thumbnail) — when the video was decoded."""
+
+    multi: MultiPose2D
+    shots: Shots
+    tracked: Tracked
+    audio: Audio | None
+    info: TakeInfo
+    preview: tuple[tuple[float, np.ndarray], ...] = ()
+
+
+def _prefetched(frames: Iterator[Frame], size: int = PREFETCH) -> Iterator[Frame]:
+    """`frames`, decoded by a background thread up to `size` ahead (PyAV releases the GIL while
+    it decodes, the TFLite interpreters while they run). Errors reach the consumer."""
+    q: queue.Queue[tuple[str, object]] = queue.Queue(maxsize=size)
+    stop = threading.Event()
+
+    def produce() -> None:
+        try:
+            for item in frames:
+                while not stop.is_set():
+                    try:
+                        q.put(("frame", item), timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            q.put(("end", None))
+        except BaseException as exc:  # handed to the consumer, who re-raises it
+            q.put(("error", exc))
+
+    thread = threading.Thread(target=produce, name="decode", daemon=True)
+    thread.start()
+    try:
+        while True:
+            kind, item = q.get()
+            if kind == "end":
+                return
+            if kind == "error":
+                raise item  # type: ignore[misc]
+            yield item  # type: ignore[misc]
+    finally:
+        stop.set()
+        while thread.is_alive():  # unblock a producer waiting on a full queue
+            try:
+                q.get_nowait()
+            except queue.Empty:
+                thread.join(timeout=0.05)
+
+
+class _Taps:
+    """Frames on their way to the detector also feed the shot detector and the preview."""
+
+    def __init__(self, config: Config, preview_times: np.ndarray) -> None:
+        self.shots = ShotDetector(config.shots)
+        self.preview_times = preview_times
+        self.preview: list[tuple[float, np.ndarray]] = []
+
+    def __call__(self, frames: Iterable[Frame]) -> Iterator[Frame]:
+        want = list(self.preview_times)
+        for t, image in frames:
+            self.shots.push(t, image)
+            if want and t >= want[0]:
+                want.pop(0)
+                self.preview.append((t, thumbnail(image)))
+            yield t, image
+
+
+def thumbnail(image: np.ndarray) -> np.ndarray:
+    """`image (H, W, 3)` scaled to PREVIEW_HEIGHT px high."""
+    import cv2
+
+    h, w = image.shape[:2]
+    size = (max(1, round(w * PREVIEW_HEIGHT / h)), PREVIEW_HEIGHT)
+    return np.asarray(cv2.resize(image, size, interpolation=cv2.INTER_AREA))
+
+
+def _create(config: Config, path: Path) -> Detector:
+    try:
+        factory = DETECTORS.get(config.detector.name)
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}") from None
+    extra = {}
+    if "threads" in inspect.signature(factory).parameters:  # plug-ins may not take it
+        extra["threads"] = config.build.inference_threads
+    try:
+        return factory(config.detector, video=path, **extra)
+    except GesturebankError as exc:
+        raise type(exc)(f"{path}: {exc}") from None
+
+
+def _run(det: Detector, path: Path, config: Config, taps: _Taps) -> tuple[MultiPose2D, Shots]:
+    if not getattr(det, "needs_pixels", True) and isinstance(det, MultiPersonDetector):
+        # Precomputed keypoints: the video's clock is enough, no decode (and no shot detection).
+        multi = det.detect_people(None)  # type: ignore[arg-type]
+        multi = multi.take(_select(multi.timestamps, config.video))
+        n = len(multi)
+        return multi, Shots(multi.timestamps, np.zeros(0), np.full(n, np.nan, np.float32))
+    frames = _prefetched(iter_frames(path, config.video, threads=config.build.decode_threads))
     first = next(frames, None)
     if first is None:
         raise InputError(f"{path}: no decodable video frames (in the selected time range)")
-    return itertools.chain([first], frames)
 
+    def all_frames() -> Iterator[Frame]:
+        yield first
+        yield from frames
 
-def _detect(det: Detector, path: Path, config: Config) -> MultiPose2D:
-    if not getattr(det, "needs_pixels", True) and isinstance(det, MultiPersonDetector):
-        # Precomputed keypoints: the video's clock is enough, no decode.
-        multi = det.detect_people(None)  # type: ignore[arg-type]
-        return multi.take(_select(multi.timestamps, config.video))
-    frames = _frames_or_fail(path, config)
+    stream = taps(all_frames())
     if isinstance(det, MultiPersonDetector):
-        return det.detect_people(frames)
-    return MultiPose2D.from_pose2d(det.detect(frames))
+        multi = det.detect_people(stream)
+    else:
+        multi = MultiPose2D.from_pose2d(det.detect(stream))
+    return multi, taps.shots.result()
+
+
+def detect_people(
+    video_path: str | os.PathLike[str],
+    config: Config | None = None,
+    *,
+    cache: DetectionCache | None = None,
+    preview_times: np.ndarray | None = None,
+) -> tuple[MultiPose2D, Shots, str, bool | None, list[tuple[float, np.ndarray]]]:
+    """Everybody the configured detector finds in the selected frames, and the shot cuts,
+    through the cache (config.build.cache_detections).
+
+    Returns (MultiPose2D (T, P, K, 3), Shots, detector name, cache hit — None when not cached,
+    preview frames decoded on the way at `preview_times` — none on a cache hit).
+    """
+    config = config or Config()
+    path = Path(video_path)
+    det = _create(config, path)
+    taps = _Taps(config, np.asarray(preview_times if preview_times is not None else []))
+    key = None
+    store = cache or DetectionCache()
+    if config.build.cache_detections and getattr(det, "cacheable", True):
+        params = {s: getattr(config, s).model_dump(mode="json") for s in ("detector", "video")}
+        params["shots"] = config.shots.model_dump(mode="json")
+        key = cache_key(video_digest(path), det.name, params)
+        cached = store.load(key)
+        log.info("%s: detection cache %s", path, "miss" if cached is None else "hit")
+        if cached is not None:
+            return cached[0], cached[1], det.name, True, []
+    try:
+        multi, shots = _run(det, path, config, taps)
+    except GesturebankError as exc:
+        if str(path) in str(exc):
+            raise
+        raise type(exc)(f"{path}: {exc}") from None
+    if key is not None:
+        store.save(key, multi, shots)
+    return multi, shots, det.name, None if key is None else False, taps.preview
+
+
+def preview_times(info: VideoInfo, config: Config, n: int = N_PREVIEW) -> np.ndarray:
+    """`n` source times spread over the used range of the video (for the preview strip)."""
+    end = config.video.end_s if config.video.end_s is not None else info.duration_s
+    if not np.isfinite(end):
+        return np.zeros(0)
+    start = config.video.start_s
+    return start + (end - start) * (np.arange(n) + 0.5) / n
 
 
 def _audio(path: Path, sample_rate: int) -> tuple[Audio | None, str | None]:
@@ -92,87 +245,37 @@ def _audio(path: Path, sample_rate: int) -> tuple[Audio | None, str | None]:
     return audio, (None if audio is None else str(source))
 
 
-def detect_people(
-    video_path: str | os.PathLike[str],
-    config: Config | None = None,
-    *,
-    cache: DetectionCache | None = None,
-    use_cache: bool = True,
-    max_people: int | None = None,
-) -> tuple[MultiPose2D, str, bool | None]:
-    """Everybody the configured detector finds in the selected frames, through the cache.
-
-    Returns (MultiPose2D (T, P, K, 3), detector name, cache hit — None when not cached).
-    """
-    config = config or Config()
-    path = Path(video_path)
-    try:
-        factory = DETECTORS.get(config.detector.name)
-    except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
-    people = max_people or config.detector.max_people
-    extra = {"max_people": people} if people > 1 else {}
-    try:
-        det = factory(config.detector, video=path, **extra)
-    except GesturebankError as exc:
-        raise type(exc)(f"{path}: {exc}") from None
-    key = None
-    store = cache or DetectionCache()
-    if use_cache and getattr(det, "cacheable", True):
-        params = {
-            "detector": config.detector.model_dump(mode="json"),
-            "video": config.video.model_dump(mode="json"),
-            **extra,
-        }
-        key = cache_key(video_digest(path), det.name, params)
-        cached = store.load(key)
-        log.info("%s: detection cache %s", path, "miss" if cached is None else "hit")
-        if cached is not None:
-            return cached, det.name, True
-    try:
-        multi = _detect(det, path, config)
-    except GesturebankError as exc:
-        if str(path) in str(exc):
-            raise
-        raise type(exc)(f"{path}: {exc}") from None
-    if key is not None:
-        store.save(key, multi)
-    return multi, det.name, None if key is None else False
-
-
 def extract_take(
     video_path: str | os.PathLike[str],
     config: Config | None = None,
     *,
     cache: DetectionCache | None = None,
-    use_cache: bool = True,
-    max_people: int | None = None,
     with_audio: bool = True,
-) -> tuple[Pose2D, Audio | None, TakeInfo]:
-    """Main speaker's Pose2D (T, K, 3), the audio (or None), and a TakeInfo for one video.
+) -> Extraction:
+    """Everybody, the shots, the main speaker per shot, and the audio (or None) of one video.
 
-    config: uses config.video (stride, range), .detector, .tracking, .audio.sample_rate.
-    cache: where detections are cached (default folder when None); use_cache=False skips it.
-    max_people: >1 asks a detector that supports it (mediapipe) for several people;
-    None = config.detector.max_people.
+    config: uses config.video (range, stride, max_fps), .detector, .shots, .tracking,
+    .audio.sample_rate, .build (threads, cache). cache: where detections are cached (default
+    folder when None).
     """
     config = config or Config()
     path = Path(video_path)
     info = probe(path)
     t0 = time.perf_counter()
-    multi, name, hit = detect_people(
-        path, config, cache=cache, use_cache=use_cache, max_people=max_people
-    )
+    times = preview_times(info, config)
+    multi, shots, name, hit, preview = detect_people(path, config, cache=cache, preview_times=times)
     detect_s = time.perf_counter() - t0
+    if not preview and len(times):  # detections from the cache: the frames were not decoded
+        preview = [(t, thumbnail(image)) for t, image in frames_at(path, times.tolist())]
     if len(multi) == 0:
         raise InputError(f"{path}: no video frames to detect on")
     anybody = float(multi.present.any(axis=1).mean())
     if anybody == 0:
         raise DetectionError(f"{path}: no person detected in any of {len(multi)} frames")
-    tracked = main_speaker(multi, config.tracking, source=str(path))
+    audio, source = _audio(path, config.audio.sample_rate) if with_audio else (None, None)
+    tracked = main_speaker(multi, config.tracking, cuts=shots.cuts, audio=audio, source=str(path))
     if tracked.report.main_switches:
         log.warning("%s: %d identity switches", path, len(tracked.report.main_switches))
-    audio, source = _audio(path, config.audio.sample_rate) if with_audio else (None, None)
     present = np.isfinite(tracked.pose.keypoints[..., 0]).any(axis=1)
     take = TakeInfo(
         video=info,
@@ -180,9 +283,8 @@ def extract_take(
         n_frames=len(multi),
         person_fraction=anybody,
         main_fraction=float(present.mean()),
-        tracking=tracked.report,
         cache_hit=hit,
         audio_source=source,
         detect_seconds=detect_s,
     )
-    return tracked.pose, audio, take
+    return Extraction(multi, shots, tracked, audio, take, tuple(preview))

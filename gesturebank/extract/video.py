@@ -135,8 +135,28 @@ def _in_range(t: float, config: VideoConfig) -> bool:
     return t >= config.start_s and (config.end_s is None or t < config.end_s)
 
 
+# A frame is kept when this share of 1 / max_fps has passed since the last kept one: 60 fps
+# footage keeps every second frame at max_fps 30, 30 or 31 fps keeps every frame.
+_MIN_STEP = 0.75
+
+
+class _RateCap:
+    """Keeps frames at most `max_fps` times a second, on their own timestamps (VFR-safe)."""
+
+    def __init__(self, max_fps: float | None) -> None:
+        self.min_step = _MIN_STEP / max_fps if max_fps else 0.0
+        self.last = -np.inf
+
+    def keep(self, t: float) -> bool:
+        if t - self.last < self.min_step:
+            return False
+        self.last = t
+        return True
+
+
 def select_indices(timestamps: np.ndarray, config: VideoConfig) -> np.ndarray:
-    """Indices of the frames `iter_frames` keeps: in [start_s, end_s), then every `stride`-th.
+    """Indices of the frames `iter_frames` keeps: in [start_s, end_s), then every `stride`-th,
+    then at most `max_fps` a second.
 
     timestamps: (T,) seconds of all frames of the video in presentation order.
     """
@@ -144,13 +164,16 @@ def select_indices(timestamps: np.ndarray, config: VideoConfig) -> np.ndarray:
     keep = ts >= config.start_s
     if config.end_s is not None:
         keep &= ts < config.end_s
-    return np.flatnonzero(keep)[:: config.stride]
+    strided = np.flatnonzero(keep)[:: config.stride]
+    cap = _RateCap(config.max_fps)
+    return np.array([i for i in strided if cap.keep(float(ts[i]))], dtype=np.int64)
 
 
 def iter_frames(
     path: PathLike, config: VideoConfig | None = None, *, threads: int | None = None
 ) -> Iterator[tuple[float, np.ndarray]]:
-    """Yield `(timestamp_s, frame)` for the frames selected by `config`, one at a time.
+    """Yield `(timestamp_s, frame)` for the frames selected by `config` (time range, stride,
+    `max_fps`), one at a time.
 
     frame: (H, W, 3) uint8 RGB, rotated as the display matrix says. timestamp_s: pts × time_base.
     Frames whose timestamp does not increase (broken muxers) are dropped with a warning, so the
@@ -171,6 +194,7 @@ def iter_frames(
                 container.seek(0)
         last_t = -np.inf
         kept = 0
+        cap = _RateCap(config.max_fps)
         try:
             for frame in container.decode(stream):
                 t = _frame_time(frame, last_t)
@@ -182,8 +206,8 @@ def iter_frames(
                 if not _in_range(t, config):
                     continue
                 kept += 1
-                if (kept - 1) % config.stride:
-                    continue
+                if (kept - 1) % config.stride or not cap.keep(t):
+                    continue  # skipped frames are never converted to RGB (the costly part)
                 yield t, _to_rgb(frame)
         except av.FFmpegError as exc:
             raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
@@ -230,34 +254,36 @@ def _to_rgb(frame: av.VideoFrame) -> np.ndarray:
 
 
 def frames_at(path: PathLike, times: Sequence[float]) -> list[tuple[float, np.ndarray]]:
-    """The frames nearest to `times`, as (timestamp_s, RGB frame), in the order of `times`.
+    """The frame shown at each of `times` (the last one starting at or before it), as
+    (timestamp_s, RGB frame), in the order of `times`.
 
-    Decodes up to the last requested time but converts only the chosen frames to RGB (the
-    conversion of every full-resolution frame is what makes `iter_frames` slow for a few
-    thumbnails).
+    Seeks to the keyframe before each time and decodes from there, so a few thumbnails of a
+    long video cost a few GOPs of decoding, not the whole file; only the chosen frames are
+    converted to RGB.
     """
     name = os.fspath(path)
-    best: list[tuple[float, av.VideoFrame | None]] = [(np.inf, None)] * len(times)
+    found: list[tuple[float, np.ndarray]] = []
     with _open(path) as container:
         stream = _video_stream(container, name)
-        stream.thread_type = "AUTO"
+        tb = stream.time_base
+        if tb is None:
+            raise InputError(f"{name}: video stream has no time base")
         try:
-            for frame in container.decode(stream):
-                t = _frame_time(frame, -np.inf)
-                if t is None:
-                    continue
-                for i, want in enumerate(times):
-                    if abs(t - want) < best[i][0]:
-                        best[i] = (abs(t - want), frame)
-                if t > max(times, default=-np.inf):
-                    break
+            for want in times:
+                container.seek(max(0, int(want / tb)) + (stream.start_time or 0), stream=stream)
+                best: av.VideoFrame | None = None
+                for frame in container.decode(stream):
+                    t = _frame_time(frame, -np.inf)
+                    if t is None:
+                        continue
+                    if t > want + 1e-6 and best is not None:
+                        break
+                    best = frame
+                if best is not None and best.pts is not None and best.time_base is not None:
+                    found.append((float(best.pts * best.time_base), _to_rgb(best)))
         except av.FFmpegError as exc:
             raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
-    return [
-        (float(f.pts * f.time_base), _to_rgb(f))
-        for _, f in best
-        if f is not None and f.pts is not None and f.time_base is not None
-    ]
+    return found
 
 
 def frame_timestamps(path: PathLike) -> np.ndarray:

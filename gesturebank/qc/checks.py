@@ -1,37 +1,28 @@
-"""QC verdicts: absolute thresholds on each take's metrics plus dataset-relative outliers.
+"""QC verdicts: absolute thresholds on each clip's metrics plus dataset-relative outliers.
 
-A take is `rejected` when any check fails; each failed check adds one reason with its numbers
-(degrees and seconds in the text). Rejected takes stay in the dataset, flagged, so they can be
-looked at (`qc.dashboard`) and re-admitted by changing the thresholds.
+Pure functions over metrics (`qc.metrics.clip_metrics` keys). A clip is `rejected` when any
+check fails; each failed check adds one reason with its numbers (degrees and seconds in the
+text). Rejected clips stay in the dataset, flagged, so they can be looked at (`qc.dashboard`) and
+re-admitted by changing the thresholds.
 
 Relative check (as Fig. 4.7, where one subject's failed 3D pose stands out): for each of
-`outlier_metrics` the robust z-score of log(metric) over the dataset's built takes,
-z = (log m − median) / (1.4826 · MAD). A take is an outlier when z > `outlier_z` and its metric is
-also more than `outlier_min_ratio` × the dataset median (so a dataset of near-identical takes
-with a tiny MAD does not reject ordinary variation). Needs `outlier_min_takes` takes.
+`outlier_metrics` the robust z-score of log(metric) over the dataset's clips,
+z = (log m − median) / (1.4826 · MAD). A clip is an outlier when z > `outlier_z` and its metric is
+also more than `outlier_min_ratio` × the dataset median (so a dataset of near-identical clips
+with a tiny MAD does not reject ordinary variation). Needs `outlier_min_clips` clips.
 """
 
 from __future__ import annotations
 
-import json
-import logging
 import math
-from collections.abc import Iterable, Mapping
-from pathlib import Path
-from typing import Any
+from collections.abc import Mapping
+from typing import Literal
 
 import numpy as np
 
-from gesturebank.config import QCConfig, SplitsConfig
-from gesturebank.datasets import store
-from gesturebank.datasets.splits import write_splits
-from gesturebank.errors import InputError
-from gesturebank.qc.metrics import take_metrics
-from gesturebank.robot import pepper
+from gesturebank.config import QCConfig
 
-log = logging.getLogger(__name__)
-
-Verdict = tuple[store.Status, list[str]]
+Verdict = tuple[Literal["accepted", "rejected"], list[str]]
 
 
 _LABELS = {"jerk_raw": "raw jerk", "jerk": "processed jerk"}
@@ -43,7 +34,7 @@ def _num(metrics: Mapping[str, float], key: str) -> float:
 
 
 def absolute_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[str]:
-    """Reasons (empty when none) of the absolute checks on one take's metrics; NaN metrics are
+    """Reasons (empty when none) of the absolute checks on one clip's metrics; NaN metrics are
     not measured and fail nothing."""
     c = config
     m = {k: _num(metrics, k) for k in metrics}
@@ -53,14 +44,20 @@ def absolute_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[str
         if m.get(key, math.nan) > limit:
             reasons.append(text.format(v=m[key], lim=limit))
 
-    if m.get("duration_s", math.nan) < c.min_duration_s:
-        reasons.append(f"too short: {m['duration_s']:.2f} s < {c.min_duration_s:.2f} s")
+    def under(key: str, limit: float, text: str) -> None:
+        if m.get(key, math.nan) < limit:
+            reasons.append(text.format(v=m[key], lim=limit))
+
     over(
-        "missing_keypoints_fraction",
-        c.max_missing_fraction,
-        "keypoints missing or unsure in {v:.0%} of frames (max {lim:.0%})",
+        "head_unknown_fraction",
+        c.max_head_unknown_fraction,
+        "head unseen in {v:.0%} of the clip (max {lim:.0%})",
     )
-    over("keypoint_gap_s", c.max_keypoint_gap_s, "keypoints lost for {v:.2f} s (max {lim:.2f} s)")
+    over(
+        "arms_unknown_fraction",
+        c.max_arms_unknown_fraction,
+        "both arms unseen in {v:.0%} of the clip (max {lim:.0%})",
+    )
     over("bone_cv_max", c.max_bone_cv, "3D bone length varies by {v:.0%} (max {lim:.0%})")
     over(
         "limit_frames_fraction",
@@ -86,6 +83,23 @@ def absolute_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[str
             f"static: no joint moves more than {np.degrees(m['motion_range']):.1f}° "
             f"(min {np.degrees(c.min_motion_range):.1f}°)"
         )
+    over(
+        "facing_away_fraction",
+        c.max_facing_away_fraction,
+        "facing away in {v:.0%} of frames (max {lim:.0%})",
+    )
+    over(
+        "sideways_fraction",
+        c.max_sideways_fraction,
+        "seen from the side in {v:.0%} of frames (max {lim:.0%})",
+    )
+    under(
+        "shoulder_width",
+        c.min_shoulder_width,
+        "too small: shoulders {v:.1%} of the frame height (min {lim:.1%})",
+    )
+    under("image_change", c.min_image_change, "still picture: image change {v:.3f} (min {lim:g})")
+    over("people", c.max_people, "too many people: {v:.1f} on average (max {lim:g})")
     if c.max_jerk_raw is not None:
         over("jerk_raw", c.max_jerk_raw, "raw jerk {v:.3g} rad²/s⁵ (max {lim:.3g})")
     return reasons
@@ -106,15 +120,15 @@ def robust_z(values: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def relative_reasons(
-    metrics_by_take: Mapping[str, Mapping[str, float]], config: QCConfig
+    metrics_by_clip: Mapping[str, Mapping[str, float]], config: QCConfig
 ) -> dict[str, list[str]]:
-    """Dataset-relative outlier reasons per take id (see the module docstring)."""
-    ids = list(metrics_by_take)
+    """Dataset-relative outlier reasons per clip id (see the module docstring)."""
+    ids = list(metrics_by_clip)
     out: dict[str, list[str]] = {i: [] for i in ids}
-    if len(ids) < config.outlier_min_takes:
+    if len(ids) < config.outlier_min_clips:
         return out
     for key in config.outlier_metrics:
-        values = np.array([_num(metrics_by_take[i], key) for i in ids])
+        values = np.array([_num(metrics_by_clip[i], key) for i in ids])
         with np.errstate(divide="ignore", invalid="ignore"):
             logs = np.where(values > 0, np.log(values), np.nan)
         z, med_log = robust_z(logs)
@@ -129,86 +143,14 @@ def relative_reasons(
 
 
 def verdicts(
-    metrics_by_take: Mapping[str, Mapping[str, float]], config: QCConfig | None = None
+    metrics_by_clip: Mapping[str, Mapping[str, float]], config: QCConfig | None = None
 ) -> dict[str, Verdict]:
-    """(status, reasons) per take id: "rejected" with every failed check's reason, else
-    "accepted". `metrics_by_take` holds the built takes of one dataset (`take_metrics` keys)."""
+    """(status, reasons) per clip id: "rejected" with every failed check's reason, else
+    "accepted". `metrics_by_clip` holds the clips of one dataset (`clip_metrics` keys)."""
     c = config or QCConfig()
-    relative = relative_reasons(metrics_by_take, c)
+    relative = relative_reasons(metrics_by_clip, c)
     result: dict[str, Verdict] = {}
-    for take_id, metrics in metrics_by_take.items():
-        reasons = absolute_reasons(metrics, c) + relative[take_id]
-        result[take_id] = ("rejected" if reasons else "accepted", reasons)
-    return result
-
-
-# --------------------------------------------------------------------------------------------------
-# Applying them to a dataset folder
-
-
-def dataset_profile(out: Path) -> pepper.RobotProfile:
-    """The robot profile named in the dataset's dataset.json (the default when absent)."""
-    try:
-        info = json.loads((Path(out) / store.DATASET_JSON).read_text())
-        return pepper.load_profile(str(info.get("robot_profile", pepper.DEFAULT_PROFILE)))
-    except (OSError, ValueError, InputError):
-        return pepper.load_profile()
-
-
-def apply_verdicts(
-    out: Path, config: QCConfig | None = None, take_ids: Iterable[str] | None = None
-) -> dict[str, Verdict]:
-    """Measure every built take of the dataset folder `out` (only `take_ids` when given), judge
-    them together, and rewrite each take's record (qc_status, qc_reasons, metrics merged into the
-    builder's). Failed takes are left alone. Does not touch manifest.parquet (see `run_qc`)."""
-    c = config or QCConfig()
-    out = Path(out)
-    profile = dataset_profile(out)
-    wanted = None if take_ids is None else set(take_ids)
-    records = [
-        r
-        for r in store.records(out)
-        if r.qc_status != "failed" and (wanted is None or r.take_id in wanted)
-    ]
-    metrics: dict[str, dict[str, float]] = {}
-    for r in records:
-        with np.load(store.take_npz(out, r.take_id), allow_pickle=False) as data:
-            arrays = {k: data[k] for k in data.files}
-        measured = take_metrics(
-            arrays,
-            profile,
-            analysis_rate_hz=c.analysis_rate_hz,
-            min_confidence=c.min_confidence,
-            jitter_above_hz=c.jitter_above_hz,
-        )
-        metrics[r.take_id] = {**(r.metrics or {}), **measured}
-    result = verdicts(metrics, c)
-    for r in records:
-        status, reasons = result[r.take_id]
-        fields: dict[str, Any] = {
-            **r.to_json_dict(),
-            "qc_status": status,
-            "qc_reasons": reasons,
-            "metrics": metrics[r.take_id],
-        }
-        store.write_record(out, store.TakeRecord.from_json_dict(fields))
-    return result
-
-
-def run_qc(
-    out: Path, config: QCConfig | None = None, splits: SplitsConfig | None = None
-) -> dict[str, Verdict]:
-    """Re-run the QC on a built dataset: records, manifest.parquet, the status counts in
-    dataset.json and the splits (verdicts decide who is in them) are rewritten; the takes in
-    the manifest stay the same."""
-    out = Path(out)
-    dataset = store.Dataset(out)
-    ids = [r["take_id"] for r in dataset.records()]
-    result = apply_verdicts(out, config, ids)
-    table = store.write_manifest(out, ids)
-    statuses = table.column("qc_status").to_pylist()
-    info = {k: v for k, v in dataset.info.items() if k != "schema_version"}
-    info["takes"] = {s: statuses.count(s) for s in store.STATUSES}
-    store.write_dataset_json(out, info)
-    write_splits(out, table.to_pylist(), splits)
+    for clip_id, metrics in metrics_by_clip.items():
+        reasons = absolute_reasons(metrics, c) + relative[clip_id]
+        result[clip_id] = ("rejected" if reasons else "accepted", reasons)
     return result

@@ -1,12 +1,13 @@
-"""Corruption toolkit: inject typical pose-estimation failures into a real take's arrays.
+"""Corruption toolkit: inject typical pose-estimation failures into a real clip.
 
 Used by the tests and `benchmarks/qc.py` to measure what the QC catches. Every function is pure
-(returns new arrays) and seeded. Corruptions act on the video-rate pose arrays, the 2D keypoints
-`pose2d_keypoints (T, K, 3)` and the 3D joints `pose3d_joints (T, 17, 3)` on the same frames,
-as a failing detector would; `rederive` then recomputes the raw angles from the corrupted 3D
-joints and the processed 100 Hz angles from those, exactly as the builder does. Corrupting only
-the raw angles is possible too (`target="raw_angles"`); `rederive(..., from_pose=False)` then
-re-processes them.
+(returns a new Clip) and seeded. Corruptions act on the video-rate pose arrays, the 2D keypoints
+`pose2d.keypoints (T, K, 3)` and the 3D joints `pose3d.joints (T, 17, 3)` on the same frames,
+as a failing detector would *after* the repair (the QC judges what repair left); `rederive`
+then recomputes the raw angles from the corrupted 3D joints and the processed 100 Hz angles from
+those with the builder's own `datasets.process.process_angles`. Corrupting only the raw angles
+is possible too (`target="raw_angles"`); `rederive(..., from_pose=False)` then re-processes
+them.
 
 Kinds and what their strength means (sizes are in shoulder widths of each array's own units,
 so the same strength hits pixels and metres alike):
@@ -24,13 +25,15 @@ so the same strength hits pixels and metres alike):
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 
 from gesturebank.config import ProcessingConfig
-from gesturebank.filters import butter_lowpass, interpolate_at
+from gesturebank.datasets.clip import Clip
+from gesturebank.datasets.process import process_angles
 from gesturebank.robot import pepper
-from gesturebank.robot.retarget import pepper_angles
+from gesturebank.robot.retarget import angle_support, pepper_angles
 from gesturebank.skeletons import COCO17, get_skeleton
 
 KINDS = ("spikes", "jitter", "frozen", "dropout", "swap")
@@ -49,13 +52,18 @@ _VIDEO_RATE = (
     "pose3d_joints",
     "pose3d_confidence",
     "pose3d_timestamps",
+    "valid",
+    "repaired",
+    "n_people",
+    "change",
 )
-_CLOCK_RATE = ("angles", "angles01", "audio", "times")
+_CLOCK_RATE = ("angles", "angles01", "mask", "audio", "times")
 
 
-def window(arrays: Mapping[str, np.ndarray], t0: float, t1: float) -> Arrays:
-    """The part of a take between `t0` and `t1` seconds (take time): 100 Hz arrays with
+def window(clip: Clip, t0: float, t1: float) -> Clip:
+    """The part of a clip between `t0` and `t1` seconds (clip time): 100 Hz arrays with
     t0 <= times < t1, video-rate arrays with t0 <= timestamps < t1; the rest unchanged."""
+    arrays = clip.to_arrays()
     out = {k: np.asarray(v) for k, v in arrays.items()}
     ts = np.asarray(arrays["timestamps"])
     keep_v = (ts >= t0) & (ts < t1)
@@ -67,7 +75,7 @@ def window(arrays: Mapping[str, np.ndarray], t0: float, t1: float) -> Arrays:
     for k in _CLOCK_RATE:
         if k in out:
             out[k] = out[k][keep_c]
-    return out
+    return Clip.from_arrays(out)
 
 
 def _mirror_perm(skeleton: str) -> np.ndarray:
@@ -84,11 +92,11 @@ def _mirror_perm(skeleton: str) -> np.ndarray:
     return np.array([idx[other(n)] for n in names])
 
 
-def mirror(arrays: Mapping[str, np.ndarray]) -> Arrays:
-    """The take's mirror image (a clean variant, not a corruption): 2D x → width − x, 3D x → −x,
+def mirror(clip: Clip) -> Clip:
+    """The clip's mirror image (a clean variant, not a corruption): 2D x → width − x, 3D x → −x,
     and left/right keypoints exchanged, so the result is the real motion of a mirrored person.
     Angles must be re-derived (`rederive`)."""
-    out = {k: np.array(v, copy=True) for k, v in arrays.items()}
+    out = {k: np.array(v, copy=True) for k, v in clip.to_arrays().items()}
     if "pose2d_keypoints" in out:
         kp = out["pose2d_keypoints"][:, _mirror_perm(str(out["pose2d_skeleton"]))]
         kp[..., 0] = float(np.asarray(out["pose2d_image_size"])[0]) - kp[..., 0]
@@ -104,7 +112,9 @@ def mirror(arrays: Mapping[str, np.ndarray]) -> Arrays:
         out["pose3d_joints"] = joints
         if "pose3d_confidence" in out:
             out["pose3d_confidence"] = out["pose3d_confidence"][:, perm]
-    return out
+        out["valid"] = out["valid"][:, perm]
+        out["repaired"] = out["repaired"][:, perm]
+    return Clip.from_arrays(out)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -151,20 +161,20 @@ def _segment(rng: np.random.Generator, n: int, share: float) -> slice:
 
 
 def corrupt(
-    arrays: Mapping[str, np.ndarray],
+    clip: Clip,
     kind: str,
     strength: float,
     seed: int = 0,
     *,
     target: str = "pose",
-) -> Arrays:
-    """A copy of `arrays` with one corruption `kind` (see the module docstring) injected into the
+) -> Clip:
+    """A copy of `clip` with one corruption `kind` (see the module docstring) injected into the
     pose arrays (`target="pose"`: 2D keypoints and 3D joints on the same frames) or only into
     `raw_angles` (`target="raw_angles"`, strengths then in radians instead of shoulder widths)."""
     if kind not in KINDS:
         raise ValueError(f"unknown corruption {kind!r}; known: {', '.join(KINDS)}")
     rng = np.random.default_rng(seed)
-    out = {k: np.array(v, copy=True) for k, v in arrays.items()}
+    out = {k: np.array(v, copy=True) for k, v in clip.to_arrays().items()}
     ts = np.asarray(out["timestamps"], dtype=np.float64)
     n = len(ts)
     duration = float(ts[-1] - ts[0]) if n > 1 else 0.0
@@ -208,6 +218,8 @@ def corrupt(
                 out[name][seg, :, 2] = 0.0
         if target == "pose" and "pose3d_confidence" in out:
             out["pose3d_confidence"][seg] = 0.0
+        if target == "pose":
+            out["valid"][seg] = False  # what the repair marks as unseen
     else:  # swap
         for _ in range(int(strength)):
             seg = _segment(rng, n, rng.uniform(0.1, 0.3) / max(duration, 1e-9))
@@ -220,7 +232,7 @@ def corrupt(
                 for left, right in _PAIRS:
                     li, ri = _index(skel, (left, right))
                     a[seg, li], a[seg, ri] = a[seg, ri].copy(), a[seg, li].copy()
-    return out
+    return Clip.from_arrays(out)
 
 
 def _mirror_angles(angles: np.ndarray) -> np.ndarray:
@@ -242,24 +254,31 @@ def _mirror_angles(angles: np.ndarray) -> np.ndarray:
 
 
 def rederive(
-    arrays: Mapping[str, np.ndarray],
+    clip: Clip,
     processing: ProcessingConfig | None = None,
     profile: pepper.RobotProfile | str = "pepper-1.7",
     *,
     from_pose: bool = True,
-) -> Arrays:
-    """Recompute `raw_angles` from `pose3d_joints` (unless `from_pose` is False) and `angles`,
-    `angles01` from those on the take's own 100 Hz clock `times`, as the builder does:
-    interpolation (gaps up to `max_gap_s`), zero-phase Butterworth, clamp, normalise."""
-    p = processing or ProcessingConfig()
+) -> Clip:
+    """Recompute `raw_angles` from `pose3d.joints` (unless `from_pose` is False; masked where the
+    clip's keypoints were unseen, as the builder does) and the 100 Hz angles from those with the
+    builder's `process_angles`."""
     prof = pepper.load_profile(profile) if isinstance(profile, str) else profile
-    out = dict(arrays)
+    raw = np.array(clip.raw_angles, dtype=np.float32)
     if from_pose:
-        out["raw_angles"] = pepper_angles(np.asarray(arrays["pose3d_joints"])).astype(np.float32)
-    raw = np.asarray(out["raw_angles"], dtype=np.float64)
-    angles, _ = interpolate_at(raw, out["timestamps"], out["times"], max_gap_s=p.max_gap_s)
-    smooth = butter_lowpass(angles, p.rate_hz, p.cutoff_hz, p.butter_order)
-    clamped = pepper.clamp(smooth, prof)
-    out["angles"] = clamped.astype(np.float32)
-    out["angles01"] = pepper.normalise(clamped, prof).astype(np.float32)
-    return out
+        raw = pepper_angles(clip.pose3d)
+        raw[~angle_support(clip.valid)] = np.nan
+    processed = process_angles(
+        raw=raw,
+        timestamps=clip.timestamps,
+        clock=clip.times,
+        processing=processing or ProcessingConfig(),
+        profile=prof,
+    )
+    return replace(
+        clip,
+        raw_angles=raw,
+        angles=processed.angles,
+        angles01=processed.angles01,
+        mask=processed.mask,
+    )

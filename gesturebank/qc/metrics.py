@@ -1,6 +1,10 @@
-"""QC metrics of one take: pure functions over its arrays (DESIGN.md "Dataset on disk").
+"""QC metrics of one clip: pure functions over its arrays (DESIGN.md "Dataset on disk").
 
-Radians and seconds inside; the reasons and plots convert to degrees.
+Radians and seconds inside; the reasons and plots convert to degrees. Every metric is
+independent of the frame rate: shares of time, seconds, values on the analysis clock, or sizes
+in shoulder widths — never counts of frames or pixels — so a 30 fps and a 60 fps copy of the same
+motion are judged alike. Keypoints that were not seen (`Clip.valid`) take no part: an occluded
+arm is masked in the angles, not held against the clip.
 
 Jerkiness J (Eq. 3.21) is computed twice:
 
@@ -19,13 +23,15 @@ Both are sums over the 11 joints (as Fig. 4.7); per-joint values are `jerk_raw/<
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
+from gesturebank.config import QCConfig
+from gesturebank.datasets.clip import Clip
 from gesturebank.filters import resample_to_clock
-from gesturebank.robot.pepper import JOINTS, RobotProfile, load_profile
+from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
 from gesturebank.skeletons import COCO17, to_coco17
 
 F64 = NDArray[np.float64]
@@ -100,19 +106,6 @@ def uniform(
 
 # --------------------------------------------------------------------------------------------------
 # Detection coverage
-
-
-def missing_frames(
-    keypoints: np.ndarray, skeleton: str, min_confidence: float = 0.5
-) -> NDArray[np.bool_]:
-    """Frames `(T,)` where any upper-body keypoint of `keypoints (T, K, 3)` (x, y, confidence)
-    is missing (NaN) or less confident than `min_confidence`."""
-    kp = to_coco17(np.asarray(keypoints, dtype=np.float32), skeleton)[
-        :, [_I[j] for j in UPPER_BODY]
-    ]
-    with np.errstate(invalid="ignore"):
-        bad = ~np.isfinite(kp[..., :2]).all(axis=-1) | ~(kp[..., 2] >= min_confidence)
-    return np.asarray(bad.any(axis=-1))
 
 
 def longest_run_s(bad: np.ndarray, timestamps: np.ndarray) -> float:
@@ -265,76 +258,121 @@ def motion_range(angles: np.ndarray) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# One take
+# Framing (the clip filters of youtube-gesture-dataset)
 
 
-def take_metrics(
-    arrays: Mapping[str, np.ndarray],
-    profile: RobotProfile | str = "pepper-1.7",
-    *,
-    analysis_rate_hz: float = 30.0,
-    max_gap_s: float = 0.25,
-    min_confidence: float = 0.5,
-    jitter_above_hz: float = 7.0,
-) -> dict[str, float]:
-    """All QC metrics of one take's arrays (the layout of `store`), as plain floats.
+def _torso_axes(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per frame `(T,)`: the right → left shoulder vector `(T, 2)`, the torso's up vector
+    `(T, 2)` (mid-hips → mid-shoulders, or mid-shoulders → nose where the hips are unseen) and
+    whether both were seen. Image coordinates (y down); the body may lean any way."""
+    ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
+    lh, rh = _I["left_hip"], _I["right_hip"]
+    mid = (xy[:, ls] + xy[:, rs]) / 2
+    hips = valid[:, lh] & valid[:, rh]
+    up = np.where(hips[:, None], mid - (xy[:, lh] + xy[:, rh]) / 2, xy[:, nose] - mid)
+    seen = valid[:, ls] & valid[:, rs] & (hips | valid[:, nose])
+    return xy[:, ls] - xy[:, rs], up, seen
+
+
+def facing_away(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:
+    """`(T,)` frames where the person faces away from the camera: seen from the front, their
+    left shoulder lies to the right of the torso's up direction; from behind, to the left
+    (youtube-gesture-dataset's rule — right shoulder right of the left — made independent of a
+    lean). `xy (T, 17, 2)` COCO-17 pixels, `valid (T, 17)`."""
+    across, up, seen = _torso_axes(xy, valid)
+    with np.errstate(invalid="ignore"):
+        turn = across[:, 0] * up[:, 1] - across[:, 1] * up[:, 0]  # < 0 from the front (y down)
+        return np.asarray(seen & (turn > 0))
+
+
+def sideways(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:
+    """`(T,)` frames where the nose lies beyond a shoulder along the shoulder line (a side view;
+    youtube-gesture-dataset's "nose outside the shoulders", measured along the shoulders rather
+    than the image's x axis so that a lean is not a side view)."""
+    ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
+    across = xy[:, ls] - xy[:, rs]
+    offset = xy[:, nose] - (xy[:, ls] + xy[:, rs]) / 2
+    seen = valid[:, ls] & valid[:, rs] & valid[:, nose]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        along = np.sum(offset * across, axis=-1) / np.sum(across * across, axis=-1)
+        return np.asarray(seen & (np.abs(along) > 0.5))
+
+
+def _share(flags: np.ndarray, among: np.ndarray) -> float:
+    n = int(np.sum(among))
+    return float(np.sum(flags) / n) if n else float("nan")
+
+
+# --------------------------------------------------------------------------------------------------
+# One clip
+
+
+def measure_settings(qc: QCConfig) -> dict[str, float]:
+    """The QC settings the metrics depend on (the rest are thresholds on them)."""
+    return {"analysis_rate_hz": qc.analysis_rate_hz, "jitter_above_hz": qc.jitter_above_hz}
+
+
+def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str, float]:
+    """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure).
 
     Keys: duration_s; jerk_raw and jerk (sums over joints, Eq. 3.21) and their per-joint
-    `jerk_raw/<Joint>`, `jerk/<Joint>`; missing_keypoints_fraction, keypoint_gap_s;
-    bone_cv_max; limit_frames_fraction; jitter_fraction; swap_events; frozen_fraction;
-    spike_max (shoulder widths); motion_range (rad). A metric whose arrays are absent is NaN.
+    `jerk_raw/<Joint>`, `jerk/<Joint>`; head_unknown_fraction, arms_unknown_fraction (shares of
+    the 100 Hz clock); torso_gap_s (longest stretch with a shoulder unseen); bone_cv_max;
+    limit_frames_fraction; jitter_fraction; swap_events; frozen_fraction; spike_max (shoulder
+    widths); motion_range (rad); facing_away_fraction, sideways_fraction, shoulder_width (share
+    of the frame height), image_change, people (mean people in the frame).
     """
-    prof = load_profile(profile) if isinstance(profile, str) else profile
     nan = float("nan")
-    m: dict[str, float] = {}
-
-    angles = np.asarray(arrays["angles"], dtype=np.float64)
-    times = np.asarray(arrays["times"], dtype=np.float64)
-    rate = 1.0 / float(np.median(np.diff(times))) if len(times) > 1 else 100.0
-    m["duration_s"] = float(times[-1] - times[0]) + 1.0 / rate if len(times) else 0.0
-
-    j_proc = jerkiness(angles, rate)
+    m: dict[str, float] = {"duration_s": clip.duration_s}
+    rate = 1.0 / float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 100.0
+    hz = qc.analysis_rate_hz
     raw_u = np.empty((0, len(JOINTS)))
-    if "raw_angles" in arrays and len(arrays["raw_angles"]) >= 2:
-        raw_u = uniform(arrays["raw_angles"], arrays["timestamps"], analysis_rate_hz, max_gap_s)
-    j_raw = jerkiness(raw_u, analysis_rate_hz) if len(raw_u) else np.full(len(JOINTS), nan)
+    if len(clip.raw_angles) >= 2:
+        raw_u = uniform(clip.raw_angles, clip.timestamps, hz)
+    j_raw = jerkiness(raw_u, hz) if len(raw_u) else np.full(len(JOINTS), nan)
+    j_proc = jerkiness(clip.angles, rate)
     m["jerk_raw"] = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
     m["jerk"] = float(np.nansum(j_proc)) if np.isfinite(j_proc).any() else nan
     for name, jr, jp in zip(JOINTS, j_raw, j_proc, strict=True):
         m[f"jerk_raw/{name}"] = float(jr)
         m[f"jerk/{name}"] = float(jp)
 
-    m["missing_keypoints_fraction"] = m["keypoint_gap_s"] = nan
-    frozen: list[float] = []
-    swaps: list[float] = []
-    spikes: list[float] = []
-    if "pose2d_keypoints" in arrays:
-        kp = np.asarray(arrays["pose2d_keypoints"])
-        skel = str(arrays["pose2d_skeleton"])
-        bad = missing_frames(kp, skel, min_confidence)
-        m["missing_keypoints_fraction"] = float(bad.mean()) if len(bad) else nan
-        m["keypoint_gap_s"] = longest_run_s(bad, arrays["pose2d_timestamps"])
-        xy = to_coco17(kp, skel)[..., :2]
-        swaps.append(swap_events(xy))
-        frozen.append(frozen_fraction(xy[:, [_I[j] for j in UPPER_BODY]]))
-        spikes.append(_max(spike_sizes(xy)))
+    known = np.asarray(clip.mask, dtype=bool)
+    head = known[:, [INDEX["HeadPitch"], INDEX["HeadYaw"]]].any(axis=1)
+    arms = known[:, [INDEX["LShoulderPitch"], INDEX["RShoulderPitch"]]].any(axis=1)
+    m["head_unknown_fraction"] = float(np.mean(~head)) if len(known) else nan
+    m["arms_unknown_fraction"] = float(np.mean(~arms)) if len(known) else nan
 
-    m["bone_cv_max"] = nan
-    if "pose3d_joints" in arrays:
-        joints = np.asarray(arrays["pose3d_joints"])
-        cv = bone_cv(joints)
-        m["bone_cv_max"] = float(np.nanmax(cv)) if np.isfinite(cv).any() else nan
-        swaps.append(swap_events(joints))
-        frozen.append(frozen_fraction(joints[:, [_I[j] for j in UPPER_BODY]]))
-        spikes.append(_max(spike_sizes(joints)))
-    m["swap_events"] = float(max(swaps)) if swaps else nan
-    m["frozen_fraction"] = float(max(frozen)) if frozen else nan
-    m["spike_max"] = float(np.nanmax(spikes)) if np.isfinite(spikes).any() else nan
-
-    at_limit = limit_frames(angles, prof.lower, prof.upper)
-    m["limit_frames_fraction"] = float(at_limit.any(axis=1).mean()) if len(angles) else nan
-    m["jitter_fraction"] = (
-        high_freq_fraction(raw_u, analysis_rate_hz, jitter_above_hz) if len(raw_u) else nan
+    valid = np.asarray(clip.valid, dtype=bool)
+    torso = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
+    m["torso_gap_s"] = longest_run_s(~torso, clip.timestamps)
+    xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
+    seen_xy = np.where(valid[..., None], xy, np.nan)
+    joints = np.where(valid[..., None], np.asarray(clip.pose3d.joints, np.float64), np.nan)
+    cv = bone_cv(joints)
+    m["bone_cv_max"] = float(np.nanmax(cv)) if np.isfinite(cv).any() else nan
+    m["swap_events"] = float(max(swap_events(seen_xy), swap_events(joints)))
+    upper = [_I[j] for j in UPPER_BODY]
+    m["frozen_fraction"] = max(
+        frozen_fraction(seen_xy[:, upper]), frozen_fraction(joints[:, upper])
     )
-    m["motion_range"] = motion_range(angles)
+    spikes = [_max(spike_sizes(seen_xy)), _max(spike_sizes(joints))]
+    m["spike_max"] = float(max(spikes))
+
+    at_limit = limit_frames(clip.angles, profile.lower, profile.upper) & known
+    m["limit_frames_fraction"] = float(at_limit.any(axis=1).mean()) if len(known) else nan
+    m["jitter_fraction"] = high_freq_fraction(raw_u, hz, qc.jitter_above_hz) if len(raw_u) else nan
+    m["motion_range"] = motion_range(clip.angles)
+
+    shoulders = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
+    m["facing_away_fraction"] = _share(facing_away(xy, valid), shoulders)
+    m["sideways_fraction"] = _share(sideways(xy, valid), shoulders & valid[:, _I["nose"]])
+    width = np.linalg.norm(xy[:, _I["left_shoulder"]] - xy[:, _I["right_shoulder"]], axis=-1)
+    height = float(clip.pose2d.image_size[1])
+    m["shoulder_width"] = float(np.median(width[shoulders]) / height) if shoulders.any() else nan
+    change = np.asarray(clip.change, dtype=np.float64)
+    m["image_change"] = (
+        float(np.median(change[np.isfinite(change)])) if np.isfinite(change).any() else nan
+    )
+    m["people"] = float(np.mean(clip.n_people)) if len(clip.n_people) else nan
     return m

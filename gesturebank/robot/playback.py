@@ -32,7 +32,7 @@ from gesturebank.config import PlaybackConfig
 from gesturebank.errors import RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import Backend, Command, Interpolating, create
-from gesturebank.robot.timeline import Timeline, from_take, read_csv
+from gesturebank.robot.timeline import Timeline, from_clip, read_csv
 
 log = logging.getLogger(__name__)
 
@@ -399,17 +399,17 @@ def replay_command(
     audio: PathLike | None = None,
     config: PlaybackConfig | None = None,
     *,
-    take: str | None = None,
+    clip: str | None = None,
     compare: PathLike | None = None,
     profile: str = pepper.DEFAULT_PROFILE,
 ) -> PlaybackResult | Path:
     """`gesturebank replay ANGLES.csv --backend naoqi|sim|record [--url|--out] [--audio]`.
 
-    `take`: read the timeline from that take of the dataset folder `angles_csv` instead.
+    `clip`: read the timeline from that clip of the dataset folder `angles_csv` instead.
     `compare` (sim only): a second timeline CSV rendered side by side; returns the video path.
     """
     cfg = config or PlaybackConfig()
-    timeline = from_take(angles_csv, take) if take else read_csv(angles_csv)
+    timeline = from_clip(angles_csv, clip) if clip else read_csv(angles_csv)
     if compare is not None:
         if backend != "sim" or out is None:
             raise RobotError("--compare needs --backend sim and --out VIDEO.mp4")

@@ -106,6 +106,36 @@ def pepper_angles(
     return out
 
 
+# The COCO-17 keypoints each angle needs to be *seen* (confidently detected), besides both
+# shoulders, which every angle needs. The hips are needed only by HipRoll: with waist-up framing
+# the detector still places them, well enough for the torso's up direction, but a lean sideways
+# cannot be seen.
+_FACE = ("nose", "left_eye", "right_eye")
+NEEDS: dict[str, tuple[str, ...]] = {
+    "HeadPitch": _FACE,
+    "HeadYaw": _FACE,
+    "LShoulderRoll": ("left_elbow",),
+    "LShoulderPitch": ("left_elbow",),
+    "LElbowRoll": ("left_elbow", "left_wrist"),
+    "LElbowYaw": ("left_elbow", "left_wrist"),
+    "RShoulderRoll": ("right_elbow",),
+    "RShoulderPitch": ("right_elbow",),
+    "RElbowRoll": ("right_elbow", "right_wrist"),
+    "RElbowYaw": ("right_elbow", "right_wrist"),
+    "HipRoll": ("left_hip", "right_hip"),
+}
+
+
+def angle_support(valid: np.ndarray) -> np.ndarray:
+    """`(T, 11)` bool: the angle's keypoints were seen, from `valid (T, 17)` COCO-17 bools.
+
+    An angle whose keypoints were not seen (occluded, out of frame) is masked instead of
+    guessed from the detector's extrapolation (see `NEEDS`)."""
+    v = np.asarray(valid, dtype=bool)
+    torso = v[:, _I["left_shoulder"]] & v[:, _I["right_shoulder"]]
+    return np.stack([torso & v[:, [_I[k] for k in NEEDS[j]]].all(axis=1) for j in JOINTS], axis=1)
+
+
 def face_forward_fraction(pose: Pose3D | np.ndarray) -> float:
     """Fraction of frames whose face (mid-ears → nose) points in front of the torso, in [0, 1].
 

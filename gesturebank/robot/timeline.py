@@ -1,4 +1,4 @@
-"""Angle timelines: what the player plays. Read/written as CSV, or taken from a dataset take.
+"""Angle timelines: what the player plays. Read/written as CSV, or taken from a dataset clip.
 
 CSV layout (as `gesturebank synthesize` writes it): a header `time_s` + the 11 joint names of
 `pepper.JOINTS`, then one row per frame: time in seconds on the audio's clock (0 = first audio
@@ -106,11 +106,21 @@ def write_csv(path: str | os.PathLike[str], timeline: Timeline) -> Path:
     return out
 
 
-def from_take(dataset_dir: str | os.PathLike[str], take_id: str) -> Timeline:
-    """The smoothed, clamped 100 Hz angles of one dataset take and their times (seconds)."""
+def from_clip(dataset_dir: str | os.PathLike[str], clip_id: str) -> Timeline:
+    """The smoothed, clamped 100 Hz angles of one dataset clip and their times (seconds from
+    the clip's start). Unknown angles (an unseen limb) hold the last known value, else the
+    neutral pose, so the robot never gets NaN."""
     from gesturebank import datasets
+    from gesturebank.robot.pepper import neutral_pose
 
-    arrays = datasets.open(dataset_dir).load(take_id)
-    if "angles" not in arrays or "times" not in arrays:
-        raise InputError(f"{os.fspath(dataset_dir)}: take {take_id!r} has no angles/times")
-    return Timeline.of(arrays["times"], arrays["angles"])
+    arrays = datasets.open(dataset_dir).load_arrays(clip_id)
+    angles = np.array(arrays["angles"], dtype=np.float64)
+    for j in range(angles.shape[1]):
+        col = angles[:, j]
+        known = np.flatnonzero(np.isfinite(col))
+        if not len(known):
+            col[:] = neutral_pose()[j]
+            continue
+        held = np.maximum.accumulate(np.where(np.isfinite(col), np.arange(len(col)), -1))
+        col[:] = np.where(held >= 0, col[np.maximum(held, 0)], col[known[0]])
+    return Timeline.of(arrays["times"], angles)

@@ -102,7 +102,6 @@ def train_command(
     out.mkdir(parents=True, exist_ok=True)
     torch.save(net.state_dict(), out / WEIGHTS)
     export_onnx(net, out)
-    rates = ds.info.get("rates", {})
     _write_json(
         out / MODEL_JSON,
         {
@@ -113,8 +112,8 @@ def train_command(
             "subject": subject,
             "dataset": str(ds.path.resolve()),
             "train_config": cfg.model_dump(mode="json"),
-            "audio": ds.info.get("config", {}).get("audio", AudioConfig().model_dump()),
-            "rate_hz": float(rates.get("pose_hz", 100.0)),
+            "audio": ds.info.config.audio.model_dump(mode="json"),
+            "rate_hz": ds.info.rates.pose_hz,
             "result": {
                 "best_epoch": result.best_epoch,
                 "best_val_loss": result.best_val_loss,
@@ -127,9 +126,11 @@ def train_command(
     _write_json(
         out / NORMALISERS,
         {
-            "audio_znorm_by_subject": ds.info["normalisation"]["audio_znorm_by_subject"],
-            "limits": ds.info["limits"],
-            "robot_profile": ds.info.get("robot_profile", pepper.DEFAULT_PROFILE),
+            "audio_znorm_by_subject": {
+                k: v.model_dump() for k, v in ds.info.audio_znorm_by_subject.items()
+            },
+            "limits": ds.info.limits,
+            "robot_profile": ds.info.robot_profile,
             "joints": list(pepper.JOINTS),
             "mean_pose01": _mean_pose01(train_segments).tolist(),
         },

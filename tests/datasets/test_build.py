@@ -1,4 +1,4 @@
-"""build-dataset on the real sample clips: the on-disk format, resuming after SIGKILL, Ray."""
+"""build-dataset on the real sample clips: clips on disk, resuming after SIGKILL, Ray."""
 
 import json
 import os
@@ -13,12 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from gesturebank.config import Config
-from gesturebank.datasets.build import (
-    audio_clock,
-    build_dataset,
-    content_digest,
-    with_decode_threads,
-)
+from gesturebank.datasets.build import build_dataset, content_digest, with_threads
+from gesturebank.datasets.pipeline import audio_clock
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.errors import InputError
 
@@ -29,35 +25,49 @@ TIMING = {"detect_s"}  # metrics that measure the run, not the data
 def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
     """What a user's script sees, without any gesturebank code."""
     info = json.loads((demo_dataset / "dataset.json").read_text())
-    assert info["schema_version"] == 1
+    assert info["schema_version"] == 2
     assert info["rates"] == {"pose_hz": 100.0, "audio_hz": 100.0}
     assert len(info["joints"]) == 11
     lower = np.array([info["limits"][j]["lower"] for j in info["joints"]])
     upper = np.array([info["limits"][j]["upper"] for j in info["joints"]])
     manifest = pq.read_table(demo_dataset / "manifest.parquet").to_pylist()
-    assert [r["take_id"] for r in manifest] == [
-        "lab__cam01_arctic_a0007",
-        "lab__cam03_arctic_a0009",
+    assert {r["take_id"] for r in manifest} == {
+        "lab__cam01_arctic",
+        "lab__cam03_arctic",
         "outdoor__sports2d_arctic",
-    ]
-    for row in manifest:
+    }
+    clips = [r for r in manifest if r["kind"] == "clip"]
+    assert clips, "the demo gives clips"
+    for take, summary in info["takes"].items():
+        rows = [r for r in manifest if r["take_id"] == take]
+        # the clips and dropped spans cover the take (up to a 100 Hz frame at each seam)
+        covered = sum(r["end_s"] - r["start_s"] for r in rows)
+        assert covered == pytest.approx(summary["seconds"], abs=0.02 * len(rows) + 0.05)
+        usable = sum(r["duration_s"] for r in rows if r["qc_status"] == "accepted")
+        assert summary["usable_s"] == pytest.approx(usable)
+    for row in clips:
         assert row["qc_status"] in ("accepted", "rejected")
-        with np.load(demo_dataset / "takes" / f"{row['take_id']}.npz", allow_pickle=False) as d:
+        path = demo_dataset / "takes" / row["take_id"] / f"{row['clip_id']}.npz"
+        with np.load(path, allow_pickle=False) as d:
             angles, angles01, audio, times = d["angles"], d["angles01"], d["audio"], d["times"]
-            raw, ts = d["raw_angles"], d["timestamps"]
+            mask, raw, ts = d["mask"], d["raw_angles"], d["timestamps"]
             assert d["pose3d_joints"].shape == (len(ts), 17, 3)
+            start = float(d["start_s"])
         n = row["n_frames"]
-        assert angles.shape == angles01.shape == (n, 11)
+        assert angles.shape == angles01.shape == mask.shape == (n, 11)
         assert audio.shape == (n, info["audio_features"]["dim"])
         assert angles.dtype == audio.dtype == np.float32
+        assert times[0] == 0.0 and start == pytest.approx(row["start_s"])
         np.testing.assert_allclose(np.diff(times), 0.01, atol=1e-9)  # 100 Hz
         assert raw.shape == (len(ts), 11)
         assert row["duration_s"] == pytest.approx(n / 100)
-        ok = np.isfinite(angles)
-        assert ok.mean() > 0.8
+        assert row["duration_s"] >= 3.0  # clips.min_s
+        np.testing.assert_array_equal(mask, np.isfinite(angles))
+        ok = mask
+        assert ok.mean() > 0.5
         assert np.all((angles >= lower) | ~ok) and np.all((angles <= upper) | ~ok)
         assert np.all((angles01[ok] >= 0) & (angles01[ok] <= 1))
-        # video span covers the audio clock it was resampled onto
+        # the video frames cover the 100 Hz clock they were resampled onto
         assert ts[0] <= times[0] + 1e-9 and times[-1] <= ts[-1] + 1e-9
     assert (demo_dataset / "splits" / "sd.json").is_file()
 
@@ -73,18 +83,18 @@ def test_audio_clock_is_the_common_span() -> None:
         audio_clock(pose_t + 10, 0.0, 150, 0.01, 0.025)
 
 
-def test_decode_threads_share_the_cores_between_workers() -> None:
-    def threads(workers: int, cores: int, **build: object) -> int | None:
+def test_threads_share_the_cores_between_workers() -> None:
+    def threads(workers: int, cores: int, **build: object) -> tuple[int | None, int | None]:
         config = Config.model_validate({"build": build})
-        resolved = with_decode_threads(config, workers, cores)
+        resolved = with_threads(config, workers, cores)
         assert content_digest(resolved) == content_digest(config)  # how, not what
-        return resolved.build.decode_threads
+        return resolved.build.decode_threads, resolved.build.inference_threads
 
-    assert threads(1, 2) == 2  # a lone worker decodes on the spare core
-    assert threads(2, 2) == 1 and threads(3, 2) == 1  # a full pool: no oversubscription
-    assert threads(2, 8) == 4
-    assert threads(1, 8, executor="ray") == 1  # a Ray task reserves one CPU
-    assert threads(2, 2, decode_threads=3) == 3  # as set
+    assert threads(1, 2) == (2, 2)  # a lone worker uses the spare core
+    assert threads(2, 2) == (1, 1) and threads(3, 2) == (1, 1)  # a full pool: no oversubscription
+    assert threads(2, 8) == (4, 4)
+    assert threads(1, 8, executor="ray") == (1, 1)  # a Ray task reserves one CPU
+    assert threads(2, 2, decode_threads=3) == (3, 1)  # as set
 
 
 def dataset_contents(out: Path) -> dict:
@@ -93,18 +103,20 @@ def dataset_contents(out: Path) -> dict:
         r["metrics"] = {k: v for k, v in r["metrics"] if k not in TIMING}
     arrays = {}
     for r in rows:
-        with np.load(out / "takes" / f"{r['take_id']}.npz", allow_pickle=False) as d:
-            arrays[r["take_id"]] = {k: d[k] for k in d.files}
+        if r["kind"] == "clip":
+            path = out / "takes" / r["take_id"] / f"{r['clip_id']}.npz"
+            with np.load(path, allow_pickle=False) as d:
+                arrays[r["clip_id"]] = {k: d[k] for k in d.files}
     return {"rows": rows, "arrays": arrays}
 
 
 def assert_same_dataset(a: Path, b: Path) -> None:
     ca, cb = dataset_contents(a), dataset_contents(b)
     assert ca["rows"] == cb["rows"]
-    for take, arrays in ca["arrays"].items():
-        assert arrays.keys() == cb["arrays"][take].keys()
+    for clip, arrays in ca["arrays"].items():
+        assert arrays.keys() == cb["arrays"][clip].keys()
         for key, value in arrays.items():
-            np.testing.assert_array_equal(value, cb["arrays"][take][key], err_msg=f"{take} {key}")
+            np.testing.assert_array_equal(value, cb["arrays"][clip][key], err_msg=f"{clip} {key}")
 
 
 def test_sigkill_mid_build_then_rerun_gives_the_same_dataset(
@@ -120,7 +132,7 @@ def test_sigkill_mid_build_then_rerun_gives_the_same_dataset(
     proc.wait()
     done = {p.stem for p in (out / "takes").glob("*.json")}
     assert 1 <= len(done) < 3, "the kill should land mid-build"
-    for npz in (out / "takes").glob("*.npz"):  # whatever is under a final name is complete
+    for npz in (out / "takes").glob("*/*.npz"):  # whatever is under a final name is complete
         with np.load(npz, allow_pickle=False) as d:
             assert d["angles"].shape[1] == 11
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
@@ -131,10 +143,10 @@ def test_sigkill_mid_build_then_rerun_gives_the_same_dataset(
 
 def test_rerun_skips_built_takes_and_force_rebuilds(demo_dataset: Path, samples: Path) -> None:
     videos = samples / "talking"
-    before = {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*.npz")}
+    before = {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*/*.npz")}
     summary = build_dataset(discover_takes(videos), videos, demo_dataset, Config())
     assert summary.count("skipped") == 3
-    assert {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*.npz")} == before
+    assert {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*/*.npz")} == before
     changed = Config.model_validate({"processing": {"cutoff_hz": 6.0}})
     summary = build_dataset(discover_takes(videos), videos, demo_dataset, changed)
     assert summary.count("built") == 3  # a changed config rebuilds
@@ -145,7 +157,7 @@ def test_rerun_skips_built_takes_and_force_rebuilds(demo_dataset: Path, samples:
 def test_bad_take_fails_alone(samples: Path, tmp_path: Path) -> None:
     videos = tmp_path / "videos"
     (videos / "s1").mkdir(parents=True)
-    (videos / "s1" / "good.mp4").symlink_to(samples / "talking/lab/cam01_arctic_a0007.mp4")
+    (videos / "s1" / "good.mp4").symlink_to(samples / "talking/lab/cam01_arctic.mp4")
     (videos / "s1" / "broken.mp4").write_bytes(b"\x00\x00\x00\x18ftypmp42 not a real video")
     (videos / "s1" / "silent.mp4").symlink_to(
         samples / "pose2sim/Demo_SinglePerson/videos/cam04.mp4"
@@ -159,13 +171,14 @@ def test_bad_take_fails_alone(samples: Path, tmp_path: Path) -> None:
         check=False,
     )
     assert r.returncode == 1  # some takes failed
-    rows = {row["take_id"]: row for row in pq.read_table(out / "manifest.parquet").to_pylist()}
-    assert rows["s1__good"]["qc_status"] == "accepted"
-    assert rows["s1__broken"]["qc_status"] == "failed"
-    assert "broken.mp4" in rows["s1__broken"]["qc_reasons"][0]
-    assert rows["s1__silent"]["qc_status"] == "failed"
-    assert "no audio" in rows["s1__silent"]["qc_reasons"][0]
-    assert not (out / "takes" / "s1__broken.npz").exists()
+    rows = pq.read_table(out / "manifest.parquet").to_pylist()
+    good = [row for row in rows if row["take_id"] == "s1__good" and row["kind"] == "clip"]
+    assert good and good[0]["qc_status"] == "accepted"
+    failed = {row["take_id"]: row for row in rows if row["qc_status"] == "failed"}
+    assert set(failed) == {"s1__broken", "s1__silent"}
+    assert "broken.mp4" in failed["s1__broken"]["qc_reasons"][0]
+    assert "no audio" in failed["s1__silent"]["qc_reasons"][0]
+    assert not list((out / "takes" / "s1__broken").glob("*.npz"))
     assert "failed s1__broken" in r.stdout.replace("\n", " ")
 
 
@@ -194,9 +207,10 @@ def test_ctrl_c_stops_cleanly_and_a_rerun_resumes(samples: Path, tmp_path: Path)
     assert proc.returncode == 130
     assert "interrupted" in stdout
     assert not list((out / "takes").glob(".*"))  # no temporary or half-written files
-    done = {p.stem for p in (out / "takes").glob("*.npz")}
+    done = {p.stem for p in (out / "takes").glob("*.json")}
     manifest = pq.read_table(out / "manifest.parquet").to_pylist()
     assert {r["take_id"] for r in manifest if r["qc_status"] != "failed"} == done
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
     assert r.returncode == 0, r.stdout
-    assert len(pq.read_table(out / "manifest.parquet")) == 3
+    takes = {r["take_id"] for r in pq.read_table(out / "manifest.parquet").to_pylist()}
+    assert len(takes) == 3

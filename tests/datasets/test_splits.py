@@ -10,16 +10,24 @@ from gesturebank.errors import InputError
 
 
 def manifest(n_subjects: int, takes_per_subject: int = 2, frames: int = 1000) -> list[dict]:
-    return [
-        {
-            "take_id": f"s{s:02d}_t{t}",
-            "subject": f"s{s:02d}",
-            "qc_status": "accepted",
-            "n_frames": frames + 10 * t,
-        }
-        for s in range(n_subjects)
-        for t in range(takes_per_subject)
-    ]
+    """Manifest rows: two clips per take and a dropped span between them."""
+    rows = []
+    for s in range(n_subjects):
+        for t in range(takes_per_subject):
+            take = f"s{s:02d}_t{t}"
+            for k, kind in enumerate(("clip", "span", "clip")):
+                rows.append(
+                    {
+                        "clip_id": f"{take}__{kind[0]}{k:03d}",
+                        "take_id": take,
+                        "kind": kind,
+                        "start_s": 100.0 * k,
+                        "subject": f"s{s:02d}",
+                        "qc_status": "accepted" if kind == "clip" else "rejected",
+                        "n_frames": frames + 10 * t + k if kind == "clip" else 0,
+                    }
+                )
+    return rows[::-1]  # any order: the splits put clips in time order
 
 
 def test_si_folds_match_table_4_4() -> None:
@@ -35,8 +43,9 @@ def test_si_folds_match_table_4_4() -> None:
         parts = [set(f["subjects"][p]) for p in ("train", "val", "test")]
         assert set.union(*parts) == subjects
         assert sum(map(len, parts)) == 19  # disjoint
-        for p in ("train", "val", "test"):  # a take goes where its subject goes
+        for p in ("train", "val", "test"):  # a clip goes where its subject goes
             assert {t.split("_")[0] for t in f[p]} == set(f["subjects"][p])
+            assert all("__c" in t for t in f[p])  # clips only, never dropped spans
 
 
 def test_si_is_seeded_and_needs_three_subjects() -> None:
@@ -49,29 +58,31 @@ def test_si_is_seeded_and_needs_three_subjects() -> None:
 
 def test_rejected_excluded_unless_asked_failed_never() -> None:
     m = manifest(4)
-    m[0]["qc_status"] = "rejected"
-    m[1]["qc_status"] = "failed"
+    status = {"s00_t0__c000": "rejected", "s00_t0__c002": "failed"}
+    for r in m:
+        r["qc_status"] = status.get(r["clip_id"], r["qc_status"])
     every = {t for f in subject_independent(m, include_rejected=False) for t in f["test"]}
-    assert "s00_t0" not in every and "s00_t1" not in every
+    assert "s00_t0__c000" not in every and "s00_t0__c002" not in every
+    assert "s00_t1__c000" in every
     every = {t for f in subject_independent(m, include_rejected=True) for t in f["test"]}
-    assert "s00_t0" in every and "s00_t1" not in every
+    assert "s00_t0__c000" in every and "s00_t0__c002" not in every
 
 
 def test_sd_cuts_each_subject_by_time() -> None:
     m = manifest(3, takes_per_subject=3, frames=333)
     sd = subject_dependent(m)
     for subject, parts in sd["subjects"].items():
-        takes = [r for r in m if r["subject"] == subject]
-        total = sum(r["n_frames"] for r in takes)
+        clips = [r for r in m if r["subject"] == subject and r["kind"] == "clip"]
+        total = sum(r["n_frames"] for r in clips)
         count = {p: sum(e - s for _, s, e in parts[p]) for p in ("train", "val", "test")}
         assert sum(count.values()) == total  # every frame exactly once
         assert count["train"] == round(0.7 * total)
         assert count["train"] + count["val"] == round(0.85 * total)
-        # time order: train before val before test, segments inside their takes
+        # time order: train before val before test, segments inside their clips
         timeline = [(t, s, e) for p in ("train", "val", "test") for t, s, e in parts[p]]
         flat = [(t, f) for t, s, e in timeline for f in (s, e)]
         assert flat == sorted(flat)
-        length = {r["take_id"]: r["n_frames"] for r in takes}
+        length = {r["clip_id"]: r["n_frames"] for r in clips}
         assert all(0 <= s < e <= length[t] for t, s, e in timeline)
 
 
@@ -85,14 +96,17 @@ def test_write_splits(tmp_path: Path) -> None:
     assert json.loads((tmp_path / "splits" / "sd.json").read_text())["variant"] == "sd"
 
 
-def test_rejected_takes_enter_the_splits_only_when_asked(tmp_path: Path) -> None:
+def test_rejected_clips_enter_the_splits_only_when_asked(tmp_path: Path) -> None:
     m = manifest(3)
-    m[0]["qc_status"] = "rejected"
+    for r in m:
+        if r["clip_id"] == "s00_t0__c000":
+            r["qc_status"] = "rejected"
     write_splits(tmp_path, m, SplitsConfig())
     sd = json.loads((tmp_path / "splits" / "sd.json").read_text())
     listed = {t for parts in sd["subjects"].values() for p in parts.values() for t, _, _ in p}
-    assert "s00_t0" not in listed
+    assert "s00_t0__c000" not in listed and "s00_t0__c002" in listed
+    assert not any("__s" in t for t in listed)  # dropped spans never
     write_splits(tmp_path, m, SplitsConfig(include_rejected=True))
     sd = json.loads((tmp_path / "splits" / "sd.json").read_text())
     listed = {t for parts in sd["subjects"].values() for p in parts.values() for t, _, _ in p}
-    assert "s00_t0" in listed
+    assert "s00_t0__c000" in listed

@@ -1,98 +1,195 @@
-"""The on-disk dataset: atomic per-take files, resumability, manifest, lazy reader."""
+"""The on-disk dataset (schema 2): atomic per-take folders of clips, resumability, manifest,
+dataset.json, the lazy reader — and what a user's script sees without gesturebank."""
 
 import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
 import gesturebank.datasets
+from gesturebank.config import Config
 from gesturebank.datasets import store
+from gesturebank.datasets.clip import Clip
+from gesturebank.datasets.refresh import refresh
 from gesturebank.errors import InputError
-from gesturebank.fileio import atomic_open
+from gesturebank.testing.clips import synthetic_clip, write_dataset
 
 
-def record(take_id: str, status: str = "accepted", digest: str = "d1", **kw) -> store.TakeRecord:
+def clip(take: str, k: int = 0, seconds: float = 3.5, seed: int = 0) -> Clip:
+    return synthetic_clip(seconds=seconds, seed=seed, clip_id=f"{take}__c{k:03d}")
+
+
+def record(take: str, clips: list[Clip], digest: str = "d1", **kw) -> store.TakeRecord:
+    rows = [
+        store.ClipRecord(c.clip_id, "clip", 10.0 * i, 10.0 * i + c.duration_s, "accepted")
+        for i, c in enumerate(clips)
+    ]
+    rows += kw.pop("spans", [])
     return store.TakeRecord(
-        take_id=take_id,
-        subject=kw.pop("subject", "s1"),
-        source=f"videos/{take_id}.mp4",
-        qc_status=status,  # type: ignore[arg-type]
-        config_digest=digest,
-        **kw,
+        take, kw.pop("subject", "s1"), f"{take}.mp4", digest, clips=tuple(rows), **kw
     )
 
 
-def arrays(n: int = 50) -> dict[str, np.ndarray]:
-    rng = np.random.default_rng(n)
-    return {"angles": rng.normal(size=(n, 11)).astype(np.float32), "audio": np.ones((n, 26))}
-
-
-def test_built_means_same_config_and_data_present(tmp_path: Path) -> None:
-    store.write_take(tmp_path, record("a"), arrays())
+def test_built_means_same_config_and_every_clip_present(tmp_path: Path) -> None:
+    clips = [clip("a"), clip("a", 1, seed=1)]
+    store.write_take(tmp_path, record("a", clips), clips)
     assert store.is_built(tmp_path, "a", "d1")
     assert not store.is_built(tmp_path, "a", "d2")  # config changed → rebuild
     assert not store.is_built(tmp_path, "b", "d1")
-    store.take_npz(tmp_path, "a").unlink()
+    store.clip_npz(tmp_path, "a", "a__c001").unlink()
     assert not store.is_built(tmp_path, "a", "d1")  # data lost → rebuild
 
 
-def test_failed_take_has_no_data_and_is_retried(tmp_path: Path) -> None:
-    store.write_take(tmp_path, record("a"), arrays())
-    store.write_take(tmp_path, record("a", "failed", qc_reasons=("no person",)), None)
-    assert not store.take_npz(tmp_path, "a").exists()  # no stale arrays from the older build
-    assert not store.is_built(tmp_path, "a", "d1")
-    assert store.read_record(tmp_path, "a").qc_reasons == ("no person",)
+def test_rebuild_replaces_the_take_folder_and_failure_leaves_no_arrays(tmp_path: Path) -> None:
+    clips = [clip("a"), clip("a", 1)]
+    store.write_take(tmp_path, record("a", clips), clips)
+    fewer = [clip("a", seed=2)]
+    store.write_take(tmp_path, record("a", fewer), fewer)
+    assert sorted(p.name for p in store.take_dir(tmp_path, "a").iterdir()) == ["a__c000.npz"]
+    failed = store.TakeRecord("a", "s1", "a.mp4", "d1", failed="a.mp4: no person")
+    store.write_take(tmp_path, failed)
+    assert list(store.take_dir(tmp_path, "a").iterdir()) == []  # no stale clips
+    assert not store.is_built(tmp_path, "a", "d1")  # failed takes are retried
+    assert store.read_record(tmp_path, "a").failed == "a.mp4: no person"
+
+
+def test_record_must_match_the_clips_written(tmp_path: Path) -> None:
+    clips = [clip("a"), clip("a", 1)]
+    with pytest.raises(ValueError, match="differ"):
+        store.write_take(tmp_path, record("a", clips), clips[:1])
 
 
 def test_corrupt_record_counts_as_not_built(tmp_path: Path) -> None:
-    store.write_take(tmp_path, record("a"), arrays())
+    clips = [clip("a")]
+    store.write_take(tmp_path, record("a", clips), clips)
     store.take_json(tmp_path, "a").write_text("{truncated")
     assert store.read_record(tmp_path, "a") is None
     assert not store.is_built(tmp_path, "a", "d1")
 
 
-def test_interrupted_write_leaves_nothing_under_the_final_name(tmp_path: Path) -> None:
-    target = tmp_path / "takes" / "x.npz"
-    with pytest.raises(KeyboardInterrupt), atomic_open(target) as f:
-        f.write(b"half of it")
-        raise KeyboardInterrupt
-    assert not target.exists()
-    assert list((tmp_path / "takes").iterdir()) == []  # the temporary file is gone too
+def test_an_interrupted_write_leaves_the_old_take_and_only_temporaries(tmp_path: Path) -> None:
+    clips = [clip("a")]
+    store.write_take(tmp_path, record("a", clips), clips)
+    before = store.clip_npz(tmp_path, "a", "a__c000").read_bytes()
+
+    class Boom(Clip):
+        def to_arrays(self) -> dict[str, np.ndarray]:
+            raise KeyboardInterrupt
+
+    bad = Boom(**{f: getattr(clips[0], f) for f in clips[0].__dataclass_fields__})
+    with pytest.raises(KeyboardInterrupt):
+        store.write_take(tmp_path, record("a", [bad], digest="d2"), [bad])
+    assert store.clip_npz(tmp_path, "a", "a__c000").read_bytes() == before
+    assert store.read_record(tmp_path, "a").config_digest == "d1"
+    assert not [p for p in (tmp_path / "takes").iterdir() if p.name.startswith(".")]
 
 
-def test_object_arrays_are_refused(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="dtype object"):
-        store.write_take(tmp_path, record("a"), {"x": np.array([{}], dtype=object)})
+def test_manifest_has_a_row_per_clip_and_per_span(tmp_path: Path) -> None:
+    a = [clip("a"), clip("a", 1, seed=1)]
+    span = store.ClipRecord("a__s000", "span", 4.0, 9.5, "rejected", ("main speaker absent",))
+    store.write_take(tmp_path, record("a", a, spans=[span], traits={"age": "30"}), a)
+    failed = store.TakeRecord("c", "s2", "c.mp4", "d1", failed="c.mp4: corrupt", seconds=7.0)
+    store.write_take(tmp_path, failed)
+    table = store.write_manifest(tmp_path, store.records(tmp_path))
+    rows = table.to_pylist()
+    assert [(r["clip_id"], r["kind"], r["qc_status"]) for r in rows] == [
+        ("a__c000", "clip", "accepted"),
+        ("a__c001", "clip", "accepted"),
+        ("a__s000", "span", "rejected"),
+        ("c", "span", "failed"),
+    ]
+    assert rows[2]["qc_reasons"] == ["main speaker absent"]
+    assert (rows[2]["start_s"], rows[2]["end_s"]) == (4.0, 9.5)
+    assert rows[3]["end_s"] == 7.0 and rows[3]["qc_reasons"] == ["c.mp4: corrupt"]
+    assert dict(rows[0]["traits"]) == {"age": "30"}
 
 
-def test_manifest_and_reader(tmp_path: Path) -> None:
-    store.write_take(tmp_path, record("a", metrics={"jerk": 1.5}, traits={"age": "30"}), arrays())
-    store.write_take(tmp_path, record("b", "rejected", qc_reasons=("jerk 12× median",)), arrays(30))
-    store.write_take(tmp_path, record("c", "failed", qc_reasons=("corrupt file",)), None)
-    store.write_manifest(tmp_path)
-    store.write_dataset_json(tmp_path, {"tool_version": "test"})
+def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
+    """What a user's script sees, without any gesturebank code."""
+    takes = {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)], "s2_b": [clip("s2_b", seed=2)]}
+    out = write_dataset(tmp_path, takes)
+    info = json.loads((out / "dataset.json").read_text())
+    assert info["schema_version"] == 2
+    manifest = pd.read_parquet(out / "manifest.parquet")
+    assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
+    for row in manifest.itertuples():
+        path = out / "takes" / row.take_id / f"{row.clip_id}.npz"
+        with np.load(path, allow_pickle=False) as d:
+            assert d["angles"].shape == (row.n_frames, len(info["joints"]))
+            assert d["audio"].shape == (row.n_frames, 26)
+            assert d["times"][0] == 0.0  # each clip on its own clock
+            assert d["mask"].dtype == bool
+    assert set(info["takes"]) == {"s1_a", "s2_b"}
+    assert info["takes"]["s1_a"]["clips"] == 2
 
-    table = pq.read_table(tmp_path / "manifest.parquet")  # plain pyarrow, no gesturebank
-    assert table.column("take_id").to_pylist() == ["a", "b", "c"]
-    assert table.column("qc_status").to_pylist() == ["accepted", "rejected", "failed"]
-    assert table.column("qc_reasons").to_pylist()[1] == ["jerk 12× median"]
-    assert dict(table.column("metrics").to_pylist()[0]) == {"jerk": 1.5}
-    assert json.loads((tmp_path / "dataset.json").read_text())["schema_version"] == 1
 
-    ds = gesturebank.datasets.open(tmp_path)
-    assert len(ds) == 3
-    assert ds.take_ids() == ["a"]
-    assert ds.take_ids(None) == ["a", "b", "c"]
-    assert ds.records()[0]["traits"] == {"age": "30"}
-    np.testing.assert_array_equal(ds.load("a")["angles"], arrays()["angles"])
-    assert [r["take_id"] for r, _ in ds] == ["a", "b"]  # failed takes have no arrays
+def test_reader_and_schema_1_message(tmp_path: Path) -> None:
+    takes = {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)]}
+    out = write_dataset(tmp_path, takes)
+    ds = gesturebank.datasets.open(out)
+    assert len(ds) == 2 and ds.clip_ids() == ["s1_a__c000", "s1_a__c001"]
+    loaded = ds.load("s1_a__c001")
+    np.testing.assert_array_equal(loaded.angles, takes["s1_a"][1].angles)
+    assert loaded.pose2d.skeleton == takes["s1_a"][1].pose2d.skeleton
+    assert [row["clip_id"] for row, _ in ds] == ["s1_a__c000", "s1_a__c001"]
+    with pytest.raises(InputError, match="no clip 'nope'"):
+        ds.load("nope")
+    (out / "dataset.json").write_text(json.dumps({"schema_version": 1}))
+    with pytest.raises(InputError) as exc:
+        gesturebank.datasets.open(out)
+    assert "schema_version 1" in str(exc.value) and "rebuild" in str(exc.value)
+    assert "\n" not in str(exc.value)
 
 
 def test_open_names_the_problem(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="dataset.json: not found"):
         gesturebank.datasets.open(tmp_path)
-    (tmp_path / "dataset.json").write_text(json.dumps({"schema_version": 99}))
-    with pytest.raises(InputError, match="schema_version 99"):
+    (tmp_path / "dataset.json").write_text("{")
+    with pytest.raises(InputError, match="not valid JSON"):
         gesturebank.datasets.open(tmp_path)
+
+
+def test_refresh_znorm_from_the_per_take_sums(tmp_path: Path) -> None:
+    """The z-norm stats combined from each take's sums equal those of all frames at once."""
+    rng = np.random.default_rng(0)
+    clips = {}
+    for take in ("s1_a", "s1_b", "s2_a"):
+        c = clip(take, seed=len(clips))
+        audio = rng.normal(3.0, 2.0, c.audio.shape).astype(np.float32)
+        clips[take] = [
+            Clip(**{**{f: getattr(c, f) for f in c.__dataclass_fields__}, "audio": audio})
+        ]
+    out = write_dataset(tmp_path, clips)
+    z = store.read_dataset_json(out).audio_znorm_by_subject
+    s1 = np.concatenate([clips["s1_a"][0].audio, clips["s1_b"][0].audio]).astype(np.float64)
+    np.testing.assert_allclose(z["s1"].mean, s1.mean(axis=0), rtol=1e-9)
+    np.testing.assert_allclose(z["s1"].std, s1.std(axis=0), rtol=1e-6)
+    every = np.concatenate([c[0].audio for c in clips.values()]).astype(np.float64)
+    np.testing.assert_allclose(z["*"].std, every.std(axis=0), rtol=1e-6)
+    assert set(z) == {"s1", "s2", "*"}
+    # a second refresh with the same config rewrites no take record
+    mtimes = {p: p.stat().st_mtime_ns for p in (out / "takes").glob("*.json")}
+    refresh(out, Config())
+    assert {p: p.stat().st_mtime_ns for p in (out / "takes").glob("*.json")} == mtimes
+    assert pq.read_table(out / "manifest.parquet").num_rows == 3
+
+
+def test_files_and_folders_follow_the_umask(tmp_path: Path) -> None:
+    """Temporary files are private; what lands under the final name is readable as the umask
+    says (a lab mate can read a dataset)."""
+    import os
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        clips = [clip("a")]
+        store.write_take(tmp_path, record("a", clips), clips)
+    finally:
+        os.umask(old)
+    for path in (store.take_dir(tmp_path, "a"), store.clip_npz(tmp_path, "a", "a__c000")):
+        mode = stat.S_IMODE(path.stat().st_mode)
+        assert mode == (0o755 if path.is_dir() else 0o644), (path, oct(mode))
+    assert stat.S_IMODE(store.take_json(tmp_path, "a").stat().st_mode) == 0o644

@@ -16,6 +16,7 @@ from gesturebank.extract import cache as cache_mod
 from gesturebank.extract.cache import DetectionCache, cache_key, default_cache_dir, video_digest
 from gesturebank.extract.detectors import DETECTORS, MultiPose2D
 from gesturebank.extract.pipeline import extract_take
+from gesturebank.extract.shots import Shots
 from gesturebank.poses import Pose2D
 
 
@@ -28,14 +29,25 @@ def some_people() -> MultiPose2D:
     return MultiPose2D(kp, np.array([0, 0.1, 0.25, 0.3]), "blazepose33", (100, 80), world)
 
 
+def shots_of(multi: MultiPose2D) -> Shots:
+    change = np.linspace(0.0, 30.0, len(multi), dtype=np.float32)
+    return Shots(multi.timestamps, multi.timestamps[2:3], change)
+
+
 def test_save_load_round_trip_without_pickle(tmp_path: Path) -> None:
     store = DetectionCache(tmp_path)
     multi = some_people()
-    path = store.save("k1", multi)
+    path = store.save("k1", multi, shots_of(multi))
     with np.load(path, allow_pickle=False) as data:  # plain arrays only
-        assert set(data.files) == {"keypoints", "timestamps", "skeleton", "image_size", "world"}
-    back = store.load("k1")
-    assert back is not None
+        assert set(data.files) == {
+            *("keypoints", "timestamps", "skeleton", "image_size", "world"),
+            *("shots_timestamps", "shots_cuts", "shots_change"),
+        }
+    loaded = store.load("k1")
+    assert loaded is not None
+    back, shots = loaded
+    np.testing.assert_array_equal(shots.cuts, [0.25])
+    np.testing.assert_array_equal(shots.change, shots_of(multi).change)
     np.testing.assert_array_equal(back.keypoints, multi.keypoints)  # NaN == NaN here
     np.testing.assert_array_equal(back.world, multi.world)
     np.testing.assert_array_equal(back.timestamps, multi.timestamps)
@@ -48,7 +60,8 @@ def test_failed_write_leaves_no_entry_and_keeps_the_old_one(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     store = DetectionCache(tmp_path)
-    store.save("k", some_people())
+    people = some_people()
+    store.save("k", people, shots_of(people))
     before = (tmp_path / "k.npz").read_bytes()
 
     def crash(file, **arrays):
@@ -57,9 +70,9 @@ def test_failed_write_leaves_no_entry_and_keeps_the_old_one(
 
     monkeypatch.setattr(cache_mod.np, "savez", crash)
     with pytest.raises(KeyboardInterrupt):
-        store.save("k", some_people())
+        store.save("k", people, shots_of(people))
     with pytest.raises(KeyboardInterrupt):
-        store.save("new", some_people())
+        store.save("new", people, shots_of(people))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["k.npz"]
     assert (tmp_path / "k.npz").read_bytes() == before
 
@@ -153,13 +166,19 @@ def test_pipeline_reuses_cached_detections(monkeypatch: pytest.MonkeyPatch, tmp_
     store = DetectionCache(tmp_path / "cache")
     config = Config()
     config.detector.name = "counting"
-    first, _, info1 = extract_take(video, config, cache=store)
-    again, _, info2 = extract_take(video, config, cache=store)
-    assert CountingDetector.runs == 1 and (info1.cache_hit, info2.cache_hit) == (False, True)
-    np.testing.assert_array_equal(first.keypoints, again.keypoints)
+    first, again = (extract_take(video, config, cache=store) for _ in range(2))
+    assert CountingDetector.runs == 1 and (first.info.cache_hit, again.info.cache_hit) == (
+        False,
+        True,
+    )
+    np.testing.assert_array_equal(first.multi.keypoints, again.multi.keypoints)
+    np.testing.assert_array_equal(first.shots.change, again.shots.change)  # cached with them
     config.detector.min_detection_confidence = 0.3  # another setting: detect again
     extract_take(video, config, cache=store)
     config.video.stride = 2  # other frames: detect again
     extract_take(video, config, cache=store)
-    extract_take(video, config, cache=store, use_cache=False)
-    assert CountingDetector.runs == 4
+    config.shots.threshold = 20.0  # other shot cuts: detect again
+    extract_take(video, config, cache=store)
+    config.build.cache_detections = False
+    extract_take(video, config, cache=store)
+    assert CountingDetector.runs == 5

@@ -11,7 +11,13 @@ import pytest
 from scipy.signal import resample_poly
 
 from gesturebank.config import VideoConfig
-from gesturebank.extract.video import frame_timestamps, iter_frames, probe, read_audio
+from gesturebank.extract.video import (
+    frame_timestamps,
+    iter_frames,
+    probe,
+    read_audio,
+    select_indices,
+)
 
 # Irregular presentation times in milliseconds (a phone's variable frame rate, exaggerated).
 VFR_MS = [0, 33, 50, 120, 121, 300, 301, 302, 450, 1000, 1017, 1400]
@@ -48,7 +54,7 @@ def write_video(
 def test_variable_frame_rate_timestamps_are_kept_exactly(tmp_path: Path) -> None:
     path = tmp_path / "vfr.mp4"
     write_video(path, VFR_MS)
-    got = list(iter_frames(path))
+    got = list(iter_frames(path, VideoConfig(max_fps=None)))
     np.testing.assert_allclose([t for t, _ in got], np.array(VFR_MS) / 1000, rtol=0, atol=1e-9)
     # Each timestamp stays with its own picture (grey level 20 * i).
     levels = [float(img.mean()) for _, img in got]
@@ -68,11 +74,29 @@ def test_frames_are_rgb_uint8_and_streamed(tmp_path: Path) -> None:
 def test_stride_and_time_range(tmp_path: Path) -> None:
     path = tmp_path / "vfr.mp4"
     write_video(path, VFR_MS)
-    got = [t for t, _ in iter_frames(path, VideoConfig(start_s=0.1, end_s=0.5, stride=2))]
+    got = [
+        t for t, _ in iter_frames(path, VideoConfig(start_s=0.1, end_s=0.5, stride=2, max_fps=None))
+    ]
     # In [100, 500) ms: 120, 121, 300, 301, 302, 450 → every 2nd: 120, 300, 302.
     np.testing.assert_allclose(got, [0.120, 0.300, 0.302], atol=1e-9)
-    later = [t for t, _ in iter_frames(path, VideoConfig(start_s=1.0))]
+    later = [t for t, _ in iter_frames(path, VideoConfig(start_s=1.0, max_fps=None))]
     np.testing.assert_allclose(later, [1.0, 1.017, 1.4], atol=1e-9)
+
+
+def test_max_fps_keeps_a_regular_subset_on_the_real_clock(tmp_path: Path) -> None:
+    """A frame is kept when 0.75 / max_fps has passed since the last kept one: 60 fps footage
+    keeps every second frame at 30, VFR footage the frames that are far enough apart."""
+    path = tmp_path / "vfr.mp4"
+    write_video(path, VFR_MS)
+    got = [t for t, _ in iter_frames(path, VideoConfig(max_fps=30.0))]
+    # 0, 33, 50, 120, 121, 300, 301, 302, 450, 1000, 1017, 1400 ms, steps ≥ 25 ms kept
+    np.testing.assert_allclose(got, [0.0, 0.033, 0.12, 0.3, 0.45, 1.0, 1.4], atol=1e-9)
+    ts = np.array(VFR_MS) / 1000
+    np.testing.assert_array_equal(ts[select_indices(ts, VideoConfig(max_fps=30.0))], got)
+    sixty = np.arange(120) / 60
+    kept = select_indices(sixty, VideoConfig(max_fps=30.0))
+    np.testing.assert_array_equal(kept, np.arange(0, 120, 2))
+    assert len(select_indices(np.arange(90) / 30, VideoConfig(max_fps=30.0))) == 90
 
 
 def test_rotation_metadata_is_applied(tmp_path: Path) -> None:

@@ -17,7 +17,8 @@ J = COCO17.index
 
 @pytest.fixture(scope="module")
 def cam01_3d(samples: Path):
-    pose2d, _, _ = extract_take(samples / "pose2sim/Demo_SinglePerson/videos/cam01.mp4", Config())
+    video = samples / "pose2sim/Demo_SinglePerson/videos/cam01.mp4"
+    pose2d = extract_take(video, Config()).tracked.pose
     return pose2d, LIFTERS.create("blazepose-world").lift(pose2d)
 
 

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from gesturebank.config import MultiviewConfig
+from gesturebank.config import Config, MultiviewConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.extract.pipeline import extract_take
@@ -32,7 +32,8 @@ def demo(samples: Path) -> tuple[list[Pose2D], CameraGroup]:
     root = samples / DEMO
     cams = CameraGroup.load(find_calibration(root))
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
-    return [extract_take(v, with_audio=False)[0] for v in videos], cams
+    full_rate = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps
+    return [extract_take(v, full_rate, with_audio=False).tracked.pose for v in videos], cams
 
 
 def raw_reprojection(

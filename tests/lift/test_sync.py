@@ -10,6 +10,7 @@ import av
 import numpy as np
 import pytest
 
+from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.extract.pipeline import extract_take
 from gesturebank.extract.video import Audio, read_audio
@@ -22,7 +23,8 @@ from gesturebank.lift.multiview.sync import (
 )
 from gesturebank.poses import Pose2D
 
-TALKING = "talking/lab/cam01_arctic_a0007.mp4"
+TALKING = "talking/lab/cam01_arctic.mp4"
+FULL_RATE = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps frames
 SR = 16000
 FPS = 60
 
@@ -107,7 +109,10 @@ def test_no_correlation_on_silence_scores_low() -> None:
 def demo_poses(samples: Path) -> list[Pose2D]:
     """Detections of the 4 synchronised demo cameras (cached on disk after the first run)."""
     videos = samples / "pose2sim/Demo_SinglePerson/videos"
-    return [extract_take(videos / f"cam0{i}.mp4", with_audio=False)[0] for i in range(1, 5)]
+    return [
+        extract_take(videos / f"cam0{i}.mp4", FULL_RATE, with_audio=False).tracked.pose
+        for i in range(1, 5)
+    ]
 
 
 def late_pose(pose: Pose2D, drop_frames: int) -> Pose2D:
@@ -129,8 +134,9 @@ def test_motion_realigns_a_late_copy(demo_poses: list[Pose2D], drop_frames: int)
 
 
 # Across different views, 2D motion differs with the viewpoint: on this 1.7 s clip the motion
-# estimate is within a few frames (measured: 2-3), not exact. Audio is the precise cue.
-CROSS_VIEW_TOLERANCE_S = 4 / FPS
+# estimate is within a few frames, not exact (measured with blazepose: 1–4.5 frames; with
+# mediapipe's solution 2.5–3). Audio is the precise cue.
+CROSS_VIEW_TOLERANCE_S = 5 / FPS
 
 
 def test_motion_across_views_of_synchronised_cameras(demo_poses: list[Pose2D]) -> None:

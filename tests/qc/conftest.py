@@ -1,20 +1,21 @@
-"""Fixtures of the QC tests: a synthetic take and the small real dataset of the session."""
+"""Fixtures of the QC tests: a clean synthetic clip and the small real dataset of the session."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
-from qc_data import synthetic_take
+
+from gesturebank.datasets.clip import Clip
+from gesturebank.testing.clips import synthetic_clip
 
 
 @pytest.fixture()
-def take() -> dict[str, np.ndarray]:
-    return synthetic_take()
+def clip() -> Clip:
+    return synthetic_clip()
 
 
 @pytest.fixture(scope="session")
 def real_dataset(demo_dataset: Path) -> Path:
-    """The 3 demo videos of `samples/talking` built with the default config (tests/conftest.py)."""
+    """The demo videos of `samples/talking` built with the default config (tests/conftest.py)."""
     return demo_dataset

@@ -1,20 +1,22 @@
-"""Verdicts: absolute thresholds, the dataset-relative outlier check, applying them to a folder."""
+"""Verdicts: absolute thresholds, the dataset-relative outlier check, re-judging a folder."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from pydantic import ValidationError
-from qc_data import synthetic_take, write_synthetic_dataset
 
+from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
-from gesturebank.qc.checks import QCConfig, absolute_reasons, robust_z, run_qc, verdicts
+from gesturebank.datasets.refresh import refresh
+from gesturebank.qc.checks import QCConfig, absolute_reasons, robust_z, verdicts
 from gesturebank.qc.corrupt import corrupt, rederive
+from gesturebank.testing.clips import synthetic_clip, write_dataset
 
 GOOD = {
     "duration_s": 5.0,
-    "missing_keypoints_fraction": 0.0,
-    "keypoint_gap_s": 0.0,
+    "head_unknown_fraction": 0.0,
+    "arms_unknown_fraction": 0.1,
     "bone_cv_max": 0.05,
     "limit_frames_fraction": 0.1,
     "jitter_fraction": 0.02,
@@ -24,6 +26,11 @@ GOOD = {
     "motion_range": 0.5,
     "jerk_raw": 1e6,
     "jerk": 1e4,
+    "facing_away_fraction": 0.0,
+    "sideways_fraction": 0.1,
+    "shoulder_width": 0.1,
+    "image_change": 2.0,
+    "people": 1.5,
 }
 
 
@@ -35,9 +42,8 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
 @pytest.mark.parametrize(
     ("key", "value", "text"),
     [
-        ("duration_s", 0.5, "too short: 0.50 s < 1.00 s"),
-        ("missing_keypoints_fraction", 0.4, "in 40% of frames (max 25%)"),
-        ("keypoint_gap_s", 0.8, "keypoints lost for 0.80 s (max 0.50 s)"),
+        ("head_unknown_fraction", 0.6, "head unseen in 60% of the clip (max 50%)"),
+        ("arms_unknown_fraction", 0.7, "both arms unseen in 70% of the clip (max 50%)"),
         ("bone_cv_max", 0.3, "3D bone length varies by 30% (max 25%)"),
         ("limit_frames_fraction", 0.7, "in 70% of frames (max 60%)"),
         ("jitter_fraction", 0.2, "jitter: 20% of raw motion power above 7 Hz (max 15%)"),
@@ -45,6 +51,11 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
         ("spike_max", 1.5, "keypoint jumps 1.50 shoulder widths"),
         ("frozen_fraction", 0.3, "frozen (exactly repeated) in 30% of frames"),
         ("motion_range", np.radians(1.0), "static: no joint moves more than 1.0° (min 2.0°)"),
+        ("facing_away_fraction", 0.4, "facing away in 40% of frames (max 30%)"),
+        ("sideways_fraction", 0.6, "seen from the side in 60% of frames (max 50%)"),
+        ("shoulder_width", 0.02, "too small: shoulders 2.0% of the frame height (min 3.0%)"),
+        ("image_change", 0.01, "still picture: image change 0.010 (min 0.05)"),
+        ("people", 6.0, "too many people: 6.0 on average (max 5)"),
     ],
 )
 def test_each_absolute_check_gives_its_reason_with_numbers(key, value, text) -> None:
@@ -90,22 +101,35 @@ def test_config_validates() -> None:
     with pytest.raises(ValidationError):
         QCConfig(unknown=1)
     with pytest.raises(ValidationError):
-        QCConfig(max_missing_fraction=2)
+        QCConfig(max_arms_unknown_fraction=2)
 
 
-def test_run_qc_rewrites_records_and_manifest_and_keeps_rejected_takes(tmp_path) -> None:
-    takes = {f"subj{i}_take": synthetic_take(seed=i) for i in range(6)}
-    takes["bad_take"] = rederive(corrupt(takes["subj0_take"], "swap", 2, seed=1))
-    out = write_synthetic_dataset(tmp_path, takes)
-    result = run_qc(out)
-    assert result["bad_take"][0] == "rejected"
-    assert all(result[k][0] == "accepted" for k in takes if k != "bad_take")
+def test_refresh_rejudges_every_clip_and_keeps_rejected_ones(tmp_path) -> None:
+    clips = {
+        f"subj{i}_take": [synthetic_clip(seed=i, clip_id=f"subj{i}_take__c000")] for i in range(6)
+    }
+    bad = rederive(corrupt(synthetic_clip(seed=0, clip_id="bad_take__c000"), "swap", 2, seed=1))
+    out = write_dataset(tmp_path, {**clips, "bad_take": [bad]})
     ds = open_dataset(out)
-    rows = {r["take_id"]: r for r in ds.records()}
-    assert len(rows) == 7  # the rejected take stays in the dataset, flagged
-    assert rows["bad_take"]["qc_status"] == "rejected"
-    assert any("left/right arms swapped" in r for r in rows["bad_take"]["qc_reasons"])
-    assert rows["subj1_take"]["metrics"]["duration_s"] > 2  # measured, merged over the builder's
-    assert "jerk_raw/HeadPitch" in rows["subj1_take"]["metrics"]
-    assert ds.info["takes"] == {"accepted": 6, "rejected": 1, "failed": 0}
-    assert ds.take_ids("accepted") == sorted(k for k in takes if k != "bad_take")
+    rows = {r["clip_id"]: r for r in ds.clips(None)}
+    assert len(rows) == 7  # the rejected clip stays in the dataset, flagged
+    assert rows["bad_take__c000"]["qc_status"] == "rejected"
+    assert any("left/right arms swapped" in r for r in rows["bad_take__c000"]["qc_reasons"])
+    assert "jerk_raw/HeadPitch" in rows["subj1_take__c000"]["metrics"]
+    assert ds.info.clip_counts == {"accepted": 6, "rejected": 1, "failed": 0}
+    assert ds.info.takes["bad_take"].usable_s == 0 and ds.info.takes["subj1_take"].accepted == 1
+    # looser thresholds re-admit it without rebuilding, and are saved in dataset.json
+    loose = Config.model_validate(
+        {
+            "qc": {
+                "max_swap_events": 10,
+                "max_jitter_fraction": 1.0,
+                "max_bone_cv": 1.0,
+                "outlier_z": 1e9,
+            }
+        }
+    )
+    refresh(out, loose)
+    ds = open_dataset(out)
+    assert ds.clip_ids("accepted") == sorted(rows)
+    assert ds.info.config.qc.max_swap_events == 10

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from gesturebank.config import QCConfig
 from gesturebank.qc import metrics as M
+from gesturebank.qc.corrupt import rederive
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
+from gesturebank.testing.clips import synthetic_clip
 
 IDX = COCO17.index
 
@@ -55,13 +60,9 @@ def test_uniform_resampling_makes_frame_rates_comparable() -> None:
     assert j == pytest.approx(18 * 0.25 / 30.0, rel=1e-6)
 
 
-def test_missing_frames_and_longest_gap() -> None:
-    kp = np.ones((30, 17, 3), np.float32)
-    kp[5:8, IDX["left_wrist"], :2] = np.nan  # missing
-    kp[20, IDX["nose"], 2] = 0.1  # not confident
-    kp[25, IDX["left_knee"], :2] = np.nan  # not an upper-body keypoint: ignored
-    bad = M.missing_frames(kp, "coco17", min_confidence=0.5)
-    assert np.flatnonzero(bad).tolist() == [5, 6, 7, 20]
+def test_longest_gap() -> None:
+    bad = np.zeros(30, bool)
+    bad[[5, 6, 7, 20]] = True
     t = np.arange(30) / 30.0
     assert M.longest_run_s(bad, t) == pytest.approx(3 / 30)
     end = np.zeros(30, bool)
@@ -151,13 +152,57 @@ def test_motion_range() -> None:
     assert M.motion_range(ramp) == pytest.approx(0.9)
 
 
-def test_take_metrics_of_a_clean_synthetic_take(take) -> None:
-    m = M.take_metrics(take)
-    assert m["duration_s"] == pytest.approx(len(take["times"]) / 100)
+def test_clip_metrics_of_a_clean_synthetic_clip(clip) -> None:
+    m = M.clip_metrics(clip, profile=pepper.load_profile(), qc=QCConfig())
+    assert m["duration_s"] == pytest.approx(len(clip.times) / 100)
     assert m["jerk"] == pytest.approx(sum(m[f"jerk/{j}"] for j in pepper.JOINTS))
     assert m["jerk_raw"] > m["jerk"] > 0  # the low-pass removes jerk
-    assert m["missing_keypoints_fraction"] == 0 and m["keypoint_gap_s"] == 0
+    assert m["head_unknown_fraction"] == 0 and m["arms_unknown_fraction"] == 0
+    assert m["torso_gap_s"] == 0
     assert m["swap_events"] == 0 and m["frozen_fraction"] == 0
     assert m["spike_max"] < 0.1 and m["jitter_fraction"] < 0.01
     assert m["motion_range"] > 0.2
+    assert m["facing_away_fraction"] == 0 and m["sideways_fraction"] == 0
+    assert m["people"] == 1.0
     assert all(isinstance(v, float) for v in m.values())
+
+
+def test_an_unseen_arm_is_masked_not_measured(clip) -> None:
+    """An occluded arm leaves the other metrics clean: its keypoints are not seen (`valid`)."""
+    valid = clip.valid.copy()
+    valid[:, [IDX["left_elbow"], IDX["left_wrist"]]] = False
+    joints = clip.pose3d.joints.copy()
+    joints[:, IDX["left_wrist"]] += np.random.default_rng(0).normal(0, 0.3, joints[:, 0].shape)
+    hidden = rederive(replace(clip, valid=valid, pose3d=replace(clip.pose3d, joints=joints)))
+    m = M.clip_metrics(hidden, profile=pepper.load_profile(), qc=QCConfig())
+    left = [pepper.INDEX[j] for j in ("LShoulderRoll", "LShoulderPitch", "LElbowRoll", "LElbowYaw")]
+    assert not hidden.mask[:, left].any() and hidden.mask[:, pepper.INDEX["RElbowRoll"]].all()
+    assert m["arms_unknown_fraction"] == 0  # the other arm is known
+    assert m["spike_max"] < 0.1 and m["bone_cv_max"] < 0.05  # the noisy wrist is not judged
+
+
+def test_facing_away_and_sideways(clip) -> None:
+    m = M.clip_metrics(mirror_image_only(clip), profile=pepper.load_profile(), qc=QCConfig())
+    assert m["facing_away_fraction"] == 1.0
+    xy = clip.pose2d.keypoints.copy()
+    xy[:, IDX["nose"], 0] = xy[:, IDX["left_shoulder"], 0] + 50  # nose beyond a shoulder
+    side = replace(clip, pose2d=replace(clip.pose2d, keypoints=xy))
+    m = M.clip_metrics(side, profile=pepper.load_profile(), qc=QCConfig())
+    assert m["sideways_fraction"] == 1.0
+
+
+def mirror_image_only(clip):
+    """The 2D view flipped left/right without exchanging the labels: seen from behind."""
+    kp = clip.pose2d.keypoints.copy()
+    kp[..., 0] = clip.pose2d.image_size[0] - kp[..., 0]
+    return replace(clip, pose2d=replace(clip.pose2d, keypoints=kp))
+
+
+def test_the_same_motion_at_30_and_60_fps_measures_alike() -> None:
+    """Frame-rate independence of every threshold-bearing metric."""
+    a = synthetic_clip(seconds=6.0, fps=30.0, seed=4)
+    b = synthetic_clip(seconds=6.0, fps=60.0, seed=4)
+    qc, prof = QCConfig(), pepper.load_profile()
+    ma, mb = M.clip_metrics(a, profile=prof, qc=qc), M.clip_metrics(b, profile=prof, qc=qc)
+    for key in ("jerk_raw", "jitter_fraction", "motion_range", "shoulder_width", "spike_max"):
+        assert ma[key] == pytest.approx(mb[key], rel=0.05, abs=0.01), key

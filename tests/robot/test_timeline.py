@@ -9,7 +9,7 @@ import pytest
 
 from gesturebank.errors import InputError
 from gesturebank.robot.pepper import JOINTS
-from gesturebank.robot.timeline import Timeline, from_take, read_csv, write_csv
+from gesturebank.robot.timeline import Timeline, from_clip, read_csv, write_csv
 
 
 def test_round_trip(tmp_path: Path) -> None:
@@ -67,15 +67,19 @@ def test_missing_file(tmp_path: Path) -> None:
         read_csv(tmp_path / "nope.csv")
 
 
-def test_from_take_reads_angles_and_times(tmp_path: Path) -> None:
-    from gesturebank.datasets import store
+def test_from_clip_reads_angles_and_holds_unknown_ones(tmp_path: Path) -> None:
+    from gesturebank.robot import pepper
+    from gesturebank.testing.clips import clip_from_targets, write_dataset
 
-    times = np.arange(5) * 0.01 + 0.3
-    angles = np.full((5, 11), 0.25, np.float32)
-    record = store.TakeRecord("t1", "s1", "t1.mp4", "accepted", "x", n_frames=5)
-    store.write_dataset_json(tmp_path, {})
-    store.write_take(tmp_path, record, {"angles": angles, "times": times})
-    store.write_manifest(tmp_path)
-    tl = from_take(tmp_path, "t1")
-    np.testing.assert_array_equal(tl.times, times)
-    np.testing.assert_array_equal(tl.angles, angles)
+    profile = pepper.load_profile()
+    angles01 = np.full((400, 11), 0.25)
+    angles01[100:150, 4] = np.nan  # an unseen elbow: held at its last known value
+    angles01[:50, 0] = np.nan  # unknown from the start: the first known value
+    audio = np.zeros((400, 26))
+    clip = clip_from_targets(angles01, audio, clip_id="s1_t__c000", profile=profile)
+    write_dataset(tmp_path, {"s1_t": [clip]})
+    tl = from_clip(tmp_path, "s1_t__c000")
+    np.testing.assert_array_equal(tl.times, clip.times)
+    assert np.isfinite(tl.angles).all()
+    held = pepper.denormalise(np.full((400, 11), 0.25), profile)  # every value is this one
+    np.testing.assert_allclose(tl.angles, held, atol=1e-6)

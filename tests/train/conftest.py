@@ -11,13 +11,13 @@ import pytest
 import gesturebank.datasets as gds
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
-from gesturebank.train.synthetic import write_synthetic_dataset
+from gesturebank.testing.speech_motion import write_synthetic_dataset
 
 
 @pytest.fixture(scope="session")
 def synthetic_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """4 subjects × 2 takes × 12 s; arms follow the audio envelope, head and shoulder rolls a
-    low-passed, delayed copy of it (see gesturebank.train.synthetic)."""
+    low-passed, delayed copy of it (see gesturebank.testing.speech_motion)."""
     return write_synthetic_dataset(tmp_path_factory.mktemp("synthetic") / "ds")
 
 
@@ -50,9 +50,9 @@ def real_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
     out = videos.parent / "dataset"
     summary = build_dataset(discover_takes(videos), videos, out, Config())
     assert not summary.failed, summary.failed
-    # QC may reject these short clips; the test is about training on real data, not its quality,
-    # so the SI folds are rewritten to include rejected takes.
-    records = gds.open(out).records()
+    # QC may reject these clips; the test is about training on real data, not its quality,
+    # so the SI folds are rewritten to include rejected clips.
+    records = gds.open(out).rows()
     for fold in subject_independent(records, include_rejected=True):
         path = out / SPLITS_DIR / f"si_fold_{fold['fold']:02d}.json"
         path.write_text(json.dumps(fold, indent=1))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ from gesturebank.datasets.torch import (
     make_segment,
     masked_mse,
     split_items,
+    znorm_stats,
 )
 from gesturebank.errors import InputError
 from gesturebank.train import metrics as M
@@ -31,9 +31,9 @@ def _segment(n: int, *, unknown: slice | None = None, seed: int = 0, tid: str = 
     return make_segment(tid, "s", 0, audio, angles01, angles01 * 2)
 
 
-def test_si_items_are_whole_takes_of_disjoint_subjects(synthetic_dataset: Path) -> None:
+def test_si_items_are_whole_clips_of_disjoint_subjects(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
-    subject = {r["take_id"]: r["subject"] for r in ds.records()}
+    subject = {r["clip_id"]: r["subject"] for r in ds.clips(None)}
     parts = {p: split_items(ds, "si", p, fold=1) for p in ("train", "val", "test")}
     subjects = {p: {subject[t] for t, _, _ in items} for p, items in parts.items()}
     assert len(subjects["train"]) == 2 and len(subjects["val"]) == 1 == len(subjects["test"])
@@ -55,19 +55,19 @@ def test_sd_items_cut_one_subject_by_time(synthetic_dataset: Path) -> None:
 
 def test_audio_is_z_normalised_per_subject(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
-    items = split_items(ds, "si", "test", fold=0)  # all takes of one subject
+    items = split_items(ds, "si", "test", fold=0)  # all clips of one subject
     segments = load_segments(ds, items)
     audio = np.concatenate([s.audio for s in segments])
     np.testing.assert_allclose(audio.mean(axis=0), 0, atol=1e-4)
     np.testing.assert_allclose(audio.std(axis=0), 1, atol=1e-3)
-    raw = np.concatenate([ds.load(t)["audio"] for t, _, _ in items])
+    raw = np.concatenate([ds.load(t).audio for t, _, _ in items])
     assert np.abs(raw.mean(axis=0)).max() > 0.5  # the raw features were not normalised
 
 
 def test_unknown_pose_is_masked_not_invented(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
     seg = load_segments(ds, split_items(ds, "si", "test", fold=0))[0]
-    unknown = np.isnan(ds.load(seg.take_id)["angles01"])
+    unknown = np.isnan(ds.load(seg.clip_id).angles01)
     assert unknown.any()
     np.testing.assert_array_equal(seg.mask, ~unknown)
     assert np.all(seg.target[unknown] == 0) and np.all(np.isnan(seg.angles[unknown]))
@@ -123,16 +123,28 @@ def test_masked_mse_is_loss_l_over_known_entries() -> None:
     assert float(loss) == pytest.approx(M.loss_l(truth, pred), rel=1e-6)
 
 
-def test_a_subject_without_stats_gets_them_fitted(synthetic_dataset: Path, tmp_path: Path) -> None:
-    import shutil
+def test_every_subject_has_stats_even_with_only_rejected_clips(tmp_path: Path) -> None:
+    """The z-norm stats cover every subject with a clip: a rejected clip's motion is bad, its
+    audio is not (and a split that includes rejected clips needs them)."""
+    from gesturebank.robot import pepper
+    from gesturebank.testing.clips import clip_from_targets, write_dataset
 
-    copy = tmp_path / "ds"
-    shutil.copytree(synthetic_dataset, copy)
-    info = json.loads((copy / "dataset.json").read_text())
-    del info["normalisation"]["audio_znorm_by_subject"]["s0"]  # as for a QC-rejected subject
-    (copy / "dataset.json").write_text(json.dumps(info))
-    items = [("s0__take0", 0, 1200), ("s0__take1", 0, 1200)]
-    fitted = load_segments(gds.open(copy), items)
-    stored = load_segments(gds.open(synthetic_dataset), items)
-    for a, b in zip(fitted, stored, strict=True):
-        np.testing.assert_allclose(a.audio, b.audio, atol=1e-5)
+    rng = np.random.default_rng(0)
+    profile = pepper.load_profile()
+    takes = {}
+    for subject, unknown in (("good", 0), ("bad", 350)):
+        t = np.arange(400)[:, None] / 100
+        angles01 = 0.5 + 0.1 * np.sin(2 * np.pi * 0.5 * t + rng.uniform(0, 6, 11))
+        angles01[:unknown] = np.nan  # head and arms unseen in most of it: rejected
+        audio = rng.normal(5.0, 2.0, (400, 26))
+        takes[f"{subject}_t"] = [
+            clip_from_targets(angles01, audio, clip_id=f"{subject}_t__c000", profile=profile)
+        ]
+    ds = gds.open(write_dataset(tmp_path, takes))
+    assert ds.clip_ids("rejected") == ["bad_t__c000"]
+    mean, std = znorm_stats(ds, "bad")
+    audio = takes["bad_t"][0].audio.astype(np.float64)
+    np.testing.assert_allclose(mean, audio.mean(axis=0), rtol=1e-6)
+    np.testing.assert_allclose(std, audio.std(axis=0), rtol=1e-5)
+    with pytest.raises(InputError, match="no audio normalisation"):
+        znorm_stats(ds, "nobody")

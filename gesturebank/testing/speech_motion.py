@@ -7,8 +7,8 @@ motion follows the envelope with memory: m(t) = the envelope through a first-ord
 (time constant `tau_s`), delayed by `lag_s`; the arms and head move with m, the other joints
 stay put. A frame-wise model sees only e(t) and cannot know m(t); a recurrent one can.
 
-The takes are written with the real store (`write_take`, `write_manifest`, `write_dataset_json`,
-`write_splits`), so the result is a dataset folder like any built one.
+Each take is one clip, written with the real store and `datasets.refresh` (`testing.clips`), so
+the result is a dataset folder like any built one.
 """
 
 from __future__ import annotations
@@ -17,11 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.config import Config, SplitsConfig
-from gesturebank.datasets import store
-from gesturebank.datasets.splits import write_splits
-from gesturebank.extract.audio import fit_znorm
+from gesturebank.config import Config
 from gesturebank.robot import pepper
+from gesturebank.testing.clips import clip_from_targets, write_dataset
 
 RATE_HZ = 100.0
 # Normalised pose = REST + GAIN · signal; joints not listed stay at 0.5.
@@ -77,14 +75,11 @@ def write_synthetic_dataset(
 
     Every take has `unknown_s` seconds of unknown pose (NaN angles) in its middle.
     """
-    out = Path(out)
     rng = np.random.default_rng(seed)
     gains = rng.uniform(0.5, 2.0, n_features)
     profile = pepper.load_profile(pepper.DEFAULT_PROFILE)
     n = round(seconds * RATE_HZ)
-    config = Config()
-    digest = config.digest()
-    feats_by_subject: dict[str, list[np.ndarray]] = {}
+    takes = {}
     for s in range(subjects):
         subject = f"s{s}"
         offset = rng.normal(0.0, 3.0, n_features)
@@ -101,43 +96,11 @@ def write_synthetic_dataset(
                 angles01[:, pepper.INDEX[joint]] = rest + gain * m
             gap = round(unknown_s * RATE_HZ)
             angles01[n // 2 : n // 2 + gap] = np.nan
-            angles = pepper.denormalise(angles01, profile)
-            record = store.TakeRecord(
-                take_id=take_id,
-                subject=subject,
-                source=f"synthetic/{take_id}",
-                qc_status="accepted",
-                config_digest=digest,
-                duration_s=n / RATE_HZ,
-                n_frames=n,
-            )
-            arrays: dict[str, np.ndarray] = {
-                "angles": angles.astype(np.float32),
-                "angles01": angles01.astype(np.float32),
-                "audio": audio.astype(np.float32),
-                "times": np.arange(n) / RATE_HZ,
-            }
-            store.write_take(out, record, arrays)
-            feats_by_subject.setdefault(subject, []).append(audio)
-    table = store.write_manifest(out)
-    stats = {}
-    for subject, feats in feats_by_subject.items():
-        mean, std = fit_znorm(feats)
-        stats[subject] = {"mean": mean.tolist(), "std": std.tolist()}
-    mean, std = fit_znorm([f for fs in feats_by_subject.values() for f in fs])
-    stats["*"] = {"mean": mean.tolist(), "std": std.tolist()}
-    store.write_dataset_json(
-        out,
-        {
-            "tool": "gesturebank",
-            "config": config.to_json_dict(),
-            "joints": list(pepper.JOINTS),
-            "limits": profile.as_dict(),
-            "robot_profile": profile.name,
-            "rates": {"pose_hz": RATE_HZ, "audio_hz": RATE_HZ},
-            "audio_features": {"kind": "synthetic", "dim": n_features},
-            "normalisation": {"audio_znorm_by_subject": stats},
-        },
-    )
-    write_splits(out, table.to_pylist(), SplitsConfig(folds=subjects))
-    return out
+            clip = clip_from_targets(angles01, audio, clip_id=f"{take_id}__c000", profile=profile)
+            takes[take_id] = [clip]
+    # Judged by the real QC, which would reject this motion (not a person's: it holds still
+    # exactly in every pause of the speech), so its thresholds are opened for it.
+    qc = {"max_jitter_fraction": 1.0, "max_frozen_fraction": 1.0, "outlier_z": 1e9}
+    config = Config.model_validate({"splits": {"folds": subjects}, "qc": qc})
+    subject_of = {t: t.split("__")[0] for t in takes}
+    return write_dataset(Path(out), takes, subjects=subject_of, config=config)

@@ -1,0 +1,142 @@
+"""Where a take is cut into clips (DESIGN.md "Data flow", `clips`).
+
+A clip is a run of video frames that lies in one shot, follows one main speaker, has a usable
+pose at its first and last frame, contains no unusable stretch longer than `clips.max_gap_s`
+(shorter ones stay inside, masked), has audio, and lasts at least `clips.min_s`; clips longer
+than `clips.max_s` are split into equal parts. Every other stretch of the take becomes a dropped
+span with its reason, so the spans and clips together cover the whole take.
+
+Pure functions over per-frame arrays; times are the video's own timestamps (VFR-safe).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gesturebank.config import ClipsConfig
+
+
+@dataclass(frozen=True)
+class Span:
+    """Frames [start, stop) of the take, from start_s to end_s (seconds, the next frame's time
+    or the last frame's end); `reason` is empty for a clip."""
+
+    start: int
+    stop: int
+    start_s: float
+    end_s: float
+    reason: str = ""
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_s - self.start_s
+
+
+@dataclass(frozen=True)
+class Cutting:
+    clips: tuple[Span, ...]
+    dropped: tuple[Span, ...]
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) of each run of True."""
+    edges = np.diff(np.concatenate([[0], np.asarray(mask, np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def frame_ends(timestamps: np.ndarray) -> np.ndarray:
+    """(T,) when each frame ends: the next frame's time; the last lasts one median interval."""
+    t = np.asarray(timestamps, dtype=np.float64)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    return np.append(t[1:], t[-1] + dt) if len(t) else t
+
+
+def cut_clips(
+    *,
+    timestamps: np.ndarray,
+    cuts: np.ndarray,
+    speaker: np.ndarray,
+    present: np.ndarray,
+    usable: np.ndarray,
+    audio_span: tuple[float, float],
+    config: ClipsConfig,
+) -> Cutting:
+    """Clips and dropped spans of one take.
+
+    timestamps (T,) s; cuts (S,) s: first frame of each new shot; speaker (T,) int: the main
+    speaker's track id per frame (−1 none; a change of speaker ends a clip); present (T,) bool:
+    the main speaker was detected; usable (T,) bool: the repaired pose is good enough to keep
+    (frames that are not stay inside a clip, masked, when the stretch is short); audio_span:
+    (first, last) time the audio features cover.
+    """
+    cutter = _Cutter(np.asarray(timestamps, dtype=np.float64), np.asarray(present, bool), config)
+    t = cutter.t
+    speaker = np.asarray(speaker)
+    usable = np.asarray(usable, bool) & cutter.present & (speaker >= 0)
+    has_audio = (t >= audio_span[0]) & (t <= audio_span[1])
+    # Pieces no clip crosses: shots and changes of the main speaker.
+    starts = np.searchsorted(t, np.asarray(cuts, dtype=np.float64), side="left")
+    boundary = np.zeros(len(t), dtype=bool)
+    boundary[starts[(starts > 0) & (starts < len(t))]] = True
+    boundary[1:] |= speaker[1:] != speaker[:-1]
+    edges = [0, *np.flatnonzero(boundary).tolist(), len(t)]
+    for a0, b0 in itertools.pairwise(edges):
+        for a, b in _runs(~has_audio[a0:b0]):
+            cutter.drop(a0 + a, a0 + b, "no audio")
+        for a, b in _runs(has_audio[a0:b0]):
+            cutter.piece(a0 + a, a0 + b, usable)
+    return Cutting(
+        tuple(sorted(cutter.clips, key=lambda s: s.start)),
+        tuple(sorted(cutter.dropped, key=lambda s: s.start)),
+    )
+
+
+class _Cutter:
+    """Collects the clips and dropped spans of one take."""
+
+    def __init__(self, t: np.ndarray, present: np.ndarray, config: ClipsConfig) -> None:
+        self.t, self.ends, self.present, self.config = t, frame_ends(t), present, config
+        self.clips: list[Span] = []
+        self.dropped: list[Span] = []
+
+    def span(self, a: int, b: int, reason: str = "") -> Span:
+        return Span(int(a), int(b), float(self.t[a]), float(self.ends[b - 1]), reason)
+
+    def drop(self, a: int, b: int, reason: str = "") -> None:
+        """[a, b) gives no clip; without a reason it was unusable (absent or unseen)."""
+        if b > a:
+            if not reason:
+                reason = (
+                    "no usable pose (torso unseen, or head and both arms unseen)"
+                    if self.present[a:b].any()
+                    else "main speaker absent"
+                )
+            self.dropped.append(self.span(a, b, reason))
+
+    def piece(self, a0: int, b0: int, usable: np.ndarray) -> None:
+        """Cut [a0, b0) at unusable stretches longer than max_gap_s; keep the parts ≥ min_s."""
+        c = self.config
+        runs = [[a0 + a, a0 + b] for a, b in _runs(usable[a0:b0])]
+        merged: list[list[int]] = []
+        for a, b in runs:  # usable runs separated by a short gap make one clip
+            if merged and self.t[a] - self.ends[merged[-1][1] - 1] <= c.max_gap_s:
+                merged[-1][1] = b
+            else:
+                merged.append([a, b])
+        last = a0
+        for a, b in merged:
+            self.drop(last, a)
+            last = b
+            whole = self.span(a, b)
+            if whole.duration_s < c.min_s:
+                self.drop(a, b, f"too short: {whole.duration_s:.2f} s < {c.min_s:g} s")
+                continue
+            parts = 1 if c.max_s is None else math.ceil(whole.duration_s / c.max_s - 1e-9)
+            inner = np.searchsorted(self.t, np.linspace(whole.start_s, whole.end_s, parts + 1))
+            edges = [a, *inner[1:-1].tolist(), b]
+            self.clips += [self.span(p, q) for p, q in itertools.pairwise(edges)]
+        self.drop(last, b0)

@@ -1,0 +1,405 @@
+"""One take through the whole pipeline into clips (DESIGN.md "Data flow").
+
+extract (decode, detect everybody + shot cuts — cached —, the main speaker per shot, audio) →
+repair the main speaker's keypoints → cut the take into clips (shots, speaker changes, absences
+and unusable stretches, audio, `clips.min_s`) → per clip: lift, Pepper angles (masked where a
+limb was not seen), the 100 Hz processing, audio features on the same clock, QC metrics and the
+absolute verdict. The dataset-relative verdicts come later, over every clip (`datasets.refresh`).
+Raises on failure; the builder turns that into a `failed` record.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from gesturebank.config import Config
+from gesturebank.datasets.clip import Clip
+from gesturebank.datasets.cut import Span, cut_clips, frame_ends
+from gesturebank.datasets.process import process_angles
+from gesturebank.datasets.store import ClipRecord, TakeRecord
+from gesturebank.datasets.takes import Take
+from gesturebank.errors import InputError
+from gesturebank.extract.video import Audio
+from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.robot import pepper
+from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
+
+if TYPE_CHECKING:
+    from gesturebank.extract.tracking import TrackReport
+
+_I = COCO17.index
+
+
+@dataclass(frozen=True)
+class BuiltTake:
+    """A take's record, its clips and its preview strip (JPEG bytes)."""
+
+    record: TakeRecord
+    clips: tuple[Clip, ...]
+    preview: bytes | None
+    detect_s: float
+
+
+@dataclass(frozen=True)
+class _View:
+    """What the clips are cut from: the main speaker on the take's (reference) frames.
+
+    valid / repaired: (T, 17) COCO-17 bools; speaker: (T,) main track id; lift(a, b): the 3D
+    pose of frames [a, b) (lifted per clip for one camera, sliced for several)."""
+
+    pose2d: Pose2D
+    valid: np.ndarray
+    repaired: np.ndarray
+    repairs: dict[str, int]
+    cuts: np.ndarray
+    speaker: np.ndarray
+    n_people: np.ndarray
+    change: np.ndarray
+    audio: Audio
+    lift: Callable[[int, int], Pose3D]
+    detector: str
+    lifter: str
+    video_fps: float
+    detect_s: float
+    tracking: dict[str, Any]
+    preview: tuple[tuple[float, np.ndarray], ...]
+
+
+def measure_digest(config: Config) -> str:
+    """What the stored metrics were measured with (qc.metrics.measure_settings)."""
+    from gesturebank.qc.metrics import measure_settings
+
+    text = json.dumps(
+        {"qc": measure_settings(config.qc), "robot": config.robot.profile}, sort_keys=True
+    )
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
+def _tracking_json(report: TrackReport) -> dict[str, Any]:
+    """The main-speaker report for the take record, without its per-frame arrays (the clips
+    hold what matters of them; a long take would make the record large)."""
+    data = report.to_json_dict()
+    return {k: v for k, v in data.items() if k not in ("main_ids", "n_people")}
+
+
+def _coco17_mask(mask: np.ndarray, skeleton: str) -> np.ndarray:
+    """`(T, K)` bools of `skeleton` → `(T, 17)` COCO-17 (joints it lacks: False)."""
+    out = get_skeleton(skeleton).convert(mask[..., None].astype(np.float32), COCO17)[..., 0]
+    return np.nan_to_num(out, nan=0.0) > 0.5
+
+
+def still_spiking(points: np.ndarray, valid: np.ndarray, max_spike: float) -> np.ndarray:
+    """`(T, 17)` COCO-17 keypoints of `points (T, 17, C)` that, seen (`valid`), still jump out
+    and back by more than `max_spike` shoulder widths in one frame (what repair left)."""
+    from gesturebank.qc.metrics import spike_sizes
+
+    seen = np.where(valid[..., None], np.asarray(points, np.float64), np.nan)
+    out = np.zeros(valid.shape, dtype=bool)
+    with np.errstate(invalid="ignore"):
+        out[1:-1] = spike_sizes(seen, COCO17.joints) > max_spike
+    return out
+
+
+def usable_frames(valid: np.ndarray) -> np.ndarray:
+    """`(T,)` frames whose pose is worth keeping: both shoulders seen, and the face or an elbow
+    (`valid (T, 17)` COCO-17). Other frames inside a clip are masked; long runs end it."""
+    torso = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
+    face = valid[:, [_I["nose"], _I["left_eye"], _I["right_eye"]]].all(axis=1)
+    arm = valid[:, _I["left_elbow"]] | valid[:, _I["right_elbow"]]
+    return np.asarray(torso & (face | arm))
+
+
+def _single_view(take: Take, config: Config) -> _View:
+    from gesturebank.extract.pipeline import extract_take
+    from gesturebank.lift import LIFTERS
+    from gesturebank.qc.repair import repair_pose2d, validity
+
+    if config.lifter.name == "multiview":
+        raise InputError(
+            f"{take.video}: the multiview lifter needs a multi-camera take (a folder with a "
+            "calibration file and two or more videos)"
+        )
+    ext = extract_take(take.video, config)
+    if ext.audio is None:
+        raise InputError(f"{take.video}: no audio track and no {take.video.stem}.wav beside it")
+    pose, report = repair_pose2d(ext.tracked.pose, config=config.repair)
+    lifter = LIFTERS.create(config.lifter.name, config)
+    valid = _coco17_mask(
+        validity(pose, visible_confidence=config.repair.visible_confidence), pose.skeleton
+    )
+    xy = to_coco17(pose.keypoints, pose.skeleton)[..., :2]
+    valid &= ~still_spiking(xy, valid, config.repair.max_spike)
+    return _View(
+        pose2d=pose,
+        valid=valid,
+        repaired=_coco17_mask(report.repaired, pose.skeleton),
+        repairs=report.counts(),
+        cuts=ext.shots.cuts,
+        speaker=ext.tracked.report.main_ids,
+        n_people=ext.multi.present.sum(axis=1),
+        change=ext.shots.change,
+        audio=ext.audio,
+        lift=lambda a, b: lifter.lift(pose.frames(a, b)),
+        detector=ext.info.detector,
+        lifter=config.lifter.name,
+        video_fps=ext.info.video.fps,
+        detect_s=ext.info.detect_seconds,
+        tracking=_tracking_json(ext.tracked.report),
+        preview=ext.preview,
+    )
+
+
+def _multi_view(take: Take, config: Config) -> _View:
+    """A multi-camera take: every camera detected and repaired, triangulated by the multi-view
+    lifter. The reference camera's 2D pose, clock, shots and speaker stand for the take. The
+    audio is a .wav beside the videos, else the camera track with the most energy, moved onto
+    the reference clock by the camera offsets the lifter used."""
+    from gesturebank.extract.pipeline import extract_take
+    from gesturebank.extract.video import read_audio
+    from gesturebank.lift.multiview.cameras import CameraGroup
+    from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
+    from gesturebank.qc.repair import repair_pose2d, repair_pose3d
+
+    assert take.calibration is not None
+    cameras = CameraGroup.load(take.calibration)
+    videos = match_videos(cameras, take.videos)
+    exts = [extract_take(v, config) for v in videos]
+    repaired = [repair_pose2d(e.tracked.pose, config=config.repair) for e in exts]
+    poses = [pose for pose, _ in repaired]
+    audios = [e.audio for e in exts]
+    pose3d, report = MultiviewLifter(config, cameras=cameras).lift_with_report(poses, audios=audios)
+    pose3d, report3d = repair_pose3d(pose3d, config=config.repair)
+    ref = config.multiview.reference_camera
+    if take.audio is not None:
+        audio = read_audio(take.audio, config.audio.sample_rate)
+        if audio is None:
+            raise InputError(f"{take.audio}: no audio in this file")
+        audio = audio._replace(start_s=float(poses[ref].timestamps[0]))  # recorded with the video
+    else:
+        tracks = [(c, a) for c, a in enumerate(audios) if a is not None and len(a.signal)]
+        if not tracks:
+            raise InputError(
+                f"{take.video}: no camera has an audio track and no .wav is beside them"
+            )
+        c, best = max(tracks, key=lambda ca: float(np.mean(np.square(ca[1].signal))))
+        audio = best._replace(start_s=best.start_s - float(report.offsets_s[c]))
+    # A triangulated joint counts as seen; the repair's counts are those of the 3D pose.
+    valid = np.isfinite(pose3d.joints).all(axis=-1) & (np.nan_to_num(pose3d.confidence) > 0)
+    e = exts[ref]
+    return _View(
+        pose2d=poses[ref],
+        valid=valid,
+        repaired=report3d.repaired,
+        repairs=report3d.counts(),
+        cuts=e.shots.cuts,
+        speaker=e.tracked.report.main_ids,
+        n_people=e.multi.present.sum(axis=1),
+        change=e.shots.change,
+        audio=audio,
+        lift=lambda a, b: pose3d.frames(a, b),
+        detector=e.info.detector,
+        lifter="multiview",
+        video_fps=e.info.video.fps,
+        detect_s=sum(x.info.detect_seconds for x in exts),
+        tracking=_tracking_json(e.tracked.report),
+        preview=e.preview,
+    )
+
+
+def audio_clock(
+    pose_t: np.ndarray, audio_start_s: float, n_frames: int, hop_s: float, win_s: float
+) -> tuple[int, int, np.ndarray]:
+    """Audio frames whose window centre lies within the pose's time span.
+
+    Frame i covers [start + i·hop, start + i·hop + win) (extract.audio), so its centre is at
+    start + i·hop + win/2. Returns (i0, i1, times (i1 − i0 + 1,)) — the common span of audio and
+    video on the audio frame clock; InputError when they do not overlap.
+    """
+    c0 = audio_start_s + win_s / 2
+    eps = 1e-9  # timestamps that land on a frame centre up to float rounding count as inside
+    i0 = max(0, math.ceil((pose_t[0] - c0) / hop_s - eps))
+    i1 = min(n_frames - 1, math.floor((pose_t[-1] - c0) / hop_s + eps))
+    if i1 < i0:
+        raise InputError("audio and video do not overlap in time")
+    return i0, i1, c0 + hop_s * np.arange(i0, i1 + 1)
+
+
+def _clip(
+    view: _View,
+    span: Span,
+    clip_id: str,
+    take_id: str,
+    feats: np.ndarray,
+    config: Config,
+    profile: pepper.RobotProfile,
+) -> Clip:
+    """The arrays of frames [span.start, span.stop) on the clip's own clock."""
+    from gesturebank.qc.repair import repair_pose3d
+    from gesturebank.robot.retarget import angle_support, pepper_angles
+
+    a, b = span.start, span.stop
+    ts = view.pose2d.timestamps[a:b]
+    a_cfg = config.audio
+    i0, i1, times = audio_clock(ts, view.audio.start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
+    pose3d = view.lift(a, b)
+    if view.lifter != "multiview":  # a lifter's own glitches (the multi-view one was repaired)
+        pose3d, _ = repair_pose3d(pose3d, config=config.repair)
+    valid = view.valid[a:b] & ~still_spiking(
+        pose3d.joints, view.valid[a:b], config.repair.max_spike
+    )
+    raw = pepper_angles(pose3d)
+    raw[~angle_support(valid)] = np.nan
+    processed = process_angles(
+        raw=raw, timestamps=ts, clock=times, processing=config.processing, profile=profile
+    )
+    start_s = float(times[0])
+    return Clip(
+        clip_id=clip_id,
+        take_id=take_id,
+        start_s=start_s,
+        angles=processed.angles,
+        angles01=processed.angles01,
+        mask=processed.mask,
+        audio=feats[i0 : i1 + 1],
+        times=times - start_s,
+        raw_angles=raw,
+        timestamps=ts - start_s,
+        pose2d=view.pose2d.frames(a, b, origin_s=start_s),
+        pose3d=pose3d.frames(0, len(pose3d), origin_s=start_s),
+        valid=valid,
+        repaired=view.repaired[a:b],
+        n_people=view.n_people[a:b].astype(np.int16),
+        change=np.asarray(view.change[a:b], dtype=np.float32),
+    )
+
+
+def _preview_jpeg(frames: tuple[tuple[float, np.ndarray], ...]) -> bytes | None:
+    """The preview frames side by side as one JPEG (the dashboard draws skeletons over it)."""
+    import cv2
+
+    if not frames:
+        return None
+    height = min(f.shape[0] for _, f in frames)
+    strip = np.hstack([f[:height] for _, f in frames])
+    ok, jpg = cv2.imencode(
+        ".jpg", cv2.cvtColor(strip, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 80]
+    )
+    return jpg.tobytes() if ok else None
+
+
+def build_take(take: Take, source: str, config: Config) -> BuiltTake:
+    """Every clip of one take, its record (clips, dropped spans, QC metrics and absolute
+    verdicts) and its preview; raises a GesturebankError when the take cannot be built."""
+    from gesturebank.extract.audio import features
+    from gesturebank.qc.checks import absolute_reasons
+    from gesturebank.qc.metrics import clip_metrics
+
+    view = _multi_view(take, config) if take.multi_camera else _single_view(take, config)
+    profile = pepper.load_profile(config.robot.profile)
+    feats = features(view.audio.signal, view.audio.sample_rate, config.audio)
+    audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate
+    ts = view.pose2d.timestamps
+    present = np.isfinite(view.pose2d.keypoints[..., 0]).any(axis=1)
+    cutting = cut_clips(
+        timestamps=ts,
+        cuts=view.cuts,
+        speaker=view.speaker,
+        present=present,
+        usable=usable_frames(view.valid),
+        audio_span=(float(view.audio.start_s), float(audio_end)),
+        config=config.clips,
+    )
+    measured = measure_digest(config)
+    clips: list[Clip] = []
+    rows: list[ClipRecord] = []
+    for k, span in enumerate(cutting.clips):
+        clip = _clip(view, span, f"{take.take_id}__c{k:03d}", take.take_id, feats, config, profile)
+        metrics = clip_metrics(clip, profile=profile, qc=config.qc)
+        reasons = absolute_reasons(metrics, config.qc)
+        clips.append(clip)
+        rows.append(
+            ClipRecord(
+                clip_id=clip.clip_id,
+                kind="clip",
+                start_s=clip.start_s,
+                end_s=clip.start_s + clip.duration_s,
+                qc_status="rejected" if reasons else "accepted",
+                qc_reasons=tuple(reasons),
+                duration_s=clip.duration_s,
+                n_frames=len(clip.times),
+                metrics=metrics,
+                repairs={
+                    "keypoints": int(clip.repaired.sum()),
+                    "frames": int(clip.repaired.any(axis=1).sum()),
+                },
+                masked={j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)},
+                measured=measured,
+            )
+        )
+    for k, span in enumerate(cutting.dropped):
+        rows.append(
+            ClipRecord(
+                f"{take.take_id}__s{k:03d}",
+                "span",
+                span.start_s,
+                span.end_s,
+                "rejected",
+                (span.reason,),
+            )
+        )
+    rows.sort(key=lambda r: r.start_s)
+    ends = frame_ends(ts)
+    audio_stats = _audio_sums([c.audio for c in clips], feats.shape[1])
+    record = TakeRecord(
+        take_id=take.take_id,
+        subject=take.subject,
+        source=source,
+        config_digest=config.digest(*CONTENT_SECTIONS),
+        detector=view.detector,
+        lifter=view.lifter,
+        video_fps=view.video_fps,
+        seconds=float(ends[-1] - ts[0]),
+        visible_s=float(np.sum((ends - ts)[present])),
+        clips=tuple(rows),
+        tracking={**view.tracking, "repairs": view.repairs},
+        audio=audio_stats,
+        preview_times=tuple(t for t, _ in view.preview),
+        traits=take.traits,
+    )
+    return BuiltTake(record, tuple(clips), _preview_jpeg(view.preview), view.detect_s)
+
+
+def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
+    """Frame count and per-feature sums of every clip's features: the z-norm stats of a subject
+    combine these over its takes without loading any clip again."""
+    stacked = np.concatenate(feats).astype(np.float64) if feats else np.zeros((0, dim))
+    return {
+        "n": len(stacked),
+        "sum": stacked.sum(axis=0).tolist(),
+        "sumsq": np.square(stacked).sum(axis=0).tolist(),
+    }
+
+
+# Config sections that change what a take contains (the build section only changes how, the qc
+# and splits sections only how it is judged and split).
+CONTENT_SECTIONS = (
+    "video",
+    "detector",
+    "shots",
+    "tracking",
+    "repair",
+    "clips",
+    "lifter",
+    "geometric",
+    "multiview",
+    "robot",
+    "processing",
+    "audio",
+)

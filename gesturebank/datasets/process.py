@@ -1,0 +1,56 @@
+"""Raw Pepper angles at the video's timestamps → the dataset's 100 Hz angles (DESIGN.md "Data
+flow", `datasets (process)`): interpolated onto the clip's frame clock (short gaps only), the
+zero-phase Butterworth low-pass of §4.2.3, clamped to the robot's limits, normalised to [0, 1]
+(Eq. 3.13–3.14). The builder and the QC's corruption benchmark use this one function.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gesturebank.config import ProcessingConfig
+from gesturebank.filters import GapReport, butter_lowpass, interpolate_at
+from gesturebank.robot import pepper
+
+
+@dataclass(frozen=True)
+class ProcessedAngles:
+    """angles, angles01 (N, 11) float32 (NaN where unknown), mask (N, 11) bool (known), the
+    gaps interpolation met, and the share of known values that clamping held at a limit."""
+
+    angles: np.ndarray
+    angles01: np.ndarray
+    mask: np.ndarray
+    gaps: GapReport
+    clamped_fraction: float
+
+
+def process_angles(
+    *,
+    raw: np.ndarray,
+    timestamps: np.ndarray,
+    clock: np.ndarray,
+    processing: ProcessingConfig,
+    profile: pepper.RobotProfile,
+) -> ProcessedAngles:
+    """`raw (T, 11)` rad at `timestamps (T,)` → the processed angles on `clock (N,)` (seconds,
+    uniform at processing.rate_hz). NaN in `raw` (an unseen limb) stays NaN unless it is a gap
+    of at most processing.max_gap_s; each finite run is low-passed on its own."""
+    p = processing
+    angles, gaps = interpolate_at(
+        np.asarray(raw, dtype=np.float64), timestamps, clock, max_gap_s=p.max_gap_s
+    )
+    smooth = butter_lowpass(angles, p.rate_hz, p.cutoff_hz, p.butter_order)
+    # clamped in the stored dtype: float32(limit) can lie outside the float64 limit
+    clamped = pepper.clamp(smooth.astype(np.float32), profile)
+    finite = np.isfinite(smooth)
+    at_limit = finite & ((smooth <= profile.lower) | (smooth >= profile.upper))
+    return ProcessedAngles(
+        angles=clamped.astype(np.float32),
+        angles01=pepper.normalise(clamped, profile).astype(np.float32),
+        mask=finite,
+        gaps=gaps,
+        clamped_fraction=float(at_limit.sum() / max(1, finite.sum())),
+    )

@@ -1,0 +1,153 @@
+"""Bring a dataset folder's shared files up to date with its take records: the QC verdicts over
+every clip (dataset-relative ones need them all), manifest.parquet, dataset.json (audio
+normalisation stats, per-take summary) and the splits. `build-dataset` calls it after the takes
+are built, `gesturebank qc` after changing thresholds; the QC itself stays pure over metrics.
+
+Metrics are measured by the workers as each take is built; only clips whose metrics were
+measured with other measuring settings (`qc.analysis_rate_hz`, …) are loaded and measured again.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from gesturebank import __version__
+from gesturebank.config import Config
+from gesturebank.datasets import store
+from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
+from gesturebank.datasets.splits import write_splits
+
+log = logging.getLogger(__name__)
+
+
+def _remeasure(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecord:
+    """The record with every clip measured with the current settings."""
+    from gesturebank.datasets.clip import Clip
+    from gesturebank.qc.metrics import clip_metrics
+    from gesturebank.robot import pepper
+
+    digest = measure_digest(config)
+    if all(c.measured == digest for c in record.data_clips):
+        return record
+    profile = pepper.load_profile(config.robot.profile)
+    clips = []
+    for c in record.clips:
+        if c.kind == "clip" and c.measured != digest:
+            path = store.clip_npz(out, record.take_id, c.clip_id)
+            with np.load(path, allow_pickle=False) as data:
+                clip = Clip.from_arrays({k: data[k] for k in data.files})
+            c = replace(
+                c, metrics=clip_metrics(clip, profile=profile, qc=config.qc), measured=digest
+            )
+        clips.append(c)
+    return store.with_clips(record, clips)
+
+
+def _judge(records: list[store.TakeRecord], config: Config) -> list[store.TakeRecord]:
+    """Records with every clip's verdict from the absolute and dataset-relative checks."""
+    from gesturebank.qc.checks import verdicts
+
+    metrics = {c.clip_id: c.metrics for r in records for c in r.data_clips}
+    result = verdicts(metrics, config.qc)
+    judged = []
+    for r in records:
+        clips = [
+            replace(c, qc_status=result[c.clip_id][0], qc_reasons=tuple(result[c.clip_id][1]))
+            if c.kind == "clip"
+            else c
+            for c in r.clips
+        ]
+        judged.append(store.with_clips(r, clips))
+    return judged
+
+
+def audio_znorm(records: Sequence[store.TakeRecord]) -> dict[str, store.ZNorm]:
+    """Mean and std of every audio feature per subject and over all ("*"), from the per-take
+    sums (every clip's frames weigh the same; a rejected clip's motion is bad, its audio is not)."""
+    sums: dict[str, list[np.ndarray]] = {}
+    for r in records:
+        if r.failed or not r.audio.get("n"):
+            continue
+        for key in (r.subject, "*"):
+            n, s, q = r.audio["n"], np.asarray(r.audio["sum"]), np.asarray(r.audio["sumsq"])
+            if key in sums:
+                sums[key] = [sums[key][0] + n, sums[key][1] + s, sums[key][2] + q]
+            else:
+                sums[key] = [np.asarray(float(n)), s, q]
+    out = {}
+    for key, (n, s, q) in sorted(sums.items()):
+        mean = s / n
+        std = np.sqrt(np.maximum(q / n - mean**2, 0.0))
+        out[key] = store.ZNorm(mean=mean.tolist(), std=std.tolist())
+    return out
+
+
+def _text(record: store.TakeRecord) -> str:
+    return json.dumps(record.to_json_dict(), sort_keys=True)
+
+
+def _summary(record: store.TakeRecord) -> store.TakeSummary:
+    return store.TakeSummary(
+        status="failed" if record.failed else "built",
+        clips=len(record.data_clips),
+        accepted=sum(c.qc_status == "accepted" for c in record.clips),
+        seconds=record.seconds,
+        visible_s=record.visible_s,
+        usable_s=record.usable_s,
+    )
+
+
+def refresh(
+    out: Path,
+    config: Config,
+    *,
+    take_ids: Sequence[str] | None = None,
+    videos_dir: Path | None = None,
+) -> list[str]:
+    """Re-judge, then rewrite the records whose verdicts changed, manifest.parquet, dataset.json
+    and the splits of the dataset in `out`, for the takes `take_ids` (default: every take
+    record in the folder). Returns notes (e.g. why no subject-independent split was written)."""
+    from gesturebank.extract.audio import feature_dim
+    from gesturebank.robot import pepper
+
+    out = Path(out)
+    before = store.records(out, take_ids)
+    measured = [_remeasure(out, r, config) for r in before]
+    records = _judge(measured, config)
+    for old, new in zip(before, records, strict=True):
+        if _text(new) != _text(old):  # as text: NaN metrics compare equal
+            store.write_record(out, new)
+    table = store.write_manifest(out, records)
+    statuses = table.column("qc_status").to_pylist()
+    if videos_dir is None:
+        try:
+            videos_dir = Path(store.read_dataset_json(out).videos_dir)
+        except Exception:  # no earlier dataset.json: the folder itself
+            videos_dir = out
+    profile = pepper.load_profile(config.robot.profile)
+    info = store.DatasetInfo(
+        tool_version=__version__,
+        videos_dir=str(Path(videos_dir).resolve()),
+        config=config,
+        config_digest=config.digest(*CONTENT_SECTIONS),
+        joints=list(pepper.JOINTS),
+        limits=profile.as_dict(),
+        robot_profile=profile.name,
+        rates=store.Rates(pose_hz=config.processing.rate_hz, audio_hz=1 / config.audio.winstep_s),
+        audio_features=store.AudioFeatures(
+            kind=config.audio.features,
+            dim=feature_dim(config.audio),
+            params=config.audio.model_dump(mode="json"),
+        ),
+        audio_znorm_by_subject=audio_znorm(records),
+        clip_counts={s: statuses.count(s) for s in store.STATUSES},
+        takes={r.take_id: _summary(r) for r in records},
+    )
+    store.write_dataset_json(out, info)
+    return write_splits(out, table.to_pylist(), config.splits)

@@ -1,0 +1,114 @@
+"""Where a take is cut into clips: shots, speaker changes, absences, audio, min/max length."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from gesturebank.config import ClipsConfig
+from gesturebank.datasets.cut import cut_clips
+
+
+def cut(n: int, fps: float = 30.0, **kw):
+    t = np.arange(n) / fps
+    args = {
+        "timestamps": t,
+        "cuts": np.zeros(0),
+        "speaker": np.zeros(n, int),
+        "present": np.ones(n, bool),
+        "usable": np.ones(n, bool),
+        "audio_span": (0.0, t[-1]),
+        "config": ClipsConfig(),
+    }
+    args.update(kw)
+    return t, cut_clips(**args)
+
+
+def spans(result) -> list[tuple[int, int, str]]:
+    return [(s.start, s.stop, s.reason) for s in (*result.clips, *result.dropped)]
+
+
+def test_an_uncut_take_is_one_clip() -> None:
+    _, r = cut(300)
+    assert [(c.start, c.stop) for c in r.clips] == [(0, 300)] and not r.dropped
+    assert r.clips[0].duration_s == pytest.approx(10.0)
+
+
+def test_a_clip_never_spans_a_shot_cut_or_a_speaker_change() -> None:
+    _t, r = cut(600, cuts=np.array([100 / 30]))
+    assert [(c.start, c.stop) for c in r.clips] == [(0, 100), (100, 600)]
+    speaker = np.zeros(600, int)
+    speaker[400:] = 7
+    _, r = cut(600, speaker=speaker)
+    assert [(c.start, c.stop) for c in r.clips] == [(0, 400), (400, 600)]
+
+
+def test_short_absences_stay_inside_long_ones_cut() -> None:
+    present = np.ones(900, bool)
+    present[200:210] = False  # 0.33 s ≤ max_gap_s 0.5: masked inside the clip
+    present[500:530] = False  # 1 s: the clip ends
+    _, r = cut(900, present=present)
+    assert [(c.start, c.stop) for c in r.clips] == [(0, 500), (530, 900)]
+    assert [(d.start, d.stop, d.reason) for d in r.dropped] == [(500, 530, "main speaker absent")]
+
+
+def test_unusable_but_present_has_its_own_reason() -> None:
+    usable = np.ones(600, bool)
+    usable[:60] = False
+    _, r = cut(600, usable=usable)
+    assert r.dropped[0].start == 0 and r.dropped[0].stop == 60
+    assert r.dropped[0].reason.startswith("no usable pose")
+
+
+def test_too_short_pieces_are_dropped_with_their_length() -> None:
+    _, r = cut(600, cuts=np.array([2.0]))  # a 2 s shot, then an 18 s one
+    assert [(c.start, c.stop) for c in r.clips] == [(60, 600)]
+    assert r.dropped[0].reason == "too short: 2.00 s < 3 s"
+
+
+def test_no_audio_is_dropped() -> None:
+    _t, r = cut(600, audio_span=(0.0, 12.0))
+    assert r.clips[-1].end_s <= 12.0 + 1 / 30
+    assert r.dropped[-1].reason == "no audio" and r.dropped[-1].stop == 600
+
+
+def test_max_s_splits_into_equal_parts() -> None:
+    _, r = cut(3000, config=ClipsConfig(max_s=30.0))  # 100 s → 4 parts of 25 s
+    assert len(r.clips) == 4
+    assert [c.duration_s for c in r.clips] == pytest.approx([25.0] * 4, abs=0.05)
+    assert r.clips[0].stop == r.clips[1].start
+
+
+def test_frame_rate_does_not_change_the_cut() -> None:
+    """The same take at 30 and 60 fps: the same clips in seconds."""
+    results = []
+    for fps in (30.0, 60.0):
+        n = int(20 * fps)
+        t = np.arange(n) / fps
+        present = ~((t >= 7.0) & (t < 8.0))
+        _, r = cut(n, fps, present=present, cuts=np.array([15.0]))
+        results.append([(round(c.start_s, 1), round(c.end_s, 1)) for c in r.clips])
+    assert results[0] == results[1] == [(0.0, 7.0), (8.0, 15.0), (15.0, 20.0)]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(st.booleans(), min_size=30, max_size=400),
+    st.lists(st.integers(0, 399), max_size=4),
+    st.integers(0, 3),
+)
+def test_clips_and_spans_cover_every_frame_once(present, cut_frames, speakers) -> None:
+    n = len(present)
+    rng = np.random.default_rng(len(present) + speakers)
+    speaker = np.repeat(rng.integers(0, speakers + 1, 4), -(-n // 4))[:n]
+    _t, r = cut(n, present=np.array(present), cuts=np.array(cut_frames) / 30.0, speaker=speaker)
+    covered = np.zeros(n, int)
+    for s in (*r.clips, *r.dropped):
+        covered[s.start : s.stop] += 1
+    assert (covered == 1).all()
+    for c in r.clips:
+        assert c.duration_s >= 3.0 - 1e-9
+        assert present[c.start] and present[c.stop - 1]  # clips start and end on a seen speaker
+        assert len(set(speaker[c.start : c.stop])) == 1
+        inside = [f for f in cut_frames if c.start < f < c.stop]
+        assert not inside
