@@ -1,14 +1,17 @@
-"""The QC dashboard: static HTML pages that work offline (DESIGN.md "Dataset on disk").
+"""The QC dashboard of a clip dataset: static HTML pages that work offline.
 
-    OUT/qc/index.html           sortable table of takes (status, reasons, metrics); jerk per take
-                                (as Fig. 4.7) and per joint (Fig. 4.9); spectra before/after the
-                                low-pass (Fig. 4.10)
-    OUT/qc/takes/<id>.html      why a take was rejected; its metrics; raw vs processed angles with
-                                the robot's limits (Fig. 4.11); its spectra and jerk per joint;
-                                video frames with the 2D skeleton; 3D skeleton views
+    OUT/qc/index.html          usable and visible seconds, clips by status, a sortable table of
+                               takes, the reasons time was lost, jerk per clip (as Fig. 4.7) and
+                               mean jerk per joint (as Fig. 4.9)
+    OUT/qc/takes/<id>.html     the take's timeline (clips kept / rejected, spans dropped, shot
+                               cuts, main speaker), the preview strip with the main speaker's 2D
+                               skeleton, and per clip its verdict, metrics and the 11 angles raw
+                               vs processed with the robot's limits, masked spans and repairs
 
-Plots are matplotlib figures embedded as PNG data URIs; the only script is a few lines sorting
-the table. A Content-Security-Policy forbids every network request. Degrees in all plots.
+Pages are drawn from the records and clips as they are (`datasets.refresh` judges the clips).
+Each page embeds its data as JSON and one small script draws the charts as SVG from it; a
+Content-Security-Policy forbids every request. A take page carries a key of what it shows and is
+only rendered again when the key changes, so an unchanged dataset costs a read of its records.
 """
 
 from __future__ import annotations
@@ -16,368 +19,770 @@ from __future__ import annotations
 import base64
 import hashlib
 import html
-import io
+import itertools
 import json
 import logging
-import multiprocessing
-import os
+import math
 import re
+from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from importlib import resources
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 import numpy as np
-from matplotlib.figure import Figure
 
-from gesturebank.config import SplitsConfig
 from gesturebank.datasets import store
+from gesturebank.datasets.clip import Clip
+from gesturebank.datasets.cut import frame_ends
+from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
-from gesturebank.qc.checks import QCConfig, dataset_profile, run_qc
-from gesturebank.qc.metrics import spectrum, uniform
-from gesturebank.robot.pepper import JOINTS, RobotProfile
+from gesturebank.robot.retarget import NEEDS
 from gesturebank.skeletons import COCO17, COCO17_BONES, to_coco17
 
 log = logging.getLogger(__name__)
 
 QC_DIR = "qc"
+PAGES_DIR = "takes"
+PLOT_RATE_HZ = 25.0  # at most this many points per second of a plotted series
 _CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'"
-_STATUS_COLOUR = {"accepted": "#2e7d32", "rejected": "#c62828", "failed": "#6d4c41"}
-# Metrics shown in the table: (key, header, format, scale).
-_COLUMNS = (
-    ("duration_s", "duration s", "{:.2f}", 1.0),
-    ("jerk_raw", "raw jerk rad²/s⁵", "{:.3g}", 1.0),
-    ("jerk", "jerk rad²/s⁵", "{:.3g}", 1.0),
-    ("missing_keypoints_fraction", "missing %", "{:.0f}", 100.0),
-    ("keypoint_gap_s", "gap s", "{:.2f}", 1.0),
-    ("bone_cv_max", "bone CV %", "{:.0f}", 100.0),
-    ("swap_events", "swaps", "{:.0f}", 1.0),
-    ("spike_max", "spike", "{:.2f}", 1.0),
-    ("frozen_fraction", "frozen %", "{:.0f}", 100.0),
-    ("jitter_fraction", "jitter %", "{:.0f}", 100.0),
-    ("limit_frames_fraction", "at limit %", "{:.0f}", 100.0),
-    ("motion_range", "motion °", "{:.0f}", float(np.degrees(1.0))),
+_KEY = re.compile(r"<!-- page-key (\w+) -->")
+_NUMBER = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?(?:e[-+]?\d+)?(?![A-Za-z])")
+_SHOULDERS = ("left_shoulder", "right_shoulder")  # every angle needs both (retarget.NEEDS)
+
+# Metrics of a clip as shown: key, label, format of the scaled value, scale.
+_METRICS = (
+    ("duration_s", "duration", "{:.2f} s", 1.0),
+    ("jerk_raw", "raw jerk", "{:.3g} rad²/s⁵", 1.0),
+    ("jerk", "processed jerk", "{:.3g} rad²/s⁵", 1.0),
+    ("head_unknown_fraction", "head unseen", "{:.0f} %", 100.0),
+    ("arms_unknown_fraction", "both arms unseen", "{:.0f} %", 100.0),
+    ("torso_gap_s", "longest torso gap", "{:.2f} s", 1.0),
+    ("bone_cv_max", "bone length variation", "{:.1f} %", 100.0),
+    ("limit_frames_fraction", "at a robot limit", "{:.0f} %", 100.0),
+    ("jitter_fraction", "raw power above the jitter band", "{:.1f} %", 100.0),
+    ("swap_events", "left/right swaps", "{:.0f}", 1.0),
+    ("spike_max", "largest spike", "{:.2f} shoulder widths", 1.0),
+    ("frozen_fraction", "frozen pose", "{:.0f} %", 100.0),
+    ("motion_range", "motion range", "{:.1f}°", float(np.degrees(1.0))),
+    ("facing_away_fraction", "facing away", "{:.0f} %", 100.0),
+    ("sideways_fraction", "seen from the side", "{:.0f} %", 100.0),
+    ("shoulder_width", "shoulder width", "{:.1f} % of the frame height", 100.0),
+    ("image_change", "image change", "{:.3f}", 1.0),
+    ("people", "people in the frame", "{:.1f}", 1.0),
 )
-_STYLE = """
-body{font-family:system-ui,sans-serif;margin:1.5em;color:#222}
-table{border-collapse:collapse;font-size:13px}
-th,td{border:1px solid #ccc;padding:3px 6px;text-align:right}
-th{background:#eee;cursor:pointer}
-td.l,th.l{text-align:left}
-.status{font-weight:bold}
-.banner{padding:.6em 1em;border-radius:4px;color:#fff;margin:.5em 0}
-img{max-width:100%}
-figure{display:inline-block;margin:.5em}
-"""
-_SORT_JS = """
-document.querySelectorAll('table.sortable th').forEach(function(th, col){
-  th.addEventListener('click', function(){
-    var body = th.closest('table').tBodies[0];
-    var rows = Array.prototype.slice.call(body.rows);
-    var asc = th.dataset.asc !== '1'; th.dataset.asc = asc ? '1' : '0';
-    rows.sort(function(a, b){
-      var x = a.cells[col].dataset.v || a.cells[col].textContent;
-      var y = b.cells[col].dataset.v || b.cells[col].textContent;
-      var nx = parseFloat(x), ny = parseFloat(y);
-      var c = (isNaN(nx) || isNaN(ny)) ? x.localeCompare(y) : nx - ny;
-      return asc ? c : -c;
-    });
-    rows.forEach(function(r){ body.appendChild(r); });
-  });
-});
-"""
+
+# The page's style, and its script that draws every chart from the page's JSON (id "data") and
+# sorts tables whose header is clicked; inlined into every page (pages work offline and alone).
+_STYLE = resources.files("gesturebank.qc").joinpath("dashboard.css").read_text(encoding="utf-8")
+_SCRIPT = resources.files("gesturebank.qc").joinpath("dashboard.js").read_text(encoding="utf-8")
 
 
 # --------------------------------------------------------------------------------------------------
-# HTML helpers
+# Numbers for the page
 
 
-def _png(fig: Figure) -> str:
-    """An <img> holding the figure as a PNG data URI."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80, bbox_inches="tight")
-    data = base64.b64encode(buf.getvalue()).decode()
-    return f'<img alt="plot" src="data:image/png;base64,{data}">'
+def _sig(value: float, digits: int = 4) -> float | None:
+    """`value` rounded to `digits` significant digits; None when not finite (JSON null)."""
+    v = float(value)
+    return float(f"{v:.{digits}g}") if math.isfinite(v) else None
 
 
-def _page(title: str, body: str, script: str = "") -> str:
-    js = f"<script>{script}</script>" if script else ""
-    return (
-        "<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
-        f"<meta http-equiv='Content-Security-Policy' content=\"{_CSP}\">"
-        f"<title>{html.escape(title)}</title><style>{_STYLE}</style></head>"
-        f"<body>{body}{js}</body></html>\n"
-    )
+def _steps(values: np.ndarray, unit: float) -> list[int | None]:
+    """`values (N,)` in whole multiples of `unit`, each as its step from the previous finite one
+    (the page's `undelta` adds them up): small integers, about half the bytes of the values."""
+    q = np.round(np.asarray(values, dtype=np.float64) / unit)
+    finite = np.isfinite(q)
+    steps: list[int] = np.diff(q[finite].astype(np.int64), prepend=0).tolist()
+    if finite.all():
+        return list(steps)
+    out: list[int | None] = [None] * len(q)
+    for i, step in zip(np.flatnonzero(finite).tolist(), steps, strict=True):
+        out[i] = step
+    return out
 
 
-def _fmt(metrics: Mapping[str, float], key: str, fmt: str, scale: float) -> tuple[str, str]:
+def _stride(n: int, seconds: float) -> int:
+    """Keep every how many of `n` samples over `seconds` for at most PLOT_RATE_HZ a second."""
+    return max(1, math.ceil(n / max(seconds * PLOT_RATE_HZ, 1.0)))
+
+
+def _runs(flags: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> list[list[float]]:
+    """[from, to] seconds of every run of True in `flags (T,)`; frame i lasts starts[i]–ends[i]."""
+    edges = np.diff(np.concatenate([[0], np.asarray(flags, dtype=np.int8), [0]]))
+    a, b = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return [
+        [round(float(starts[i]), 3), round(float(ends[j - 1]), 3)]
+        for i, j in zip(a, b, strict=True)
+    ]
+
+
+def _to_json(data: Any) -> str:
+    """Compact JSON that is safe inside a <script> element (no "<" can close it)."""
+    text = json.dumps(data, separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return text.replace("<", "\\u003c")
+
+
+def _metric_text(metrics: Mapping[str, float], key: str, fmt: str, scale: float) -> str:
     v = metrics.get(key)
-    if v is None or not np.isfinite(v):
-        return "–", ""
-    return fmt.format(v * scale), repr(float(v))
+    return fmt.format(v * scale) if v is not None and math.isfinite(v) else "–"
 
 
-def _banner(status: str, reasons: Sequence[str]) -> str:
-    colour = _STATUS_COLOUR.get(status, "#555")
-    items = "".join(f"<li>{html.escape(r)}</li>" for r in reasons)
-    why = f"<p>Why:</p><ul class='reasons'>{items}</ul>" if reasons else ""
-    return (
-        f"<div class='banner' style='background:{colour}'>QC status: "
-        f"<span class='status'>{html.escape(status)}</span></div>{why}"
-    )
+def reason_kind(text: str) -> str:
+    """A reason without its numbers and its parenthesis, so that alike reasons add up
+    ("head unseen in 95% of the clip (max 50%)" → "head unseen in …% of the clip")."""
+    return _NUMBER.sub("…", text.split(" (")[0]).strip()
 
 
 # --------------------------------------------------------------------------------------------------
-# Plots (degrees)
+# What a take gave
 
 
-def _jerk_per_take(records: Sequence[Mapping[str, Any]]) -> Figure:
-    """Raw and processed J per take, log scale (as Fig. 4.7)."""
-    fig = Figure(figsize=(max(6.0, 0.35 * len(records) + 2), 3.2))
-    ax = fig.add_subplot()
-    x = np.arange(len(records))
-    for off, key, hatch in ((-0.2, "jerk_raw", ""), (0.2, "jerk", "//")):
-        vals = [r["metrics"].get(key, np.nan) for r in records]
-        cols = [_STATUS_COLOUR.get(r["qc_status"], "#555") for r in records]
-        ax.bar(x + off, vals, 0.4, color=cols, hatch=hatch, edgecolor="k", linewidth=0.3)
-    ax.set_yscale("log")
-    ax.set_xticks(x, [r["take_id"] for r in records], rotation=60, ha="right", fontsize=7)
-    ax.set_ylabel("J (rad²/s⁵)")
-    ax.set_title("Jerkiness per take, summed over joints (plain: raw, hatched: processed)")
-    return fig
+def _kind(c: store.ClipRecord) -> str:
+    """kept | rejected (clips with arrays) | dropped | failed (spans)."""
+    if c.kind == "clip":
+        return "kept" if c.qc_status == "accepted" else "rejected"
+    return "failed" if c.qc_status == "failed" else "dropped"
 
 
-def _jerk_per_joint(per_take: Sequence[Mapping[str, float]], title: str) -> Figure:
-    """Mean raw and processed J per joint over the given takes (as Fig. 4.9)."""
-    fig = Figure(figsize=(7, 3))
-    ax = fig.add_subplot()
-    x = np.arange(len(JOINTS))
-    for off, key in ((-0.2, "jerk_raw"), (0.2, "jerk")):
-        vals = [
-            np.nanmean([m.get(f"{key}/{j}", np.nan) for m in per_take] or [np.nan]) for j in JOINTS
-        ]
-        ax.bar(x + off, vals, 0.4, label=key.replace("_", " "))
-    ax.set_yscale("log")
-    ax.set_xticks(x, JOINTS, rotation=45, ha="right", fontsize=8)
-    ax.set_ylabel("J (rad²/s⁵)")
-    ax.legend(fontsize=8)
-    ax.set_title(title)
-    return fig
-
-
-def _spectra(items: Iterable[tuple[np.ndarray, float, np.ndarray, float]], cutoff: float) -> Figure:
-    """Spectra of every joint's angle before (raw) and after the low-pass (as Fig. 4.10).
-
-    items: (raw (N, 11) rad, its rate, processed (M, 11) rad, its rate) per take."""
-    fig = Figure(figsize=(9, 3))
-    before, after = fig.subplots(1, 2, sharey=True)
-    for raw, raw_hz, proc, proc_hz in items:
-        for ax, vals, hz in ((before, raw, raw_hz), (after, proc, proc_hz)):
-            if len(vals) < 8:
-                continue
-            f, p = spectrum(np.degrees(vals), hz)
-            ax.plot(f[1:], p[1:], linewidth=0.6)
-    for ax, name in ((before, "before"), (after, "after")):
-        ax.set_yscale("log")
-        ax.axvline(cutoff, color="k", linestyle="--", linewidth=0.8)
-        ax.set_xlabel("frequency (Hz)")
-        ax.set_title(f"{name} low-pass ({cutoff:g} Hz)")
-    before.set_ylabel("power (deg²)")
-    return fig
-
-
-def _trajectories(arrays: Mapping[str, np.ndarray], profile: RobotProfile) -> Figure:
-    """Every joint: raw angles at the video's timestamps vs processed 100 Hz angles, with the
-    robot's limits (as Fig. 4.11)."""
-    fig = Figure(figsize=(11, 7))
-    axes = fig.subplots(3, 4, sharex=True).ravel()
-    raw, ts = arrays.get("raw_angles"), arrays.get("timestamps")
-    for j, (ax, name) in enumerate(zip(axes, JOINTS, strict=False)):
-        if raw is not None and ts is not None:
-            ax.plot(ts, np.degrees(raw[:, j]), color="0.6", linewidth=0.8, label="raw")
-        ax.plot(arrays["times"], np.degrees(arrays["angles"][:, j]), color="C0", label="processed")
-        for lim in (profile.lower[j], profile.upper[j]):
-            ax.axhline(np.degrees(lim), color="C3", linestyle="--", linewidth=0.7)
-        ax.set_title(name, fontsize=9)
-        ax.tick_params(labelsize=7)
-    axes[0].legend(fontsize=7)
-    axes[-1].axis("off")
-    fig.supxlabel("time (s)", fontsize=9)
-    fig.supylabel("angle (°); dashed: robot limits", fontsize=9)
-    return fig
-
-
-def _video_frames(video: Path | None, times: Sequence[float]) -> list[np.ndarray | None]:
-    """RGB frames nearest to `times` (None each when the video cannot be read)."""
-    if video is None or not video.is_file() or not len(times):
-        return [None] * len(times)
-    from gesturebank.extract.video import frames_at
-
-    try:
-        found: list[np.ndarray | None] = [frame for _, frame in frames_at(video, times)]
-    except Exception as exc:  # a broken video must not stop the dashboard
-        log.warning("%s: cannot read frames (%s)", video, exc)
-        return [None] * len(times)
-    return found + [None] * (len(times) - len(found))
-
-
-THUMB_HEIGHT = 240  # px of each skeleton thumbnail
-_LEFT_RGB, _RIGHT_RGB = (0, 229, 255), (255, 145, 0)
-
-
-def _skeleton_frames(arrays: Mapping[str, np.ndarray], video: Path | None, n: int = 4) -> str:
-    """An <img> of `n` evenly spaced frames with the 2D skeleton drawn on the video (or a blank
-    canvas), drawn with OpenCV on thumbnails: matplotlib took seconds for full-size frames."""
-    import cv2
-
-    kp = to_coco17(arrays["pose2d_keypoints"], str(arrays["pose2d_skeleton"]))
-    ts = np.asarray(arrays["pose2d_timestamps"])
-    width, height = (max(int(v), 1) for v in np.asarray(arrays["pose2d_image_size"]))
-    picks = np.linspace(0, len(ts) - 1, n).round().astype(int) if len(ts) else np.array([], int)
-    frames = _video_frames(video, [float(ts[i]) for i in picks])
-    scale = THUMB_HEIGHT / height
-    size = (max(1, round(width * scale)), THUMB_HEIGHT)
-    idx = COCO17.index
-    tiles = []
-    for i, frame in zip(picks, frames, strict=True):
-        tile = (
-            cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
-            if frame is not None
-            else np.full((size[1], size[0], 3), 244, np.uint8)
+def _parts(record: store.TakeRecord) -> tuple[store.ClipRecord, ...]:
+    """The take's clips and spans; a failed take is one failed span over what was looked at."""
+    if record.failed:
+        return (
+            store.ClipRecord(
+                record.take_id, "span", 0.0, record.seconds, "failed", (record.failed,)
+            ),
         )
-        xy = kp[i, :, :2] * scale
-        for a, b in COCO17_BONES:
-            p, q = xy[idx[a]], xy[idx[b]]
-            if np.isfinite(p).all() and np.isfinite(q).all():
-                colour = _LEFT_RGB if "left" in a + b else _RIGHT_RGB
-                cv2.line(
-                    tile, (int(p[0]), int(p[1])), (int(q[0]), int(q[1])), colour, 2, cv2.LINE_AA
-                )
-        for x, y in xy[np.isfinite(xy).all(axis=1)]:
-            cv2.circle(tile, (int(x), int(y)), 3, (255, 255, 255), -1, cv2.LINE_AA)
-            cv2.circle(tile, (int(x), int(y)), 3, (0, 0, 0), 1, cv2.LINE_AA)
-        label = f"t = {ts[i]:.2f} s" + ("" if frame is not None else " (no video)")
-        cv2.rectangle(tile, (0, 0), (8 + 9 * len(label), 22), (255, 255, 255), -1)
-        cv2.putText(tile, label, (4, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
-        tiles.append(tile)
-        tiles.append(np.full((size[1], 6, 3), 255, np.uint8))  # gap between thumbnails
-    if not tiles:
-        return "<p>no frames</p>"
-    ok, png = cv2.imencode(".png", cv2.cvtColor(np.hstack(tiles[:-1]), cv2.COLOR_RGB2BGR))
-    data = base64.b64encode(png.tobytes()).decode() if ok else ""
-    return f'<img alt="2D skeleton on frames" src="data:image/png;base64,{data}">'
+    return tuple(sorted(record.clips, key=lambda c: c.start_s))
 
 
-def _skeleton_3d(joints: np.ndarray, timestamps: np.ndarray, n: int = 3) -> Figure:
-    """`n` evenly spaced 3D poses (COCO-17), seen from the front and a little above."""
-    fig = Figure(figsize=(3 * n, 3.2))
-    picks = np.linspace(0, len(joints) - 1, n).round().astype(int)
-    finite = joints[np.isfinite(joints).all(axis=-1)]
-    lo, hi = (finite.min(0), finite.max(0)) if len(finite) else (np.zeros(3) - 1, np.zeros(3) + 1)
-    idx = COCO17.index
-    for k, i in enumerate(picks):
-        ax = fig.add_subplot(1, n, k + 1, projection="3d")
-        for a, b in COCO17_BONES:
-            p, q = joints[i, idx[a]], joints[i, idx[b]]
-            colour = "C0" if "left" in a + b else "C1"
-            ax.plot([p[0], q[0]], [p[1], q[1]], [p[2], q[2]], color=colour)
-        ax.set_xlim(lo[0], hi[0])
-        ax.set_ylim(lo[1], hi[1])
-        ax.set_zlim(lo[2], hi[2])
-        ax.set_title(f"t = {timestamps[i]:.2f} s", fontsize=8)
-        ax.tick_params(labelsize=6)
-    return fig
+def _lost_s(c: store.ClipRecord) -> float:
+    """Seconds a rejected clip or a dropped span cost."""
+    return c.duration_s if c.kind == "clip" else max(0.0, c.end_s - c.start_s)
+
+
+def _lost(parts: Iterable[store.ClipRecord]) -> dict[str, tuple[float, Counter[str]]]:
+    """Per reason kind, most seconds first: the seconds lost to it and how many parts of each
+    kind (rejected, dropped, failed) gave it. A part with two reasons counts under both."""
+    seconds: defaultdict[str, float] = defaultdict(float)
+    where: defaultdict[str, Counter[str]] = defaultdict(Counter)
+    for c in parts:
+        kind = _kind(c)
+        if kind == "kept":
+            continue
+        for reason in c.qc_reasons or ("no reason recorded",):
+            seconds[reason_kind(reason)] += _lost_s(c)
+            where[reason_kind(reason)][kind] += 1
+    order = sorted(seconds, key=lambda k: (-seconds[k], k))
+    return {k: (seconds[k], where[k]) for k in order}
+
+
+def _kept_share(record: store.TakeRecord) -> float:
+    return record.usable_s / record.visible_s if record.visible_s > 0 else 0.0
 
 
 # --------------------------------------------------------------------------------------------------
-# Pages
+# HTML
 
 
-def _table(records: Sequence[Mapping[str, Any]]) -> str:
-    head = "".join(
-        ["<th class='l'>take</th><th class='l'>subject</th><th class='l'>status</th>"]
-        + [f"<th>{html.escape(h)}</th>" for _, h, _, _ in _COLUMNS]
-        + ["<th class='l'>reasons</th>"]
-    )
-    rows = []
-    for r in records:
-        tid = html.escape(r["take_id"])
-        link = f"<a href='takes/{tid}.html'>{tid}</a>" if r["qc_status"] != "failed" else tid
-        colour = _STATUS_COLOUR.get(r["qc_status"], "#555")
-        cells = [
-            f"<td class='l'>{link}</td><td class='l'>{html.escape(r['subject'])}</td>",
-            f"<td class='l status' style='color:{colour}'>{html.escape(r['qc_status'])}</td>",
-        ]
-        for key, _, fmt, scale in _COLUMNS:
-            text, value = _fmt(r["metrics"], key, fmt, scale)
-            cells.append(f"<td data-v='{value}'>{text}</td>")
-        reasons = "; ".join(r["qc_reasons"] or [])
-        cells.append(f"<td class='l'>{html.escape(reasons)}</td>")
-        rows.append(f"<tr>{''.join(cells)}</tr>")
+def _e(value: object) -> str:
+    return html.escape(str(value))
+
+
+def _page(title: str, body: str, data: Mapping[str, Any], key: str = "") -> str:
+    """A self-contained page: its data as JSON, the script that draws it, a CSP without any
+    source. The page key sits on the second line, where `_existing_key` looks."""
     return (
-        f"<table class='sortable'><thead><tr>{head}</tr></thead>"
-        f"<tbody>{''.join(rows)}</tbody></table>"
+        f"<!DOCTYPE html>\n<!-- page-key {key or 'none'} -->\n<html lang='en'><head>"
+        "<meta charset='utf-8'>"
+        f"<meta http-equiv='Content-Security-Policy' content=\"{_CSP}\">"
+        f"<title>{_e(title)}</title><style>{_STYLE}</style></head><body>{body}"
+        f"<script type='application/json' id='data'>{_to_json(data)}</script>"
+        f"<script>{_SCRIPT}</script></body></html>\n"
     )
 
 
-def _take_page(
-    record: Mapping[str, Any],
-    arrays: Mapping[str, np.ndarray],
-    profile: RobotProfile,
-    video: Path | None,
-    analysis_hz: float,
-    cutoff: float,
+def _tag(kind: str) -> str:
+    return f"<span class='tag {kind}'>{kind}</span>"
+
+
+def _table(
+    head: Sequence[tuple[str, str]],
+    rows: Iterable[str],
+    *,
+    cls: str = "",
+    id_: str = "",
+    sorted_by: int | None = None,
 ) -> str:
-    tid = record["take_id"]
-    metrics = record["metrics"]
-    rows = "".join(
-        f"<tr><td class='l'>{html.escape(k)}</td><td>{v:.4g}</td></tr>"
-        for k, v in sorted(metrics.items())
-        if "/" not in k
+    """head: (text, css class) per column; rows: finished <tr> markup, already in the order of
+    column `sorted_by` (descending), which the header then shows."""
+    ths = "".join(
+        f"<th class='{c}'{' aria-sort=descending' if i == sorted_by else ''}>{_e(t)}</th>"
+        for i, (t, c) in enumerate(head)
     )
-    parts = [
-        f"<p><a href='../index.html'>← all takes</a></p><h1>{html.escape(tid)}</h1>",
-        f"<p>subject {html.escape(record['subject'])}, source {html.escape(record['source'])}</p>",
-        _banner(record["qc_status"], record["qc_reasons"] or []),
-        "<h2>Angles: raw vs processed, with the robot's limits</h2>",
-        _png(_trajectories(arrays, profile)),
-    ]
-    raw_u = uniform(arrays["raw_angles"], arrays["timestamps"], analysis_hz)
-    parts += [
-        "<h2>Spectra before / after the low-pass</h2>",
-        _png(_spectra([(raw_u, analysis_hz, np.asarray(arrays["angles"]), 100.0)], cutoff)),
-        "<h2>Jerkiness per joint</h2>",
-        _png(_jerk_per_joint([metrics], "J per joint (Eq. 3.21)")),
-    ]
-    if "pose2d_keypoints" in arrays:
-        where = "video" if video is not None and video.is_file() else "blank canvas (no video)"
-        parts += [f"<h2>2D skeleton on the {where}</h2>", _skeleton_frames(arrays, video)]
-    if "pose3d_joints" in arrays:
-        parts += [
-            "<h2>3D skeleton</h2>",
-            _png(_skeleton_3d(np.asarray(arrays["pose3d_joints"]), arrays["pose3d_timestamps"])),
-        ]
-    parts += ["<h2>Metrics</h2>", f"<table>{rows}</table>"]
-    return _page(f"QC {tid}", "".join(parts))
+    attrs = (f" class='{cls}'" if cls else "") + (f" id='{id_}'" if id_ else "")
+    return f"<table{attrs}><thead><tr>{ths}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
 
-def _video_path(info: Mapping[str, Any], dataset_dir: Path, source: str) -> Path | None:
-    if not source:
-        return None
-    for root in (info.get("videos_dir"), dataset_dir):
-        if root and (Path(root) / source).is_file():
-            return Path(root) / source
+def _td(text: str, value: float | str | None = None, cls: str = "") -> str:
+    """A cell; `value` (data-v) is what sorting compares."""
+    v = "" if value is None else f" data-v='{_e(value)}'"
+    c = f" class='{cls}'" if cls else ""
+    return f"<td{c}{v}>{text}</td>"
+
+
+# --------------------------------------------------------------------------------------------------
+# Index
+
+
+def _summary(records: Sequence[store.TakeRecord]) -> str:
+    parts = [c for r in records for c in _parts(r)]
+    count = Counter(_kind(c) for c in parts)
+    usable = sum(r.usable_s for r in records)
+    visible = sum(r.visible_s for r in records)
+    dropped_s = sum(_lost_s(c) for c in parts if _kind(c) == "dropped")
+    cells = [
+        ("usable seconds", f"{usable:.1f}"),
+        ("seconds the speaker was visible", f"{visible:.1f}"),
+        ("share kept", f"{usable / visible:.0%}" if visible > 0 else "–"),
+        ("clips accepted", str(count["kept"])),
+        ("clips rejected", str(count["rejected"])),
+        ("spans dropped", f"{count['dropped']} ({dropped_s:.1f} s)"),
+        ("takes failed", str(sum(bool(r.failed) for r in records))),
+    ]
+    head = "".join(f"<th>{_e(k)}</th>" for k, _ in cells)
+    values = "".join(f"<td id='sum-{i}'>{_e(v)}</td>" for i, (_, v) in enumerate(cells))
+    return f"<table class='big'><tr>{head}</tr><tr>{values}</tr></table>"
+
+
+def _take_row(r: store.TakeRecord) -> str:
+    clips = r.data_clips
+    accepted = sum(c.qc_status == "accepted" for c in clips)
+    lost = list(_lost(_parts(r)).items())[:3]
+    top = ", ".join(f"{_e(k)} ({s:.1f} s)" for k, (s, _) in lost)
+    status = "failed" if r.failed else "built"
+    link = f"<a href='{PAGES_DIR}/{quote(r.take_id)}.html'>{_e(r.take_id)}</a>"
+    share = _kept_share(r)
+    return (
+        "<tr>"
+        + "".join(
+            [
+                _td(link, r.take_id, "l"),
+                _td(_e(r.subject), r.subject, "l"),
+                _td(f"<span class='{status}'>{status}</span>", status, "l"),
+                _td(f"{accepted}/{len(clips)}", accepted),
+                _td(f"{r.usable_s:.1f}", round(r.usable_s, 3)),
+                _td(f"{r.visible_s:.1f}", round(r.visible_s, 3)),
+                _td(f"{share:.0%}", round(share, 4)),
+                _td(top or "–", None, "l"),
+            ]
+        )
+        + "</tr>"
+    )
+
+
+def _takes_table(records: Sequence[store.TakeRecord]) -> str:
+    """Every take, most usable seconds first (click a header to sort by it)."""
+    ordered = sorted(records, key=lambda r: (-r.usable_s, r.take_id))
+    head = [("take", "l"), ("subject", "l"), ("status", "l"), ("clips accepted/total", "")]
+    head += [("usable s", ""), ("visible s", ""), ("share kept", ""), ("most time lost to", "l")]
+    return _table(head, map(_take_row, ordered), cls="sortable", id_="takes", sorted_by=4)
+
+
+def _reasons_table(records: Sequence[store.TakeRecord]) -> str:
+    lost = _lost(c for r in records for c in _parts(r))
+    if not lost:
+        return "<p>No time was lost: every clip was accepted and nothing was dropped.</p>"
+    rows = []
+    for reason, (s, where) in lost.items():  # most seconds first
+        found = ", ".join(f"{n} {k}" for k, n in sorted(where.items()))
+        cells = _td(_e(reason), reason, "l") + _td(found, None, "l")
+        rows.append(f"<tr>{cells}{_td(f'{s:.1f}', round(s, 3))}</tr>")
+    head = [("reason", "l"), ("clips / spans", "l"), ("seconds", "")]
+    note = "<p class='note'>A clip rejected for several reasons counts under each.</p>"
+    return _table(head, rows, cls="sortable", id_="reasons", sorted_by=2) + note
+
+
+def _jerk_data(records: Sequence[store.TakeRecord], joints: Sequence[str]) -> dict[str, Any]:
+    """Jerk per clip (Fig. 4.7) and mean jerk per joint over the accepted clips (Fig. 4.9)."""
+    clips = [(r, c) for r in records for c in r.data_clips]
+    per_clip = [
+        {
+            "id": c.clip_id,
+            "status": c.qc_status,
+            "href": f"{PAGES_DIR}/{quote(r.take_id)}.html#{quote(c.clip_id)}",
+            "raw": _sig(c.metrics.get("jerk_raw", math.nan), 3),
+            "proc": _sig(c.metrics.get("jerk", math.nan), 3),
+        }
+        for r, c in clips
+    ]
+    accepted = [c for _, c in clips if c.qc_status == "accepted"]
+    over = accepted or [c for _, c in clips]
+
+    def mean(key: str) -> float | None:
+        values = [c.metrics.get(key, math.nan) for c in over]
+        finite = [v for v in values if math.isfinite(v)]
+        return _sig(float(np.mean(finite)), 3) if finite else None
+
+    return {
+        "page": "index",
+        "clips": per_clip,
+        "joints": list(joints),
+        "joint_raw": [mean(f"jerk_raw/{j}") for j in joints],
+        "joint_proc": [mean(f"jerk/{j}") for j in joints],
+        "joint_over": f"{len(over)} accepted clips" if accepted else f"{len(over)} clips",
+    }
+
+
+def _index_page(out: Path, info: store.DatasetInfo, records: Sequence[store.TakeRecord]) -> str:
+    data = _jerk_data(records, info.joints)
+    body = [
+        "<h1>gesturebank QC</h1>",
+        f"<p class='note'>{_e(out)}: {len(records)} takes. Click a column header to sort, a take "
+        "for its timeline and clips.</p>",
+        _summary(records),
+        "<h2>Takes</h2>",
+        _takes_table(records),
+        "<h2>Where time was lost</h2>",
+        _reasons_table(records),
+        "<h2>Jerkiness per clip (Eq. 3.21, summed over the joints)</h2>",
+        "<p class='note'>Solid: raw angles (on the analysis clock); pale: processed (100 Hz). "
+        "Green accepted, red rejected. Click a bar for its clip.</p>",
+        "<div id='jerk-clips'></div>",
+        f"<h2>Mean jerkiness per joint over the {_e(data['joint_over'])}</h2>",
+        "<p class='note'>Orange: raw; blue: processed.</p>",
+        "<div id='jerk-joints'></div>",
+    ]
+    return _page("gesturebank QC", "".join(body), data)
+
+
+# --------------------------------------------------------------------------------------------------
+# Take page: data
+
+
+def _load_clip(out: Path, take_id: str, clip_id: str) -> Clip | str:
+    """The clip's arrays, or why they cannot be read."""
+    path = store.clip_npz(out, take_id, clip_id)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            clip = Clip.from_arrays({k: data[k] for k in data.files})
+    except (OSError, ValueError, InputError) as exc:
+        return f"cannot read {path.name}: {exc}"
+    return clip if len(clip.times) and len(clip.timestamps) else f"{path.name} has no frames"
+
+
+def _repaired_per_joint(clip: Clip, joints: Sequence[str]) -> np.ndarray:
+    """`(T, 11)` frames where the repair changed a keypoint the angle is computed from."""
+    idx = COCO17.index
+    rep = np.asarray(clip.repaired, dtype=bool)
+    cols = [rep[:, [idx[k] for k in (*_SHOULDERS, *NEEDS.get(j, ()))]].any(axis=1) for j in joints]
+    return np.stack(cols, axis=1) if cols else np.zeros((len(rep), 0), bool)
+
+
+def _clip_series(clip: Clip, joints: Sequence[str]) -> dict[str, Any]:
+    """The angles of one clip (with frames) in degrees on source time, thinned to PLOT_RATE_HZ,
+    with the masked spans (`mask`, 100 Hz) and repaired frames (`repaired`, video frames) per
+    joint."""
+    t0 = clip.start_s
+    times, ts = np.asarray(clip.times), np.asarray(clip.timestamps)
+    hop = float(np.median(np.diff(times))) if len(times) > 1 else 0.01
+    k = _stride(len(times), clip.duration_s)
+    kr = _stride(len(ts), float(ts[-1] - ts[0]))
+    proc = np.degrees(np.asarray(clip.angles, dtype=np.float64)[::k])
+    raw = np.degrees(np.asarray(clip.raw_angles, dtype=np.float64)[::kr])
+    known = np.asarray(clip.mask, dtype=bool)
+    repaired = _repaired_per_joint(clip, joints)
+    ends = frame_ends(ts) + t0
+    start, end = t0 + float(times[0]), max(t0 + float(times[-1]) + hop, float(ends[-1]))
+    return {
+        "t0": round(start, 3),
+        "t1": round(end, 3),
+        "proc": {
+            "t0": round(start, 4),
+            "dt": round(k * hop, 6),
+            "v": [_steps(col, 0.1) for col in proc.T],
+        },
+        "raw": {"t": _steps(ts[::kr] + t0, 0.001), "v": [_steps(col, 0.1) for col in raw.T]},
+        "masked": [_runs(~known[:, j], times + t0, times + t0 + hop) for j in range(len(joints))],
+        "repaired": [_runs(repaired[:, j], ts + t0, ends) for j in range(len(joints))],
+    }
+
+
+def _choices(tracking: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The main-speaker choices of the tracking report (none when it has none)."""
+    found = tracking.get("choices") if isinstance(tracking, Mapping) else None
+    out = []
+    for c in found if isinstance(found, list) else []:
+        try:
+            t0, t1 = float(c["start_s"]), float(c["end_s"])
+            scores = {
+                str(track): {str(t): _sig(v, 3) for t, v in terms.items()}
+                for track, terms in (c.get("scores") or {}).items()
+            }
+            if not (math.isfinite(t0) and math.isfinite(t1)):
+                continue
+            out.append(
+                {
+                    "t0": round(t0, 3),
+                    "t1": round(t1, 3),
+                    "main": int(c["main_id"]),
+                    "runner": None if c.get("runner_up") is None else int(c["runner_up"]),
+                    "shot": c.get("shot"),
+                    "reason": str(c.get("reason", "")),
+                    "scores": scores,
+                }
+            )
+        except (KeyError, TypeError, ValueError, AttributeError):
+            continue  # a report from an older or newer tracker: show what can be read
+    return out
+
+
+def _total(choice: Mapping[str, Any], track: int | None) -> str:
+    if track is None:
+        return "–"
+    total = choice["scores"].get(str(track), {}).get("total")
+    return "–" if total is None else f"{total:.3g}"
+
+
+def _speakers(choices: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    for c in choices:
+        who = "nobody" if c["main"] < 0 else f"#{c['main']}"
+        vs = "" if c["runner"] is None else f" vs #{c['runner']}"
+        tip = (
+            f"{c['t0']}–{c['t1']} s: main speaker {who} (total {_total(c, c['main'])}), "
+            f"runner-up {'none' if c['runner'] is None else '#' + str(c['runner'])} "
+            f"(total {_total(c, c['runner'])}); shot {c['shot']}, starts: {c['reason']}"
+        )
+        out.append({"t0": c["t0"], "t1": c["t1"], "main": c["main"], "label": who + vs, "tip": tip})
+    return out
+
+
+def _cuts(choices: Sequence[Mapping[str, Any]]) -> list[float]:
+    """Shot cuts: where the choices' shot number changes."""
+    return [b["t0"] for a, b in itertools.pairwise(choices) if a["shot"] != b["shot"]]
+
+
+def _jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from a JPEG's frame header, without decoding the image."""
+    i = 2
+    while i + 9 < len(data) and data[i] == 0xFF:
+        marker = data[i + 1]
+        if marker == 0xFF:  # fill byte
+            i += 1
+            continue
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # start of frame
+            height = int.from_bytes(data[i + 5 : i + 7], "big")
+            return int.from_bytes(data[i + 7 : i + 9], "big"), height
+        i += 2 + int.from_bytes(data[i + 2 : i + 4], "big")
     return None
 
 
-def _page_key(
-    record: Mapping[str, Any], npz: Path, video: Path | None, c: QCConfig, cutoff: float
-) -> str:
-    """What a take page shows depends on: its record, its arrays, its video and two settings."""
-    stat = npz.stat()
-    parts = [json.dumps(record, sort_keys=True), stat.st_size, stat.st_mtime_ns, str(video)]
-    parts += [c.analysis_rate_hz, cutoff]
-    return hashlib.sha256(repr(parts).encode()).hexdigest()[:16]
+def _preview_frame(
+    t: float,
+    x0: float,
+    size: tuple[float, float],
+    record: store.TakeRecord,
+    clips: Mapping[str, Clip | str],
+) -> dict[str, Any]:
+    """The main speaker's COCO-17 keypoints on one preview frame, in strip pixels, from the
+    clip whose span holds `t` (none in a dropped span: `note` says why)."""
+    part = next((c for c in _parts(record) if c.start_s - 1e-6 <= t < c.end_s), None)
+    frame: dict[str, Any] = {"t": round(t, 3), "points": None, "repaired": None}
+    if part is None:
+        return {**frame, "note": "outside every clip and span"}
+    if part.kind == "span":
+        return {**frame, "note": f"{_kind(part)}: {'; '.join(part.qc_reasons) or 'no reason'}"}
+    clip = clips.get(part.clip_id, "not loaded")
+    if not isinstance(clip, Clip):
+        return {**frame, "note": f"{part.clip_id}: {clip}"}
+    k = int(np.argmin(np.abs(clip.pose2d.timestamps + clip.start_s - t)))
+    xy = to_coco17(clip.pose2d.keypoints[k : k + 1], clip.pose2d.skeleton)[0, :, :2]
+    width, height = clip.pose2d.image_size
+    sx, sy = size[0] / width, size[1] / height
+    seen = np.asarray(clip.valid[k], dtype=bool) & np.isfinite(xy).all(axis=1)
+    points = [
+        [round(x0 + float(x) * sx, 1), round(float(y) * sy, 1)] if ok else None
+        for (x, y), ok in zip(xy.tolist(), seen.tolist(), strict=True)
+    ]
+    return {
+        **frame,
+        "points": points,
+        "repaired": [int(b) for b in np.asarray(clip.repaired[k], dtype=bool)],
+        "note": f"{_kind(part)} clip {part.clip_id}",
+    }
+
+
+def _preview(
+    out: Path, record: store.TakeRecord, clips: Mapping[str, Clip | str]
+) -> dict[str, Any] | None:
+    """The preview strip inlined, with a skeleton per frame (None when the take has none)."""
+    try:
+        jpeg = (store.take_dir(out, record.take_id) / store.PREVIEW).read_bytes()
+    except OSError:
+        return None
+    size = _jpeg_size(jpeg)
+    if size is None:
+        return None
+    w, h = size
+    fw = w / max(1, len(record.preview_times))
+    return {
+        "src": "data:image/jpeg;base64," + base64.b64encode(jpeg).decode(),
+        "w": w,
+        "h": h,
+        "fw": fw,
+        "frames": [
+            _preview_frame(t, i * fw, (fw, h), record, clips)
+            for i, t in enumerate(record.preview_times)
+        ],
+    }
+
+
+def _take_data(
+    out: Path,
+    record: store.TakeRecord,
+    info: store.DatasetInfo,
+    clips: Mapping[str, Clip | str],
+    choices: Sequence[Mapping[str, Any]],
+) -> dict[str, Any]:
+    """What the page's script draws: timeline, preview with skeletons, each clip's angles."""
+    parts = _parts(record)
+    t0 = min((c.start_s for c in parts), default=0.0)
+    t1 = max((c.end_s for c in parts), default=record.seconds)
+    segments = [
+        {
+            "id": c.clip_id,
+            "kind": _kind(c),
+            "t0": round(c.start_s, 3),
+            "t1": round(c.end_s, 3),
+            "reasons": list(c.qc_reasons),
+        }
+        for c in parts
+    ]
+    idx = COCO17.index
+    return {
+        "page": "take",
+        "timeline": {
+            "t0": round(min(t0, 0.0), 3),
+            "t1": round(max(t1, t0 + 1e-3), 3),
+            "segments": segments,
+            "cuts": _cuts(choices),
+            "speakers": _speakers(choices),
+            "preview": [round(t, 3) for t in record.preview_times],
+        },
+        "preview": _preview(out, record, clips),
+        "keypoints": list(COCO17.joints),
+        "bones": [[idx[a], idx[b], int("left" in a + b)] for a, b in COCO17_BONES],
+        "joints": list(info.joints),
+        "lower": [round(math.degrees(info.limits[j]["lower"]), 2) for j in info.joints],
+        "upper": [round(math.degrees(info.limits[j]["upper"]), 2) for j in info.joints],
+        "clips": [
+            _clip_series(clip, info.joints)
+            for clip in (clips[c.clip_id] for c in record.data_clips)
+            if isinstance(clip, Clip)
+        ],
+    }
+
+
+# --------------------------------------------------------------------------------------------------
+# Take page: HTML
+
+
+def _facts(record: store.TakeRecord) -> str:
+    fps = f"{record.video_fps:.2f} fps" if math.isfinite(record.video_fps) else "fps unknown"
+    items = [
+        f"subject <b>{_e(record.subject)}</b>",
+        f"source {_e(record.source)}",
+        f"detector {_e(record.detector or '–')}, lifter {_e(record.lifter or '–')}, {fps}",
+        f"{record.seconds:.1f} s looked at, speaker visible {record.visible_s:.1f} s, "
+        f"usable {record.usable_s:.1f} s (kept {_kept_share(record):.0%})",
+    ]
+    return "<p>" + " · ".join(items) + "</p>"
+
+
+def _segment_list(record: store.TakeRecord) -> str:
+    items = []
+    for c in _parts(record):
+        kind = _kind(c)
+        what = (
+            f"<a href='#{quote(c.clip_id)}'>{_e(c.clip_id)}</a>"
+            if c.kind == "clip"
+            else _e(c.clip_id)
+        )
+        why = f": {_e('; '.join(c.qc_reasons))}" if c.qc_reasons else ""
+        items.append(
+            f"<li class='{kind}'>{c.start_s:.2f}–{c.end_s:.2f} s {_tag(kind)} {what}{why}</li>"
+        )
+    return f"<ol class='segments'>{''.join(items)}</ol>"
+
+
+def _tracking_table(choices: Sequence[Mapping[str, Any]]) -> str:
+    if not choices:
+        return "<p class='note'>No main-speaker report in this take's record.</p>"
+    terms: list[str] = []
+    for c in choices:
+        for scores in c["scores"].values():
+            terms += [t for t in scores if t not in terms]
+    terms.sort(key=lambda t: t != "total")  # the total first, then the terms as reported
+    head = [
+        ("from–to s", ""),
+        ("shot", ""),
+        ("starts because", "l"),
+        ("main", ""),
+        ("runner-up", ""),
+    ]
+    head += [(f"{t} main / runner-up", "") for t in terms]
+    rows = []
+    for c in choices:
+        main, runner = c["scores"].get(str(c["main"]), {}), c["scores"].get(str(c["runner"]), {})
+
+        def pair(t: str, main: Mapping[str, Any] = main, runner: Mapping[str, Any] = runner) -> str:
+            a, b = main.get(t), runner.get(t)
+            return f"{'–' if a is None else f'{a:.3g}'} / {'–' if b is None else f'{b:.3g}'}"
+
+        cells = [
+            f"{c['t0']:.2f}–{c['t1']:.2f}",
+            _e(c["shot"]),
+            _e(c["reason"]),
+            "nobody" if c["main"] < 0 else f"#{c['main']}",
+            "–" if c["runner"] is None else f"#{c['runner']}",
+            *(pair(t) for t in terms),
+        ]
+        rows.append(
+            "<tr>"
+            + "".join(_td(x, None, "l" if i == 2 else "") for i, x in enumerate(cells))
+            + "</tr>"
+        )
+    return _table(head, rows, id_="speakers")
+
+
+def _preview_html(preview: Mapping[str, Any] | None, record: store.TakeRecord) -> str:
+    if preview is None:
+        return "<p class='note'>No preview strip for this take (no preview.jpg).</p>"
+    notes = "".join(f"<li>{f['t']:.2f} s: {_e(f['note'])}</li>" for f in preview["frames"])
+    legend = (
+        "<p class='note'>Main speaker's 2D skeleton as repaired (cyan: left side, orange: right; "
+        "red dots: repaired keypoints; only keypoints seen are drawn).</p>"
+    )
+    return f"<div id='preview'></div>{legend}<ol class='frames'>{notes}</ol>"
+
+
+def _metrics_table(metrics: Mapping[str, float]) -> str:
+    """The clip's metrics (not the per-joint ones), three to a row."""
+    cells = [(label, _metric_text(metrics, key, fmt, scale)) for key, label, fmt, scale in _METRICS]
+    shown = {k for k, *_ in _METRICS}
+    cells += [
+        (k, f"{v:.4g}") for k, v in sorted(metrics.items()) if "/" not in k and k not in shown
+    ]
+    rows = [
+        "".join(f"<td class='l'>{_e(k)}</td><td>{_e(v)}</td>" for k, v in cells[i : i + 3])
+        for i in range(0, len(cells), 3)
+    ]
+    return "<table class='metrics'>" + "".join(f"<tr>{r}</tr>" for r in rows) + "</table>"
+
+
+def _masked_text(clip: Clip, joints: Sequence[str]) -> str:
+    """Share of the clip each angle is unknown, from its `mask`."""
+    share = np.mean(~np.asarray(clip.mask, dtype=bool), axis=0) if len(clip.mask) else []
+    if not np.any(share):
+        return "none"
+    if np.allclose(share, share[0]):
+        return f"every angle {share[0]:.0%} of the clip"
+    return ", ".join(f"{j} {v:.0%}" for j, v in zip(joints, share, strict=True) if v > 0)
+
+
+def _clip_html(n: int, c: store.ClipRecord, clip: Clip | str, joints: Sequence[str]) -> str:
+    kind = _kind(c)
+    reasons = "".join(f"<li>{_e(r)}</li>" for r in c.qc_reasons)
+    if isinstance(clip, Clip):
+        repaired = np.asarray(clip.repaired, dtype=bool)
+        fixed = (
+            f"{int(repaired.sum())} in {int(repaired.any(axis=1).sum())} video frames"
+            if repaired.any()
+            else "none"
+        )
+        arrays = (
+            f"Keypoints repaired: {fixed}. "
+            f"Angles unknown (masked): {_e(_masked_text(clip, joints))}."
+        )
+        plot = f"<div id='angles-{n}'></div>"
+    else:
+        arrays, plot = "", f"<p class='rejected'>No plots: {_e(clip)}</p>"
+    return (
+        f"<section class='clip' id='{_e(c.clip_id)}'><h3>{_e(c.clip_id)} {_tag(kind)}</h3>"
+        f"<p>{c.start_s:.2f}–{c.end_s:.2f} s of the source, {c.duration_s:.2f} s at 100 Hz "
+        f"({c.n_frames} frames). {arrays}</p>"
+        + (f"<p>Rejected because:</p><ul class='reasons'>{reasons}</ul>" if reasons else "")
+        + _metrics_table(c.metrics)
+        + "<h4>Angles: raw (video frames) vs processed (100 Hz), with the robot's limits "
+        f"<span class='note'>(plotted at up to {PLOT_RATE_HZ:g} points a second)</span></h4>"
+        f"{plot}</section>"
+    )
+
+
+def _clip_sections(
+    record: store.TakeRecord, clips: Mapping[str, Clip | str], joints: Sequence[str]
+) -> list[str]:
+    """One section per clip, in time order; plot n is the n-th clip whose arrays could be read
+    (the order of the page data's clips)."""
+    sections, n = [], 0
+    for c in record.data_clips:
+        clip = clips[c.clip_id]
+        sections.append(_clip_html(n, c, clip, joints))
+        n += isinstance(clip, Clip)
+    return sections
+
+
+def _take_page(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key: str) -> str:
+    clips = {c.clip_id: _load_clip(out, record.take_id, c.clip_id) for c in record.data_clips}
+    choices = _choices(record.tracking)
+    data = _take_data(out, record, info, clips, choices)
+    body = [
+        "<p><a href='../index.html'>← all takes</a></p>",
+        f"<h1>{_e(record.take_id)}</h1>",
+        _facts(record),
+        f"<p class='failed'>The take failed: {_e(record.failed)}</p>" if record.failed else "",
+        "<h2>Timeline</h2>",
+        "<div id='timeline'></div>",
+        f"<p class='note'>{_tag('kept')} {_tag('rejected')} {_tag('dropped')} dashed lines: "
+        "shot cuts (from the main-speaker report); ▲ preview frames. Hover a segment for its "
+        "reasons.</p>",
+        _segment_list(record),
+        "<h2>Main speaker</h2>",
+        _tracking_table(choices),
+        "<h2>Preview frames</h2>",
+        _preview_html(data["preview"], record),
+        "<h2>Clips</h2>" if record.data_clips else "",
+        *_clip_sections(record, clips, info.joints),
+    ]
+    return _page(f"QC {record.take_id}", "".join(body), data, key)
+
+
+# --------------------------------------------------------------------------------------------------
+# Pages kept when unchanged
+
+
+def _stat(path: Path) -> tuple[int, int] | None:
+    try:
+        s = path.stat()
+    except OSError:
+        return None
+    return s.st_size, s.st_mtime_ns
+
+
+def _page_key(out: Path, record: store.TakeRecord, info: store.DatasetInfo, code: str) -> str:
+    """What a take page shows depends on: this module, the record, the clips' files, the
+    preview and the robot's limits."""
+    folder = store.take_dir(out, record.take_id)
+    parts = [
+        code,
+        json.dumps(record.to_json_dict(), sort_keys=True),
+        json.dumps([info.joints, info.limits], sort_keys=True),
+        _stat(folder / store.PREVIEW),
+        [_stat(store.clip_npz(out, record.take_id, c.clip_id)) for c in record.data_clips],
+    ]
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:20]
 
 
 def _existing_key(page: Path) -> str | None:
@@ -386,112 +791,51 @@ def _existing_key(page: Path) -> str | None:
             head = f.read(200)
     except OSError:
         return None
-    found = re.search(r"<!-- page-key (\w+) -->", head)
+    found = _KEY.search(head)
     return found.group(1) if found else None
 
 
-def _render_page(
-    out: Path,
-    record: Mapping[str, Any],
-    video: Path | None,
-    analysis_hz: float,
-    cutoff: float,
-    page: Path,
-    key: str,
-) -> None:
-    arrays = store.Dataset(out).load(record["take_id"])
-    html_text = _take_page(record, arrays, dataset_profile(out), video, analysis_hz, cutoff)
-    html_text = html_text.replace("\n", f"\n<!-- page-key {key} -->\n", 1)
-    write_bytes_atomic(page, html_text.encode("utf-8"))
+def _write_if_changed(path: Path, text: str) -> bool:
+    data = text.encode("utf-8")
+    try:
+        if path.read_bytes() == data:
+            return False
+    except OSError:
+        pass
+    write_bytes_atomic(path, data)
+    return True
 
 
-def _render_pages(jobs: list[tuple[Any, ...]], workers: int | None) -> None:
-    """Take pages in parallel (matplotlib takes about a second a page)."""
-    n = min(workers or os.cpu_count() or 1, len(jobs))
-    if n <= 1:
-        for job in jobs:
-            _render_page(*job)
-        return
-    ctx = multiprocessing.get_context("forkserver")
-    with ProcessPoolExecutor(max_workers=n, mp_context=ctx) as pool:
-        for future in [pool.submit(_render_page, *job) for job in jobs]:
-            future.result()
+def _render(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key: str) -> str:
+    """The take's page; one that cannot be drawn says why (and is tried again next time)."""
+    try:
+        return _take_page(out, record, info, key)
+    except Exception as exc:  # one odd take must not cost the dashboard of every other
+        log.warning("%s: cannot draw its QC page (%s)", record.take_id, exc, exc_info=True)
+        body = f"<h1>{_e(record.take_id)}</h1><p class='failed'>Page not drawn: {_e(exc)}</p>"
+        return _page(f"QC {record.take_id}", body, {"page": "error"})
 
 
-def write_dashboard(
-    dataset_dir: str | Path, config: QCConfig | None = None, workers: int | None = None
-) -> Path:
-    """Write OUT/qc/index.html and OUT/qc/takes/<id>.html for the dataset folder; returns the
-    index path. Reads the records as they are (run `run_qc` first to refresh the verdicts).
-    Pages of takes that did not change since the last call are kept; the others are rendered
-    by `workers` processes (default: CPU cores)."""
-    c = config or QCConfig()
-    out = Path(dataset_dir)
-    dataset = store.Dataset(out)
-    cutoff = float(dataset.info.get("config", {}).get("processing", {}).get("cutoff_hz", 4.0))
-    records = sorted(dataset.records(), key=lambda r: r["take_id"])
-    qc_dir = out / QC_DIR
-    (qc_dir / "takes").mkdir(parents=True, exist_ok=True)
-
-    spectra_items = []
-    jobs = []
+def write_dashboard(out: Path) -> Path:
+    """Write OUT/qc/index.html and OUT/qc/takes/<take_id>.html from the dataset's records and
+    clips as they are; returns the index. Only pages whose take changed are rendered (and the
+    index only rewritten when it changed); pages of takes no longer in the dataset go."""
+    out = Path(out)
+    info = store.read_dataset_json(out)
+    records = store.records(out)
+    pages = out / QC_DIR / PAGES_DIR
+    pages.mkdir(parents=True, exist_ok=True)
+    code = hashlib.sha256((Path(__file__).read_text() + _STYLE + _SCRIPT).encode()).hexdigest()
+    wanted = set()
     for record in records:
-        if record["qc_status"] == "failed":
-            continue
-        arrays = dataset.load(record["take_id"])
-        raw_u = uniform(arrays["raw_angles"], arrays["timestamps"], c.analysis_rate_hz)
-        spectra_items.append((raw_u, c.analysis_rate_hz, np.asarray(arrays["angles"]), 100.0))
-        video = _video_path(dataset.info, out, record["source"])
-        page = qc_dir / "takes" / f"{record['take_id']}.html"
-        key = _page_key(record, store.take_npz(out, record["take_id"]), video, c, cutoff)
-        if _existing_key(page) != key:  # unchanged takes keep their page: resumed builds are fast
-            jobs.append((out, record, video, c.analysis_rate_hz, cutoff, page, key))
-    _render_pages(jobs, workers)
-
-    built = [r for r in records if r["qc_status"] != "failed"]
-    accepted = [r["metrics"] for r in built if r["qc_status"] == "accepted"]
-    counts = {s: sum(r["qc_status"] == s for r in records) for s in store.STATUSES}
-    summary = ", ".join(f"{n} {s}" for s, n in counts.items())
-    body = [
-        "<h1>gesturebank QC</h1>",
-        f"<p>{html.escape(str(out))}: {len(records)} takes — {summary}. "
-        "Click a column header to sort; click a take for its page.</p>",
-        _table(records),
-    ]
-    if built:
-        body += [
-            "<h2>Jerkiness per take</h2>",
-            _png(_jerk_per_take(built)),
-            "<h2>Jerkiness per joint</h2>",
-            _png(
-                _jerk_per_joint(
-                    accepted or [r["metrics"] for r in built],
-                    "mean J per joint over the accepted takes"
-                    if accepted
-                    else "mean J per joint (no accepted take: all built takes)",
-                )
-            ),
-            "<h2>Spectra of every joint of every take</h2>",
-            _png(_spectra(spectra_items, cutoff)),
-        ]
-    index = qc_dir / "index.html"
-    index.write_text(_page("gesturebank QC", "".join(body), _SORT_JS), encoding="utf-8")
-    (qc_dir / "qc.json").write_text(
-        json.dumps(
-            {r["take_id"]: [r["qc_status"], r["qc_reasons"] or []] for r in records}, indent=1
-        ),
-        encoding="utf-8",
-    )
+        page = pages / f"{record.take_id}.html"
+        wanted.add(page.name)
+        key = _page_key(out, record, info, code)
+        if _existing_key(page) != key:
+            write_bytes_atomic(page, _render(out, record, info, key).encode("utf-8"))
+    for page in pages.glob("*.html"):
+        if page.name not in wanted:
+            page.unlink(missing_ok=True)
+    index = out / QC_DIR / "index.html"
+    _write_if_changed(index, _index_page(out, info, records))
     return index
-
-
-def qc_command(
-    out_dir: str | Path,
-    config: QCConfig | None = None,
-    workers: int | None = None,
-    splits: SplitsConfig | None = None,
-) -> Path:
-    """`gesturebank qc OUT_DIR`: re-run the checks on a built dataset (records, manifest,
-    dataset.json counts, splits) and write the dashboard; returns OUT/qc/index.html."""
-    run_qc(Path(out_dir), config, splits)
-    return write_dashboard(out_dir, config, workers)

@@ -1,54 +1,306 @@
-"""The QC dashboard: pages exist, say why a take was rejected, and load offline in Chromium."""
+"""The QC dashboard of a clip dataset: what the pages say, that they stay small and unchanged
+when the dataset is, and that they load and draw offline in real headless Chromium."""
 
 from __future__ import annotations
 
 import base64
 import json
 import os
+import re
 import select
-import shutil
 import subprocess
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
 import pytest
-from qc_data import synthetic_take, write_synthetic_dataset
 
-from gesturebank.qc.corrupt import corrupt, rederive
-from gesturebank.qc.dashboard import qc_command
+from gesturebank.config import Config
+from gesturebank.datasets import store
+from gesturebank.datasets.clip import Clip
+from gesturebank.datasets.refresh import refresh
+from gesturebank.qc.dashboard import reason_kind, write_dashboard
+from gesturebank.robot.retarget import pepper_angles
+from gesturebank.skeletons import COCO17, COCO17_BONES
+from gesturebank.testing.clips import clip_from_angles, synthetic_clip, write_dataset
 
 CHROMIUM = "/usr/bin/chromium"
+SECONDS = 8.0
+# The mixed take: a kept clip, a dropped span (the speaker left), a rejected clip (arms swapped).
+GAP = (SECONDS, SECONDS + 4.0)
+PREVIEW_TIMES = (2.0, 9.5, 14.0, 18.0)
+STRIP_FRAME = (320, 180)  # px of one preview frame (the synthetic video is 1280 × 720)
+
+
+def _swap_arms(clip: Clip, frames: slice) -> Clip:
+    """The clip as if the detector had exchanged the left and right elbows and wrists in
+    `frames`: the swapped 3D pose retargeted, and a clip made of those angles."""
+    joints = clip.pose3d.joints.copy()
+    for part in ("elbow", "wrist"):
+        left, right = COCO17.index[f"left_{part}"], COCO17.index[f"right_{part}"]
+        joints[frames, left] = clip.pose3d.joints[frames, right]
+        joints[frames, right] = clip.pose3d.joints[frames, left]
+    angles = pepper_angles(replace(clip.pose3d, joints=joints))
+    return clip_from_angles(angles, clip.timestamps, clip_id=clip.clip_id)
+
+
+def _unseen(clip: Clip, frames: slice) -> Clip:
+    """The clip with nobody seen in `frames` (NaN angles → unseen keypoints, masked angles)."""
+    angles = clip.raw_angles.copy()
+    angles[frames] = np.nan
+    return clip_from_angles(angles, clip.timestamps, clip_id=clip.clip_id)
+
+
+def _clean(take: str, k: int, seed: int) -> Clip:
+    return synthetic_clip(seconds=SECONDS, seed=seed, clip_id=f"{take}__c{k:03d}")
+
+
+def _preview_jpeg(clips: list[Clip]) -> bytes:
+    """A strip of 'video frames' with the speaker drawn as a grey stick figure where the clips
+    place them, so that the page's skeletons must land on the figures."""
+    w, h = STRIP_FRAME
+    strip = np.full((h, w * len(PREVIEW_TIMES), 3), (60, 90, 40), np.uint8)
+    for i, t in enumerate(PREVIEW_TIMES):
+        cv2.putText(strip, f"frame {i + 1}", (i * w + 8, h - 10), 0, 0.5, (255, 255, 255), 1)
+        clip = next((c for c in clips if c.start_s <= t < c.start_s + c.duration_s), None)
+        if clip is None:
+            continue
+        k = int(np.argmin(np.abs(clip.pose2d.timestamps + clip.start_s - t)))
+        xy = clip.pose2d.xy[k] * (w / 1280)
+        for a, b in COCO17_BONES:
+            p, q = xy[COCO17.index[a]], xy[COCO17.index[b]]
+            if np.isfinite(p).all() and np.isfinite(q).all():
+                p0, q0 = (int(i * w + p[0]), int(p[1])), (int(i * w + q[0]), int(q[1]))
+                cv2.line(strip, p0, q0, (200, 200, 200), 7)
+    ok, jpeg = cv2.imencode(".jpg", strip, [cv2.IMWRITE_JPEG_QUALITY, 80])
+    assert ok
+    return jpeg.tobytes()
+
+
+def _tracking() -> dict[str, Any]:
+    """A main-speaker report: two shots, a runner-up in the first."""
+    scores = {"size": 0.8, "centrality": 0.9, "speech": 0.6, "total": 2.3}
+    return {
+        "choices": [
+            {
+                "start_s": 0.0,
+                "end_s": 10.0,
+                "shot": 0,
+                "reason": "shot",
+                "main_id": 1,
+                "runner_up": 4,
+                "scores": {"1": scores, "4": {**scores, "centrality": 0.2, "total": 1.6}},
+            },
+            {
+                "start_s": 10.0,
+                "end_s": 2 * SECONDS + 4.0,
+                "shot": 1,
+                "reason": "shot",
+                "main_id": 2,
+                "runner_up": None,
+                "scores": {"2": scores},
+            },
+        ]
+    }
+
+
+def _mix_take(out: Path, clips: list[Clip]) -> None:
+    """Turn the take of `clips` (written back to back) into: clip 0, a dropped span, clip 1;
+    with a preview strip and a tracking report."""
+    record = store.read_record(out, "s4_mixed")
+    assert record is not None
+    first, second = record.data_clips
+    span = store.ClipRecord("s4_mixed__s000", "span", *GAP, "rejected", ("main speaker absent",))
+    moved = replace(second, start_s=GAP[1], end_s=GAP[1] + second.duration_s)
+    record = replace(
+        record,
+        clips=(first, span, moved),
+        seconds=moved.end_s,
+        visible_s=record.visible_s,
+        preview_times=PREVIEW_TIMES,
+        tracking=_tracking(),
+    )
+    (store.take_dir(out, "s4_mixed") / store.PREVIEW).write_bytes(_preview_jpeg(clips))
+    store.write_record(out, record)
 
 
 @pytest.fixture(scope="module")
-def synthetic_dashboard(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    takes = {f"subj{i}_take": synthetic_take(seed=i) for i in range(5)}
-    takes["bad_take"] = rederive(corrupt(takes["subj0_take"], "swap", 2, seed=1))
-    out = write_synthetic_dataset(tmp_path_factory.mktemp("dash"), takes)
-    qc_command(out)
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("dashboard")
+    masked = _unseen(_clean("s2_masked", 0, 20), slice(90, 120))  # 1 s unseen
+    repaired = np.zeros_like(masked.repaired)
+    repaired[30:36, COCO17.index["left_wrist"]] = True
+    mixed = [
+        _clean("s4_mixed", 0, 40),
+        replace(_swap_arms(_clean("s4_mixed", 1, 41), slice(60, 90)), start_s=GAP[1]),
+    ]
+    takes = {
+        "s1_clean": [_clean("s1_clean", 0, 10), _clean("s1_clean", 1, 11)],
+        "s2_masked": [replace(masked, repaired=repaired)],
+        "s3_unseen": [_unseen(_clean("s3_unseen", 0, 30), slice(20, None))],
+        "s4_mixed": mixed,
+        "s6_clean": [_clean("s6_clean", 0, 60), _clean("s6_clean", 1, 61)],
+    }
+    write_dataset(out, takes)
+    _mix_take(out, mixed)
+    failed = store.TakeRecord(
+        "s5_failed", "s5", "s5_failed.mp4", "x", failed="no audio track", seconds=3.0
+    )
+    store.write_record(out, failed)
+    refresh(out, Config())
+    write_dashboard(out)
     return out
 
 
-def test_pages_are_written(synthetic_dashboard: Path) -> None:
-    qc = synthetic_dashboard / "qc"
-    index = (qc / "index.html").read_text()
-    assert "class='sortable'" in index and "Jerkiness per take" in index
-    for i in range(5):
-        assert f"takes/subj{i}_take.html" in index
-        assert (qc / "takes" / f"subj{i}_take.html").is_file()
-    assert "http://" not in index and "https://" not in index  # nothing to fetch
+def _page(dataset: Path, take: str) -> str:
+    return (dataset / "qc" / "takes" / f"{take}.html").read_text(encoding="utf-8")
 
 
-def test_a_rejected_take_page_shows_why(synthetic_dashboard: Path) -> None:
-    page = (synthetic_dashboard / "qc" / "takes" / "bad_take.html").read_text()
-    assert "QC status: <span class='status'>rejected</span>" in page
-    reasons = page.split("<ul class='reasons'>")[1].split("</ul>")[0]
-    assert "left/right arms swapped" in reasons
-    good = (synthetic_dashboard / "qc" / "takes" / "subj1_take.html").read_text()
-    assert "<span class='status'>accepted</span>" in good and "class='reasons'" not in good
-    assert "blank canvas (no video)" in good
+def _data(page: str) -> dict[str, Any]:
+    found = re.search(r"<script type='application/json' id='data'>(.*?)</script>", page, re.S)
+    assert found
+    return json.loads(found.group(1))
+
+
+def _table_rows(page: str, table_id: str) -> list[list[str]]:
+    """Text of each body row's cells."""
+    table = page.split(f"id='{table_id}'>", 1)[1].split("</table>", 1)[0]
+    body = table.split("<tbody>", 1)[1]
+    rows = re.findall(r"<tr>(.*?)</tr>", body, re.S)
+    return [
+        [re.sub(r"<[^>]+>", "", c) for c in re.findall(r"<td[^>]*>(.*?)</td>", r)] for r in rows
+    ]
+
+
+def _undelta(steps: list[int | None], unit: float) -> list[float | None]:
+    v, out = 0, []
+    for s in steps:
+        if s is not None:
+            v += s
+        out.append(None if s is None else v * unit)
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# What the pages say
+
+
+def test_the_corrupted_clips_are_rejected(dataset: Path) -> None:
+    """The premise of the other tests: the dataset has kept, rejected and dropped time."""
+    unseen = store.read_record(dataset, "s3_unseen")
+    mixed = store.read_record(dataset, "s4_mixed")
+    assert unseen is not None and mixed is not None
+    assert unseen.clips[0].qc_status == "rejected"
+    assert any("head unseen" in r for r in unseen.clips[0].qc_reasons)
+    assert [c.kind for c in mixed.clips] == ["clip", "span", "clip"]
+    assert [c.qc_status for c in mixed.clips] == ["accepted", "rejected", "rejected"]
+    assert any("raw jerk" in r for r in mixed.clips[2].qc_reasons)
+
+
+def test_index_lists_every_take_by_usable_seconds(dataset: Path) -> None:
+    index = (dataset / "qc" / "index.html").read_text(encoding="utf-8")
+    rows = _table_rows(index, "takes")
+    records = {r.take_id: r for r in store.records(dataset)}
+    assert sorted(row[0] for row in rows) == sorted(records)
+    usable = [float(row[4]) for row in rows]
+    assert usable == sorted(usable, reverse=True)
+    for row in rows:
+        assert float(row[4]) == pytest.approx(records[row[0]].usable_s, abs=0.05)
+    assert "href='takes/s4_mixed.html'" in index
+    mixed = next(row for row in rows if row[0] == "s4_mixed")
+    assert mixed[3] == "1/2" and "main speaker absent (4.0 s)" in mixed[7]
+    failed = next(row for row in rows if row[0] == "s5_failed")
+    assert failed[2] == "failed" and "no audio track" in failed[7]
+    total = sum(r.usable_s for r in records.values())
+    assert f"<td id='sum-0'>{total:.1f}</td>" in index
+
+
+def test_index_sums_the_reasons(dataset: Path) -> None:
+    index = (dataset / "qc" / "index.html").read_text(encoding="utf-8")
+    reasons = {row[0]: row for row in _table_rows(index, "reasons")}
+    assert float(reasons["main speaker absent"][2]) == pytest.approx(4.0)
+    assert "head unseen in …% of the clip" in reasons
+    assert reasons["no audio track"][1] == "1 failed"
+    data = _data(index)
+    assert len(data["clips"]) == 8 and len(data["joint_raw"]) == 11
+    assert reason_kind("3D bone length varies by 31% (max 20%)") == "3D bone length varies by …%"
+
+
+def test_take_page_timeline_shows_kept_rejected_and_dropped(dataset: Path) -> None:
+    page = _page(dataset, "s4_mixed")
+    line = _data(page)["timeline"]
+    kinds = [(s["kind"], s["t0"], s["t1"]) for s in line["segments"]]
+    assert [k for k, _, _ in kinds] == ["kept", "dropped", "rejected"]
+    assert kinds[1][1:] == GAP
+    assert line["segments"][1]["reasons"] == ["main speaker absent"]
+    assert any("raw jerk" in r for r in line["segments"][2]["reasons"])
+    assert line["cuts"] == [10.0]
+    assert [s["label"] for s in line["speakers"]] == ["#1 vs #4", "#2"]
+    assert "runner-up #4 (total 1.6)" in line["speakers"][0]["tip"]
+    segments = page.split("<ol class='segments'>")[1].split("</ol>")[0]
+    assert "dropped</span> s4_mixed__s000: main speaker absent" in segments
+    assert "raw jerk" in segments
+    assert "id='speakers'" in page  # the scores per segment
+
+
+def test_preview_frames_carry_the_skeleton_unless_dropped(dataset: Path) -> None:
+    preview = _data(_page(dataset, "s4_mixed"))["preview"]
+    assert preview["w"] == 4 * STRIP_FRAME[0] and preview["src"].startswith("data:image/jpeg")
+    frames = preview["frames"]
+    assert [f["points"] is None for f in frames] == [False, True, False, False]
+    assert frames[1]["note"] == "dropped: main speaker absent"
+    nose = frames[2]["points"][COCO17.index["nose"]]
+    assert 2 * STRIP_FRAME[0] < nose[0] < 3 * STRIP_FRAME[0]  # on the third frame
+    assert "No preview strip" in _page(dataset, "s1_clean")
+
+
+def test_clip_plots_carry_masked_spans_and_repaired_frames(dataset: Path) -> None:
+    page = _data(_page(dataset, "s2_masked"))
+    (clip,) = page["clips"]
+    assert len(clip["proc"]["v"]) == len(clip["raw"]["v"]) == len(page["joints"]) == 11
+    arm = page["joints"].index("LElbowYaw")
+    (masked,) = clip["masked"][arm]
+    assert masked[0] == pytest.approx(3.0, abs=0.1) and masked[1] == pytest.approx(4.0, abs=0.1)
+    (fixed,) = clip["repaired"][arm]  # the left wrist moves the left elbow's angles
+    assert fixed == pytest.approx([1.0, 1.2], abs=0.01)
+    assert clip["repaired"][page["joints"].index("RElbowYaw")] == []
+    proc = _undelta(clip["proc"]["v"][arm], 0.1)
+    times = [clip["proc"]["t0"] + i * clip["proc"]["dt"] for i in range(len(proc))]
+    inside = [v for t, v in zip(times, proc, strict=True) if 3.2 < t < 3.8]
+    assert inside and all(v is None for v in inside)  # unknown, not drawn
+    assert len(proc) <= 25 * SECONDS + 1  # thinned for the page
+
+
+def test_pages_are_small_and_fetch_nothing(dataset: Path) -> None:
+    pages = list((dataset / "qc").rglob("*.html"))
+    assert len(pages) == 1 + 6
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        assert page.stat().st_size < 300_000, page
+        assert "http://" not in text and "https://" not in text, page
+        assert "default-src 'none'" in text
+
+
+def test_an_unchanged_dataset_rewrites_no_page(dataset: Path) -> None:
+    pages = sorted((dataset / "qc").rglob("*.html"))
+    before = {p: p.stat().st_mtime_ns for p in pages}
+    write_dashboard(dataset)
+    assert {p: p.stat().st_mtime_ns for p in pages} == before
+    # a changed record: only its page (and the index, whose table shows it) is rendered again
+    record = store.read_record(dataset, "s1_clean")
+    assert record is not None
+    store.write_record(dataset, replace(record, subject="renamed"))
+    try:
+        write_dashboard(dataset)
+        changed = {p.name for p in pages if p.stat().st_mtime_ns != before[p]}
+        assert changed == {"s1_clean.html", "index.html"}
+    finally:
+        store.write_record(dataset, record)
+        write_dashboard(dataset)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -86,9 +338,8 @@ class Browser:
 
     def _recv(self, deadline: float) -> dict[str, Any]:
         while b"\0" not in self._buf:
-            ready, _, _ = select.select(
-                [self._from_r], [], [], max(0.0, deadline - time.monotonic())
-            )
+            left = max(0.0, deadline - time.monotonic())
+            ready, _, _ = select.select([self._from_r], [], [], left)
             if not ready:
                 raise TimeoutError("no reply from Chromium")
             chunk = os.read(self._from_r, 1 << 20)
@@ -113,27 +364,20 @@ class Browser:
                 return reply["result"]
             self.events.append(reply)
 
-    def open(self, url: str, screenshot: Path) -> list[dict[str, Any]]:
-        """Load `url` in the first tab, save a full-page PNG; returns the events seen."""
+    def open(self, url: str) -> Tab:
+        """Load `url` in the first tab and wait for its load event."""
         self.events = []
         targets = self.call("Target.getTargets")["targetInfos"]
         page = next(t for t in targets if t["type"] == "page")
         attach = {"targetId": page["targetId"], "flatten": True}
-        session = self.call("Target.attachToTarget", attach)["sessionId"]
+        tab = Tab(self, self.call("Target.attachToTarget", attach)["sessionId"])
         for domain in ("Runtime", "Log", "Network", "Page"):
-            self.call(f"{domain}.enable", session=session)
-        self.call("Page.navigate", {"url": url}, session=session)
+            tab.call(f"{domain}.enable")
+        tab.call("Page.navigate", {"url": url})
         deadline = time.monotonic() + 60
         while not any(e.get("method") == "Page.loadEventFired" for e in self.events):
             self.events.append(self._recv(deadline))
-        shot = self.call(
-            "Page.captureScreenshot",
-            {"format": "png", "captureBeyondViewport": True},
-            session=session,
-        )
-        screenshot.write_bytes(base64.b64decode(shot["data"]))
-        self.call("Target.detachFromTarget", {"sessionId": session})
-        return self.events
+        return tab
 
     def close(self) -> None:
         try:
@@ -149,8 +393,41 @@ class Browser:
         os.close(self._from_r)
 
 
-def _problems(events: list[dict[str, Any]], folder: Path) -> list[str]:
-    """Console errors, exceptions, and requests for anything but this folder's files / data:."""
+class Tab:
+    """One attached page: evaluate JavaScript, click like a mouse, take screenshots."""
+
+    def __init__(self, browser: Browser, session: str) -> None:
+        self.browser, self.session = browser, session
+
+    def call(self, method: str, params: dict | None = None) -> dict:
+        return self.browser.call(method, params, self.session)
+
+    def eval(self, expression: str) -> Any:
+        reply = self.call("Runtime.evaluate", {"expression": expression, "returnByValue": True})
+        assert "exceptionDetails" not in reply, reply["exceptionDetails"]
+        return reply["result"].get("value")
+
+    def click(self, selector: str) -> None:
+        """A real left click (mouse events) in the middle of the element."""
+        box = self.eval(
+            f"(function (e) {{ e.scrollIntoView(); var r = e.getBoundingClientRect();"
+            f" return [r.x + r.width / 2, r.y + r.height / 2]; }})"
+            f"(document.querySelector({json.dumps(selector)}))"
+        )
+        for kind in ("mousePressed", "mouseReleased"):
+            event = {"type": kind, "x": box[0], "y": box[1], "button": "left", "clickCount": 1}
+            self.call("Input.dispatchMouseEvent", event)
+
+    def screenshot(self, path: Path) -> None:
+        shot = self.call("Page.captureScreenshot", {"format": "png", "captureBeyondViewport": True})
+        path.write_bytes(base64.b64decode(shot["data"]))
+
+    def close(self) -> None:
+        self.browser.call("Target.detachFromTarget", {"sessionId": self.session})
+
+
+def _problems(events: list[dict[str, Any]], page: Path) -> list[str]:
+    """Console errors and warnings, exceptions, and any request but the page itself."""
     found = []
     for e in events:
         method, params = e.get("method"), e.get("params", {})
@@ -162,30 +439,81 @@ def _problems(events: list[dict[str, Any]], folder: Path) -> list[str]:
             found.append(f"log: {params['entry'].get('text')}")
         elif method == "Network.requestWillBeSent":
             url = params["request"]["url"]
-            if not (url.startswith("data:") or url.startswith(folder.as_uri())):
+            if url != page.as_uri() and not url.startswith("data:"):
                 found.append(f"request: {url}")
     return found
 
 
-@pytest.mark.skipif(not Path(CHROMIUM).is_file(), reason="needs Debian's chromium")
-def test_dashboard_of_real_takes_loads_offline_in_chromium(real_dataset: Path, artifacts: Path):
-    out = real_dataset.parent / "dashboard-copy"
-    shutil.copytree(real_dataset, out, dirs_exist_ok=True)
-    index = qc_command(out)
-    takes = sorted((out / "qc" / "takes").glob("*.html"))
-    assert len(takes) == 3
+def _count(tab: Tab, selector: str) -> int:
+    return int(tab.eval(f"document.querySelectorAll({json.dumps(selector)}).length"))
+
+
+def _column(tab: Tab, col: int) -> list[str]:
+    return tab.eval(
+        f"Array.from(document.querySelectorAll('#takes tbody tr'))"
+        f".map(function (r) {{ return r.cells[{col}].textContent; }})"
+    )
+
+
+@pytest.fixture()
+def browser() -> Any:
+    if not Path(CHROMIUM).is_file():
+        pytest.skip("needs Debian's chromium")
     with tempfile.TemporaryDirectory() as profile:
-        browser = Browser(profile)
+        b = Browser(profile)
         try:
-            seen = browser.open(index.as_uri(), artifacts / "qc-dashboard-index.png")
-            assert _problems(seen, out / "qc") == []
-            requests = [e for e in seen if e.get("method") == "Network.requestWillBeSent"]
-            assert any(r["params"]["request"]["url"] == index.as_uri() for r in requests)
-            for page in takes:
-                seen = browser.open(page.as_uri(), artifacts / f"qc-dashboard-{page.stem}.png")
-                assert _problems(seen, out / "qc") == []
+            yield b
         finally:
-            browser.close()
-    assert (artifacts / "qc-dashboard-index.png").stat().st_size > 10_000
-    # frames came from the real video (videos_dir in dataset.json), not the blank canvas
-    assert "2D skeleton on the video" in takes[0].read_text()
+            b.close()
+
+
+def test_index_draws_its_charts_and_sorts_in_chromium(
+    dataset: Path, browser: Browser, artifacts: Path
+) -> None:
+    index = dataset / "qc" / "index.html"
+    tab = browser.open(index.as_uri())
+    assert _count(tab, "svg.jerk-clips rect.bar") == 2 * 8  # raw and processed per clip
+    assert _count(tab, "svg.jerk-joints rect.bar") == 2 * 11
+    usable = [float(v) for v in _column(tab, 4)]
+    assert usable == sorted(usable, reverse=True)
+    tab.click("#takes th:first-child")
+    takes = _column(tab, 0)
+    assert takes == sorted(takes)
+    tab.click("#takes th:first-child")
+    assert _column(tab, 0) == sorted(takes, reverse=True)
+    tab.click("#takes th:nth-child(5)")
+    assert [float(v) for v in _column(tab, 4)] == sorted(usable)
+    tab.screenshot(artifacts / "qc-dashboard-index.png")
+    tab.close()
+    assert _problems(browser.events, index) == []
+
+
+def test_take_page_draws_timeline_skeletons_and_angles_in_chromium(
+    dataset: Path, browser: Browser, artifacts: Path
+) -> None:
+    page = dataset / "qc" / "takes" / "s4_mixed.html"
+    tab = browser.open(page.as_uri())
+    for kind in ("kept", "rejected", "dropped"):
+        assert _count(tab, f"svg.timeline rect.seg.{kind}") == 1, kind
+    assert "main speaker absent" in tab.eval(
+        "document.querySelector('svg.timeline rect.seg.dropped title').textContent"
+    )
+    assert _count(tab, "svg.timeline line.cut") == 1
+    assert _count(tab, "svg.timeline rect.speaker") == 2
+    assert _count(tab, "svg.preview image") == 1
+    assert _count(tab, "svg.preview line.bone") >= 3 * 10  # three frames with a skeleton
+    assert _count(tab, "svg.angles") == 2
+    assert _count(tab, "svg.angles g.joint-plot") == 2 * 11
+    assert _count(tab, "svg.angles path.proc") == _count(tab, "svg.angles path.raw") == 22
+    tab.screenshot(artifacts / "qc-dashboard-take.png")
+    tab.close()
+    assert _problems(browser.events, page) == []
+
+    masked = dataset / "qc" / "takes" / "s2_masked.html"
+    tab = browser.open(masked.as_uri())
+    assert _count(tab, "svg.angles rect.masked") >= 11
+    assert _count(tab, "svg.angles rect.repaired") == 2  # LElbowRoll, LElbowYaw: the wrist
+    tab.screenshot(artifacts / "qc-dashboard-masked.png")
+    tab.close()
+    assert _problems(browser.events, masked) == []
+    assert (artifacts / "qc-dashboard-take.png").stat().st_size > 50_000
