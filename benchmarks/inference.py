@@ -7,9 +7,10 @@ PyTorch (closest to its per-call Keras setup). All methods run in the same proce
 in rounds; the table shows p50 / p99 / mean per frame in milliseconds over ≥ 10,000 frames each,
 and how many times slower than the stateful LSTM step each one is.
 
-Usage: python benchmarks/inference.py [--frames 10000] [--rounds 5] [--model-dir DIR]
+Usage: python benchmarks/inference.py [--frames 10000] [--rounds 5] [--model-dir DIR] [--quick]
 (--model-dir: a trained model folder per kind, e.g. DIR/mlp and DIR/lstm; default: untrained
-models of the default architectures, which cost exactly the same.)
+models of the default architectures, which cost exactly the same. --quick: 300 frames in one
+round, to check that the script runs; it replaces --frames and --rounds.)
 """
 
 from __future__ import annotations
@@ -66,7 +67,10 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=10_000, help="frames per method (≥ 10,000)")
     parser.add_argument("--rounds", type=int, default=5, help="interleaved rounds")
     parser.add_argument("--model-dir", type=Path, default=None)
+    parser.add_argument("--quick", action="store_true", help="300 frames, one round")
     args = parser.parse_args()
+    if args.quick:
+        args.frames, args.rounds = 300, 1
     torch.set_num_threads(1)
 
     rng = np.random.default_rng(0)

@@ -5,15 +5,20 @@ ALMotion of tests/robot/naoqi_server.py (a qi session in another process, over T
 on the server's clock, when each frame arrived relative to when it was due (t0 + times[i]).
 For `interpolate` there is one call: its arrival offset applies to every frame (the robot's own
 execution of the keyframes is not modelled by the stand-in).
-Run: .venv/bin/python benchmarks/playback.py
+Run: .venv/bin/python benchmarks/playback.py [--quick]
+
+--quick: a 1 s timeline instead of 5 s (a few seconds), to check that the script runs.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
 import numpy as np
+from rich.console import Console
+from rich.table import Table
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "robot"))
 from naoqi_server import NaoqiServer
@@ -32,8 +37,8 @@ def timeline(seconds: float = 5.0) -> Timeline:
     return Timeline.of(t, a)
 
 
-def run(mode: str, eta: float) -> tuple[float, float, float]:
-    tl = timeline()
+def run(mode: str, eta: float, seconds: float) -> tuple[float, float, float]:
+    tl = timeline(seconds)
     cfg = PlaybackConfig(mode=mode, eta=eta, start_s=0.5, return_s=0.5)  # type: ignore[arg-type]
     with NaoqiServer(lifetime_s=60) as srv:
         backend = NaoqiBackend(srv.url)
@@ -52,11 +57,18 @@ def run(mode: str, eta: float) -> tuple[float, float, float]:
 
 
 def main() -> None:
-    print(f"{'mode':<28}{'|err| p50 ms':>14}{'|err| p99 ms':>14}{'mean err ms':>14}")
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a 1 s timeline")
+    args = parser.parse_args()
+    seconds = 1.0 if args.quick else 5.0
+    table = Table(title=f"Offline sync: arrival − due time per frame, {seconds:g} s at 100 Hz")
+    for col in ("mode", "|err| p50 ms", "|err| p99 ms", "mean err ms"):
+        table.add_column(col, justify="left" if col == "mode" else "right")
     for mode, eta in (("stream", 0.95), ("stream", 1.0), ("interpolate", 1.0)):
         label = f"{mode} (η = {eta})" if mode == "stream" else "interpolate (one call)"
-        p50, p99, mean = run(mode, eta)
-        print(f"{label:<28}{p50:>14.2f}{p99:>14.2f}{mean:>14.2f}")
+        p50, p99, mean = run(mode, eta, seconds)
+        table.add_row(label, f"{p50:.2f}", f"{p99:.2f}", f"{mean:.2f}")
+    Console(width=max(Console().width, 100)).print(table)
 
 
 if __name__ == "__main__":

@@ -6,7 +6,10 @@ Prints two tables:
 2. round-trip error per joint (mean / max, degrees) of random angles inside the limits → Pepper FK
    (ideal chain and real URDF offsets) → `pepper_angles`, outside the documented singular set.
 
-Run: .venv/bin/python benchmarks/retarget.py [--frames 100000] [--loop-frames 2000]
+Run: .venv/bin/python benchmarks/retarget.py [--frames 100000] [--loop-frames 2000] [--quick]
+
+--quick: a few thousand frames and poses, one repeat (well under a second of work), to check that
+the script runs; it replaces the sizes given on the command line.
 """
 
 from __future__ import annotations
@@ -108,7 +111,10 @@ def main() -> None:
     ap.add_argument("--loop-frames", type=int, default=2_000)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--poses", type=int, default=20_000)
+    ap.add_argument("--quick", action="store_true", help="small sizes, one repeat")
     args = ap.parse_args()
+    if args.quick:
+        args.frames, args.loop_frames, args.repeats, args.poses = 2_000, 200, 1, 2_000
     console = Console(width=120)
     console.print(speed(args.frames, args.loop_frames, args.repeats))
     console.print(accuracy(args.poses))
