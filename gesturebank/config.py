@@ -418,6 +418,12 @@ class AudioConfig(Section):
     preemph: float = Field(0.97, ge=0, lt=1, description="Pre-emphasis coefficient.")
     winlen_s: float = Field(0.025, gt=0, description="Analysis window length, seconds.")
     winstep_s: float = Field(0.01, gt=0, description="Hop between frames, seconds (= 100 Hz).")
+    window: Literal["none", "hamming"] = Field(
+        "none",
+        description="Window function on each frame: 'none' (rectangular) is the default of "
+        "python_speech_features' logfbank and mfcc, the dissertation's features; 'hamming' is "
+        "Eq. 3.2.",
+    )
     nfft: int = Field(512, ge=64, description="FFT size; must cover winlen_s × sample_rate.")
     nfilt: int = Field(26, ge=1, le=128, description="Number of Mel filters.")
     delta_n: int = Field(2, ge=1, description="Half-width of the delta regression window.")

@@ -27,6 +27,8 @@ def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
     info = json.loads((demo_dataset / "dataset.json").read_text())
     assert info["schema_version"] == 2
     assert info["rates"] == {"pose_hz": 100.0, "audio_hz": 100.0}
+    # models trained on the features must know their window (the dissertation's: none)
+    assert info["audio_features"]["params"]["window"] == "none"
     assert len(info["joints"]) == 11
     lower = np.array([info["limits"][j]["lower"] for j in info["joints"]])
     upper = np.array([info["limits"][j]["upper"] for j in info["joints"]])

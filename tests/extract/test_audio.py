@@ -33,7 +33,21 @@ def _read_wav(path: Path) -> np.ndarray:
     return (raw / 32768.0).astype(np.float32)
 
 
-def _reference(x: np.ndarray, kind: str) -> np.ndarray:
+def _psf_default(x: np.ndarray, kind: str) -> np.ndarray:
+    """python_speech_features 0.6 called with its defaults only: the dissertation's features."""
+    x64 = x.astype(np.float64)
+    if kind == "mfcc13":
+        return psf.mfcc(x64)
+    fb = psf.logfbank(x64)
+    parts = [fb]
+    if kind in ("logfb52", "logfb78"):
+        parts.append(psf.delta(fb, 2))
+    if kind == "logfb78":
+        parts.append(psf.delta(parts[1], 2))
+    return np.hstack(parts)
+
+
+def _psf_hamming(x: np.ndarray, kind: str) -> np.ndarray:
     """python_speech_features 0.6 with the dissertation's parameters and a Hamming window.
 
     Its `logfbank` takes no window argument, so LogFB is log(fbank(winfunc=hamming)), which is
@@ -58,12 +72,13 @@ def _reference(x: np.ndarray, kind: str) -> np.ndarray:
 @pytest.mark.media
 @pytest.mark.parametrize("name", ["arctic_a0007", "arctic_a0009"])
 @pytest.mark.parametrize("kind", ["logfb26", "logfb52", "logfb78", "mfcc13"])
-def test_features_equal_python_speech_features_on_real_speech(
+def test_default_features_equal_python_speech_features_defaults_on_real_speech(
     samples: Path, name: str, kind: str
 ) -> None:
+    # The default config (only the feature kind chosen) gives the dissertation's features.
     x = _read_wav(samples / "speech" / f"{name}.wav")
     got = features(x, SR, AudioConfig(features=kind))
-    ref = _reference(x, kind)
+    ref = _psf_default(x, kind)
     assert got.dtype == np.float32
     assert (
         got.shape
@@ -74,10 +89,26 @@ def test_features_equal_python_speech_features_on_real_speech(
 
 
 @pytest.mark.media
+@pytest.mark.parametrize("name", ["arctic_a0007", "arctic_a0009"])
+@pytest.mark.parametrize("kind", ["logfb26", "logfb52", "logfb78", "mfcc13"])
+def test_hamming_features_equal_python_speech_features_on_real_speech(
+    samples: Path, name: str, kind: str
+) -> None:
+    x = _read_wav(samples / "speech" / f"{name}.wav")
+    got = features(x, SR, AudioConfig(features=kind, window="hamming"))
+    ref = _psf_hamming(x, kind)
+    assert got.shape == ref.shape
+    assert np.max(np.abs(got - ref)) <= 1e-4
+    # The window matters: the default (rectangular) features are far from these.
+    assert np.max(np.abs(features(x, SR, AudioConfig(features=kind)) - ref)) > 0.1
+
+
+@pytest.mark.media
+@pytest.mark.parametrize("window", ["none", "hamming"])
 @pytest.mark.parametrize("kind", ["logfb26", "mfcc13"])
-def test_live_frame_equals_batch_row_on_real_speech(samples: Path, kind: str) -> None:
+def test_live_frame_equals_batch_row_on_real_speech(samples: Path, kind: str, window: str) -> None:
     x = _read_wav(samples / "speech" / "arctic_a0007.wav")
-    config = AudioConfig(features=kind)
+    config = AudioConfig(features=kind, window=window)
     batch = features(x, SR, config)
     for i in [0, 1, 37, 150, len(batch) - 4]:
         start = i * 160
