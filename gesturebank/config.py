@@ -387,6 +387,15 @@ class RobotConfig(Section):
     )
 
 
+class RetargetConfig(Section):
+    kinematics: Literal["urdf", "ideal"] = Field(
+        "urdf",
+        description="Arm chain the retargeting inverts: 'urdf' (Pepper's own, with the 15 mm "
+        "elbow offset and the pitched elbow frame: the robot's hand follows the person's) or "
+        "'ideal' (offset-free pitch-roll-yaw-roll chain).",
+    )
+
+
 class ProcessingConfig(Section):
     rate_hz: float = Field(
         100.0, gt=0, description="Frame clock of angles and audio features, Hz (10 ms hop)."
@@ -748,6 +757,7 @@ class Config(Section):
     geometric: GeometricConfig = Field(default_factory=GeometricConfig)
     multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)
+    retarget: RetargetConfig = Field(default_factory=RetargetConfig)
     processing: ProcessingConfig = Field(default_factory=ProcessingConfig)
     audio: AudioConfig = Field(default_factory=AudioConfig)
     qc: QCConfig = Field(default_factory=QCConfig)

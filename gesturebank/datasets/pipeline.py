@@ -254,7 +254,7 @@ def _clip(
     valid = view.valid[a:b] & ~still_spiking(
         pose3d.joints, view.valid[a:b], config.repair.max_spike
     )
-    raw = pepper_angles(pose3d)
+    raw = pepper_angles(pose3d, config=config.retarget)
     raw[~angle_support(valid)] = np.nan
     processed = process_angles(
         raw=raw, timestamps=ts, clock=times, processing=config.processing, profile=profile
@@ -400,6 +400,7 @@ CONTENT_SECTIONS = (
     "geometric",
     "multiview",
     "robot",
+    "retarget",
     "processing",
     "audio",
 )

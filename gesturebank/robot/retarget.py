@@ -8,23 +8,42 @@ Body frame (per frame, from the joints only, hence invariant to global rotation,
 uniform scale): up = mid-hips → mid-shoulders; left = right → left shoulder, made orthogonal to up;
 forward = left × up. The last step needs right-handed input (the contract); the face is not used
 to flip it, because a head turned past 90° is a legal pose — `face_forward_fraction` flags takes
-that look mirrored. Angles then follow Pepper's joint chains (URDF axes, robot x fwd, y left, z up):
+that look mirrored. Angles then follow Pepper's joint chains (URDF axes, robot x fwd, y left, z up),
+inverted exactly for the arm chain `RetargetConfig.kinematics` names (`pepper.MODELS`): "urdf", the
+default, is Pepper's own — the elbow ê = (0.1812, 0.015, 0.00013) m in the bicep frame, 15 mm off
+its x axis, and the ElbowYaw frame pitched by β = −9° — so that the robot's upper arm and forearm
+point where the person's do and Pepper's own FK poses come back exactly; "ideal" drops both
+offsets (ê ∥ x̂, β = 0), a pure pitch-roll-yaw-roll chain.
 
-- ShoulderPitch/Roll: upper arm a = Ry(pitch)·Rz(roll)·x̂ in the torso frame, so
-  roll = atan2(a_y, |a_xz|) and pitch = atan2(−a_z, a_x) (+π/2 hanging, 0 forward, − raised).
-- ElbowRoll: ∓ the bend (π − interior elbow angle): 0 straight, ∓π/2 at a right angle.
-- ElbowYaw: rotation about the upper arm of the arm plane, measured in the bicep frame
-  Ry(pitch)·Rz(roll) (0 = forearm bends inwards in the shoulder's horizontal plane).
+- ShoulderPitch/Roll: upper arm a ∥ Ry(pitch)·Rz(roll)·ê in the torso frame: Rz(roll)·ê has
+  y = a_y and length |a_xz| in xz, so roll = atan2(a_y, wx) − atan2(ê_y, ê_x) with
+  wx = √(|a_xz|² − ê_z²), and pitch turns (wx, −ê_z) into (a_x, −a_z) (+π/2 hanging, 0 forward,
+  − raised). Ideal chain: roll = atan2(a_y, |a_xz|), pitch = atan2(−a_z, a_x). A person's arm
+  hanging straight down is LShoulderRoll −4.7° on the urdf chain (the clamp makes it 0.5°).
+- ElbowRoll, ElbowYaw: the forearm in the elbow frame Ry(pitch)·Rz(roll)·Ry(β) is
+  g = (cos e, sin e·cos yaw, sin e·sin yaw) (left arm, e = ElbowRoll ≤ 0): ElbowRoll = −∠(g, x̂)
+  (0 straight, ∓π/2 at a right angle), ElbowYaw = atan2(−g_z, −g_y) (0 = forearm bends inwards
+  in the shoulder's horizontal plane). Pepper's own straight forearm (g = x̂) is `offset` = 10.1°
+  off the shoulder → elbow line, so e.g. a hanging arm bent 90° forwards is ElbowRoll ∓81° on
+  the urdf chain.
 - HeadYaw/Pitch: face direction (mid-ears → mid-eyes) = Rz(yaw)·Ry(pitch)·x̂ in the torso frame.
 - HipRoll: lean of the torso's up axis along the hip line (left hip − right hip). URDF HipRoll
   turns about −x, so positive = upper body leans to its left, as in the dissertation's code.
 
 Singular set (documented and handled continuously, never by a jump):
 
-- Straight elbow (bend < `straight_elbow`, default 10°): the arm plane, hence ElbowYaw, is
-  undefined. ElbowYaw is multiplied by a smoothstep of bend/`straight_elbow`, so it fades to 0
-  as the arm straightens (where it has no visible effect).
-- Arm along the pitch axis (|roll| > 90° − `lateral_arm`, default 10°, e.g. a T-pose): pitch and
+- Straight elbow (|ElbowRoll| < `straight_elbow`, default 10°): the arm plane, hence ElbowYaw,
+  is undefined. ElbowYaw is multiplied by a smoothstep of |ElbowRoll|/`straight_elbow`, so it
+  fades to 0 as the arm straightens (where it has no visible effect).
+- Arm that looks straight, urdf chain only (elbow angle < 2·offset ≈ 20°): exactly, a person's
+  straight arm would be ElbowRoll −10°, ElbowYaw ≈ +118° (next to the limit), and small bends
+  around it cross ElbowYaw ±π, so resting arms would flicker between the yaw limits. Inside this
+  band g is shifted (smoothstep, fading out) by the offset, so that a straight arm is Pepper's
+  straight arm (ElbowRoll 0, ElbowYaw faded to 0) as on the ideal chain. With 2·offset,
+  ElbowRoll is near 0 at the straight arm only (a band narrower than 1.5·offset would bring it
+  back to within 2.5° of 0, Pepper's own singular forearm, for one bend direction).
+- Arm along the pitch axis (upper arm within `lateral_arm`, default 10°, of it, |a_xz| <
+  sin(`lateral_arm`); ideal chain |roll| > 80°, urdf chain roll > 75.3°; e.g. a T-pose): pitch and
   ElbowYaw turn about the same axis, and pitch is ill-conditioned (on the two sides of a T-pose
   it differs by π). Inside this band the pitch is blended (smoothstep) towards the value that
   makes ElbowYaw = 0 given the arm plane (towards 0 when the elbow is straight or folded, or the
@@ -45,9 +64,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from gesturebank.config import RetargetConfig
 from gesturebank.errors import InputError
 from gesturebank.poses import Pose3D
-from gesturebank.robot.pepper import JOINTS
+from gesturebank.robot.pepper import JOINTS, MODELS, Kinematics
 from gesturebank.skeletons import COCO17
 
 STRAIGHT_ELBOW = np.deg2rad(10.0)
@@ -60,14 +80,17 @@ _USED = COCO17.joints[:13]  # knees and ankles play no part
 def pepper_angles(
     pose: Pose3D | np.ndarray,
     *,
+    config: RetargetConfig | None = None,
     straight_elbow: float = STRAIGHT_ELBOW,
     lateral_arm: float = LATERAL_ARM,
 ) -> np.ndarray:
     """Pepper angles `(T, 11)` float32 radians (order `pepper.JOINTS`) from COCO-17 joints.
 
     pose: a Pose3D, or joints `(T, 17, 3)` in COCO-17 order, right-handed, any unit.
+    config: the arm chain inverted (`kinematics`, see the module docstring); None = defaults.
     straight_elbow, lateral_arm: widths (rad) of the singular bands (see the module docstring).
     """
+    chain = MODELS[(config if config is not None else RetargetConfig()).kinematics]
     p = _points(pose)
     with np.errstate(invalid="ignore", divide="ignore"):
         fwd, left, up = _body_frame(p)
@@ -82,6 +105,7 @@ def pepper_angles(
             local(p["left_wrist"] - p["left_elbow"]),
             straight_elbow,
             lateral_arm,
+            chain,
         )
         # The right arm is the left arm mirrored (y → −y): roll, yaw and elbow roll change sign.
         r_arm = _arm(
@@ -89,6 +113,7 @@ def pepper_angles(
             mirror * local(p["right_wrist"] - p["right_elbow"]),
             straight_elbow,
             lateral_arm,
+            chain,
         )
         ears = (p["left_ear"] + p["right_ear"]) / 2
         head_pitch, head_yaw = _head(
@@ -193,33 +218,51 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
 
 
 def _arm(
-    upper: np.ndarray, fore: np.ndarray, straight_elbow: float, lateral_arm: float
+    upper: np.ndarray, fore: np.ndarray, straight_elbow: float, lateral_arm: float, k: Kinematics
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Left-arm angles (roll, pitch, elbow roll, elbow yaw), each (T,), from torso-frame vectors.
 
-    upper: (3, T) shoulder → elbow; fore: (3, T) elbow → wrist.
+    upper: (3, T) shoulder → elbow; fore: (3, T) elbow → wrist; k: the arm chain inverted.
     """
+    ex, ey, ez = np.asarray(k.elbow) / np.linalg.norm(k.elbow)  # elbow in the bicep frame
+    cb, sb = np.cos(k.elbow_pitch), np.sin(k.elbow_pitch)
     a, b = _unit(upper), _unit(fore)
     ax, ay, az = a
-    cos_roll = np.hypot(ax, az)
-    roll = np.arctan2(ay, cos_roll)
-    # Arm plane normal b × a (length sin(bend)): the bicep z axis when ElbowYaw = 0 (left arm).
+    cos_roll = np.hypot(ax, az)  # distance of the upper arm from the pitch axis
+    # a = Ry(pitch)·w, w = Rz(roll)·ê = (wx, a_y, ez): roll + atan2(ey, ex) = atan2(a_y, wx).
+    wx = np.sqrt(np.clip(cos_roll * cos_roll - ez * ez, 0.0, None))
+    roll = np.arctan2(ay, wx) - np.arctan2(ey, ex)
+    # Pitch turns (wx, −ez) into (a_x, −a_z): (pc, ps) = (a_x, −a_z) turned back by w's own
+    # angle, length |a_xz| (ideal chain: ez = 0, (pc, ps) = (a_x, −a_z)).
+    h = np.hypot(wx, ez)
+    h = np.where(h > 0, h, 1.0)
+    pc, ps = (ax * wx + az * ez) / h, (ax * ez - az * wx) / h
+    # Arm plane normal b × a (length sin(angle)): the bicep z axis when ElbowYaw = 0 (ideal arm).
     n = _cross(b, a)
-    bend = np.arctan2(np.sqrt(_dot(n, n)), _dot(a, b))
-    # Pitch: (a_x, −a_z) = cos(roll)·(cos, sin)(pitch). Inside the lateral band, blend in the
-    # bicep z axis (sin, 0, cos)(pitch) implied by the arm plane, or pitch 0 where there is no
-    # arm plane (elbow straight or folded, wrist missing). The blend can only cancel out where
-    # the true ElbowYaw is near ±π, beyond the robot's limits.
+    elbow_angle = np.arctan2(np.sqrt(_dot(n, n)), _dot(a, b))  # 0 = the arm looks straight
+    # Inside the lateral band, blend in the bicep z axis (sin, 0, cos)(pitch) implied by the arm
+    # plane, or pitch 0 where there is no arm plane (elbow straight or folded, wrist missing).
+    # The blend can only cancel out where the true ElbowYaw is near ±π, beyond the robot's limits.
     w = 1.0 - _smoothstep(cos_roll / np.sin(lateral_arm))
     n = np.where(np.isfinite(n), n, 0.0)
     no_plane = 1.0 - _smoothstep(np.sqrt(_dot(n, n)) / np.sin(straight_elbow))
-    pitch = np.arctan2(-az + w * n[0], ax + w * (n[2] + no_plane))
+    pitch = np.arctan2(ps + w * n[0], pc + w * (n[2] + no_plane))
     cp, sp, cr, sr = np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
-    # Forearm in the bicep frame Ry(pitch)·Rz(roll): components along its y and z axes.
-    by = -sr * cp * b[0] + cr * b[1] + sr * sp * b[2]
-    bz = sp * b[0] + cp * b[2]
-    # Left arm: forearm = (cos e, sin e·cos yaw, sin e·sin yaw) with e = −bend ≤ 0.
-    yaw = np.arctan2(-bz, -by) * _smoothstep(bend / straight_elbow)
+    # Forearm f in the bicep frame Ry(pitch)·Rz(roll), then g in the elbow frame f·Ry(elbow_pitch).
+    fx = cr * cp * b[0] + sr * b[1] - cr * sp * b[2]
+    fy = -sr * cp * b[0] + cr * b[1] + sr * sp * b[2]
+    fz = sp * b[0] + cp * b[2]
+    gx, gz = cb * fx - sb * fz, sb * fx + cb * fz
+    # An arm that looks straight is the chain's straight arm: up to an elbow angle of 2·offset,
+    # shift g from the shoulder → elbow line towards x̂ (module docstring; ideal: offset = 0).
+    line = (cb * ex - sb * ez, ey, sb * ex + cb * ez)  # ê in the elbow frame
+    offset = np.arctan2(np.hypot(line[1], line[2]), line[0])
+    if offset > 0:
+        keep = 1.0 - _smoothstep(elbow_angle / (2.0 * offset))
+        gx, fy, gz = gx + keep * (1.0 - line[0]), fy - keep * line[1], gz - keep * line[2]
+    # Left arm: g = (cos e, sin e·cos yaw, sin e·sin yaw) with e = ElbowRoll = −bend ≤ 0.
+    bend = np.arctan2(np.hypot(fy, gz), gx)
+    yaw = np.arctan2(-gz, -fy) * _smoothstep(bend / straight_elbow)
     return roll, pitch, -bend, yaw
 
 

@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
-from functools import cache
+from functools import cache, partial
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gesturebank.config import RetargetConfig
 from gesturebank.lift.geometric import GeometricConfig, GeometricLifter
 from gesturebank.poses import Pose2D
-from gesturebank.robot import pepper
-from gesturebank.robot.retarget import pepper_angles
+from gesturebank.robot import pepper, retarget
 from gesturebank.skeletons import COCO17, get_skeleton
+
+# The scene is Pepper's ideal FK, so its angles come back exactly through the ideal chain.
+pepper_angles = partial(retarget.pepper_angles, config=RetargetConfig(kinematics="ideal"))
 
 J = {name: i for i, name in enumerate(pepper.JOINTS)}
 K = COCO17.index

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
+from gesturebank.config import RetargetConfig
 from gesturebank.errors import InputError
 from gesturebank.poses import Pose3D
 from gesturebank.robot import pepper
@@ -17,30 +18,49 @@ from gesturebank.skeletons import COCO17
 
 J = {name: i for i, name in enumerate(pepper.JOINTS)}
 TOL = np.deg2rad(0.5)
-# The documented singular bands are 10° wide (retarget module docstring); sample outside them
-# with a margin: elbow bent at least 12°, upper arm at least 12° away from the pitch axis.
-MIN_BEND = np.deg2rad(12.0)
-MAX_ROLL = np.deg2rad(78.0)
+CHAINS = {"ideal": RetargetConfig(kinematics="ideal"), "urdf": RetargetConfig(kinematics="urdf")}
+IDEAL = CHAINS["ideal"]
+# The documented singular bands (retarget module docstring), with a 2° margin: the upper arm at
+# least 12° away from the pitch axis, the elbow angle at least 12° (ideal chain) or, on the urdf
+# chain, 2° beyond its looks-straight band of 2 × 10.12° (the angle between the shoulder → elbow
+# line, URDF elbow (0.1812, 0.015, 0.00013), and the elbow frame's x axis, pitched −0.157079).
+MIN_ELBOW = {"ideal": np.deg2rad(12.0), "urdf": np.deg2rad(2 * 10.12 + 2.0)}
+MIN_OFF_PITCH_AXIS = np.deg2rad(12.0)
 
 
 def _wrap(x: np.ndarray) -> np.ndarray:
     return (x + np.pi) % (2 * np.pi) - np.pi
 
 
-def _random_angles(rng: np.random.Generator, n: int, max_roll: float = MAX_ROLL) -> np.ndarray:
-    """(n, 11) uniform inside the pepper-1.8 limits, outside the singular set."""
+def _angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle (rad) between the vectors of (..., 3) arrays."""
+    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.sum(u * v, axis=-1))
+
+
+def _outside_singular_set(joints: np.ndarray, chain: str) -> np.ndarray:
+    """(T,) bool, from the geometry of COCO-17 joints (T, 17, 3): both arms outside the bands."""
+    c = {k: joints[:, COCO17.index[k]] for k in COCO17.joints}
+    axis = c["left_shoulder"] - c["right_shoulder"]  # the pitch axis
+    ok = np.ones(len(joints), dtype=bool)
+    for side in ("left", "right"):
+        upper = c[f"{side}_elbow"] - c[f"{side}_shoulder"]
+        fore = c[f"{side}_wrist"] - c[f"{side}_elbow"]
+        lateral = np.minimum(_angle(upper, axis), _angle(upper, -axis))
+        ok &= (lateral > MIN_OFF_PITCH_AXIS) & (_angle(upper, fore) > MIN_ELBOW[chain])
+    return ok
+
+
+def _random_poses(rng: np.random.Generator, n: int, chain: str) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 11) angles uniform inside the pepper-1.8 limits and their FK joints (n, 17, 3) through
+    `chain` (pepper.fk, independent of the retargeting), outside that chain's singular set."""
     p = pepper.load_profile("pepper-1.8")
-    out = np.empty((0, 11))
-    while len(out) < n:
+    angles, joints = np.empty((0, 11)), np.empty((0, 17, 3))
+    while len(angles) < n:
         a = rng.uniform(p.lower, p.upper, size=(4 * n, 11))
-        ok = (
-            (np.abs(a[:, J["LElbowRoll"]]) > MIN_BEND)
-            & (np.abs(a[:, J["RElbowRoll"]]) > MIN_BEND)
-            & (np.abs(a[:, J["LShoulderRoll"]]) < max_roll)
-            & (np.abs(a[:, J["RShoulderRoll"]]) < max_roll)
-        )
-        out = np.concatenate([out, a[ok]])
-    return out[:n]
+        j = pepper.fk_coco17(a, model=chain)
+        ok = _outside_singular_set(j, chain)
+        angles, joints = np.concatenate([angles, a[ok]]), np.concatenate([joints, j[ok]])
+    return angles[:n], joints[:n]
 
 
 def _similarity(rng: np.random.Generator, joints: np.ndarray) -> np.ndarray:
@@ -52,25 +72,38 @@ def _similarity(rng: np.random.Generator, joints: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------------
-# Round trips through the ideal FK, and invariance
+# Round trips through Pepper's FK (each chain inverts its own exactly), and invariance
 
 
 def test_round_trip_ideal_fk_thousands():
-    rng = np.random.default_rng(1)
-    a = _random_angles(rng, 5000)
-    got = pepper_angles(pepper.fk_coco17(a, model="ideal"))
+    a, joints = _random_poses(np.random.default_rng(1), 5000, "ideal")
+    got = pepper_angles(joints, config=IDEAL)
     assert got.dtype == np.float32 and got.shape == a.shape
     err = np.abs(_wrap(got - a))
     assert err.max() < TOL, np.rad2deg(err.max(axis=0))
 
 
-def test_round_trip_survives_rotation_translation_scale():
+def test_round_trip_urdf_fk_is_exact():
+    """Pepper's own poses (the real URDF's FK, 15 mm elbow offset, elbow frame pitched −9°) come
+    back exactly with the default chain; the offset-free chain is off by the offsets (4.7°
+    ShoulderRoll, up to 10° ElbowRoll, as measured in issue #15)."""
+    a, joints = _random_poses(np.random.default_rng(3), 5000, "urdf")
+    err = np.rad2deg(np.abs(_wrap(pepper_angles(joints) - a)))
+    assert np.all(err.mean(axis=0) <= 0.5) and np.all(np.percentile(err, 95, axis=0) <= 1.0)
+    assert err.max() < np.rad2deg(TOL), err.max(axis=0)
+    ideal = np.rad2deg(np.abs(_wrap(pepper_angles(joints, config=IDEAL) - a)))
+    roll = [J["LShoulderRoll"], J["RShoulderRoll"]]
+    np.testing.assert_allclose(ideal[:, roll], np.rad2deg(np.arctan2(0.015, 0.1812)), atol=0.01)
+    assert ideal[:, [J["LElbowRoll"], J["RElbowRoll"]]].mean() > 5.0
+
+
+@pytest.mark.parametrize("chain", ["ideal", "urdf"])
+def test_round_trip_survives_rotation_translation_scale(chain):
     rng = np.random.default_rng(2)
-    a = _random_angles(rng, 2000)
-    joints = pepper.fk_coco17(a, model="ideal")
-    base = pepper_angles(joints)
+    a, joints = _random_poses(rng, 2000, chain)
+    base = pepper_angles(joints, config=CHAINS[chain])
     for _ in range(5):
-        moved = pepper_angles(_similarity(rng, joints).astype(np.float32))
+        moved = pepper_angles(_similarity(rng, joints).astype(np.float32), config=CHAINS[chain])
         assert np.abs(_wrap(moved - a)).max() < TOL
         assert np.abs(_wrap(moved - base)).max() < np.deg2rad(0.05)
 
@@ -79,37 +112,78 @@ def test_round_trip_survives_rotation_translation_scale():
 @given(
     u=arrays(np.float64, (1, 11), elements=st.floats(0, 1)),
     seed=st.integers(0, 2**32 - 1),
+    chain=st.sampled_from(["ideal", "urdf"]),
 )
-def test_round_trip_property(u, seed):
+def test_round_trip_property(u, seed, chain):
     p = pepper.load_profile("pepper-1.8")
     a = p.lower + u * (p.upper - p.lower)
-    bend_ok = min(abs(a[0, J["LElbowRoll"]]), abs(a[0, J["RElbowRoll"]])) > MIN_BEND
-    roll_ok = max(abs(a[0, J["LShoulderRoll"]]), abs(a[0, J["RShoulderRoll"]])) < MAX_ROLL
-    if not (bend_ok and roll_ok):
+    joints = pepper.fk_coco17(a, model=chain)
+    if not _outside_singular_set(joints, chain)[0]:
         return  # the documented singular set
-    joints = _similarity(np.random.default_rng(seed), pepper.fk_coco17(a, model="ideal"))
-    assert np.abs(_wrap(pepper_angles(joints) - a)).max() < TOL
+    joints = _similarity(np.random.default_rng(seed), joints)
+    assert np.abs(_wrap(pepper_angles(joints, config=CHAINS[chain]) - a)).max() < TOL
 
 
-def test_round_trip_with_urdf_offsets_is_bounded():
-    """Real Pepper geometry (elbow 15 mm off the arm axis, ElbowYaw frame pitched −9°) is not
-    the pure chain the retargeting inverts; the error is systematic and bounded."""
-    rng = np.random.default_rng(3)
-    # The 15 mm elbow offset adds 4.7° of roll, so keep 15° from the pitch axis; the −9° elbow
-    # frame adds a bend, so ElbowYaw is only meaningful for a clearly bent elbow (> 30°).
-    a = _random_angles(rng, 5000, max_roll=np.deg2rad(75.0))
-    bent = (np.abs(a[:, J["LElbowRoll"]]) > np.deg2rad(30)) & (
-        np.abs(a[:, J["RElbowRoll"]]) > np.deg2rad(30)
-    )
-    err = np.rad2deg(np.abs(_wrap(pepper_angles(pepper.fk_coco17(a, model="urdf")) - a)))
-    exact = [J[n] for n in ("HeadPitch", "HeadYaw", "HipRoll")]
-    assert err[:, exact].max() < 0.5
-    for side in "LR":
-        assert err[:, J[f"{side}ShoulderRoll"]].max() < 5.0
-        assert err[:, J[f"{side}ShoulderPitch"]].max() < 1.0
-        assert err[:, J[f"{side}ElbowRoll"]].max() < 10.5
-        assert err[bent, J[f"{side}ElbowYaw"]].mean() < 5.0
-        assert err[bent, J[f"{side}ElbowYaw"]].max() < 20.0
+_OFFSETS = arrays(np.float64, (13, 3), elements=st.floats(-0.12, 0.12))
+
+
+@settings(max_examples=200, deadline=None)
+@given(offsets=_OFFSETS, seed=st.integers(0, 2**32 - 1), chain=st.sampled_from(["ideal", "urdf"]))
+def test_human_input_is_invariant_to_rotation_translation_scale(offsets, seed, chain):
+    """Any person-like pose (every keypoint moved up to 12 cm), not only the robot's own."""
+    base = _person()
+    joints = np.stack([base[name] for name in COCO17.joints])[None]
+    # Plus a fixed generic jitter: the hand-built pose's exact symmetries can put a forearm exactly
+    # on ElbowYaw's ±π branch cut (documented), where no function of the pose is continuous.
+    joints[0, :13] += offsets + np.random.default_rng(0).normal(0.0, 1e-3, (13, 3))
+    moved = _similarity(np.random.default_rng(seed), joints)
+    got = pepper_angles(moved, config=CHAINS[chain]).astype(np.float64)
+    want = pepper_angles(joints, config=CHAINS[chain]).astype(np.float64)
+    np.testing.assert_allclose(_wrap(got - want), 0.0, atol=1e-4)
+
+
+@pytest.mark.parametrize("chain", ["ideal", "urdf"])
+def test_robot_arm_points_where_the_persons_arm_points(chain):
+    """Human-like arms (any lengths) → angles → Pepper's FK of the same chain: the robot's
+    upper arm and forearm have the person's directions (no clamping; outside the bands)."""
+    rng = np.random.default_rng(5)
+    n = 3000
+    base = _person()
+    joints = np.repeat(np.stack([base[k] for k in COCO17.joints])[None], n, axis=0)
+    for side in ("left", "right"):
+        shoulder = joints[:, COCO17.index[f"{side}_shoulder"]]
+        upper = rng.normal(size=(n, 3))
+        fore = rng.normal(size=(n, 3))
+        elbow = (
+            shoulder
+            + rng.uniform(0.2, 0.35, (n, 1)) * upper / np.linalg.norm(upper, axis=1)[:, None]
+        )
+        joints[:, COCO17.index[f"{side}_elbow"]] = elbow
+        joints[:, COCO17.index[f"{side}_wrist"]] = (
+            elbow + 0.25 * fore / np.linalg.norm(fore, axis=1)[:, None]
+        )
+    joints = joints[_outside_singular_set(joints, chain)]
+    robot = pepper.fk(pepper_angles(joints @ TO_CAMERA.T, config=CHAINS[chain]), model=chain)
+    c = {k: joints[:, COCO17.index[k]] for k in COCO17.joints}  # person frame = robot frame
+    for side in ("left", "right"):
+        for a, b in (("shoulder", "elbow"), ("elbow", "wrist")):
+            person = c[f"{side}_{b}"] - c[f"{side}_{a}"]
+            pepper_dir = robot[f"{side}_{b}"] - robot[f"{side}_{a}"]
+            assert np.rad2deg(_angle(person, pepper_dir)).max() < 0.05, (side, a, b)
+
+
+def test_straight_arm_is_peppers_straight_arm():
+    """On the urdf chain a person's straight arm is Pepper's own straight arm (ElbowRoll 0), not
+    the exact ElbowRoll −10°, ElbowYaw +118° (next to the limit, see the module docstring)."""
+    for arms in (_person(), _person(**_both_arms(FWD, FWD, FWD, FWD))):
+        a = _angles(arms, chain="urdf")
+        for s, sign in (("L", 1), ("R", -1)):
+            # The elbow sits 15 mm off the bicep's x axis: the arm needs roll −atan(15 / 181.2).
+            assert a[f"{s}ShoulderRoll"] == pytest.approx(
+                -sign * np.arctan2(0.015, 0.1812), abs=1e-3
+            )
+            assert a[f"{s}ElbowRoll"] == pytest.approx(0.0, abs=1e-3)
+            assert a[f"{s}ElbowYaw"] == pytest.approx(0.0, abs=1e-3)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -148,9 +222,12 @@ def _person(**overrides: np.ndarray) -> dict[str, np.ndarray]:
     return p
 
 
-def _angles(p: dict[str, np.ndarray]) -> dict[str, float]:
+def _angles(p: dict[str, np.ndarray], chain: str = "ideal") -> dict[str, float]:
+    """The angles of a hand-built pose; the conventions (signs, zeros) are checked on the ideal
+    chain, whose angles are the person's own (the urdf chain adds Pepper's offsets)."""
     joints = np.stack([p[name] for name in COCO17.joints])[None] @ TO_CAMERA.T
-    return dict(zip(pepper.JOINTS, pepper_angles(joints)[0].astype(float), strict=True))
+    angles = pepper_angles(joints, config=CHAINS[chain])[0].astype(float)
+    return dict(zip(pepper.JOINTS, angles, strict=True))
 
 
 def _arm(shoulder: np.ndarray, upper: np.ndarray, fore: np.ndarray) -> dict[str, np.ndarray]:
@@ -288,12 +365,13 @@ def _camera_joints(p: dict[str, np.ndarray]) -> np.ndarray:
         (["left_knee", "left_ankle", "right_knee", "right_ankle"], []),
     ],
 )
-def test_missing_joints_make_only_affected_angles_nan(missing, nan_angles):
+@pytest.mark.parametrize("chain", ["ideal", "urdf"])
+def test_missing_joints_make_only_affected_angles_nan(missing, nan_angles, chain):
     p = _person(**_both_arms(-UP + FWD, FWD + UP, -UP - LEFT, FWD))
-    full = pepper_angles(_camera_joints(p))[0]
+    full = pepper_angles(_camera_joints(p), config=CHAINS[chain])[0]
     for k in missing:
         p[k] = np.full(3, np.nan)
-    got = pepper_angles(_camera_joints(p))[0]
+    got = pepper_angles(_camera_joints(p), config=CHAINS[chain])[0]
     for name, i in J.items():
         if name in nan_angles:
             assert np.isnan(got[i]), name
@@ -311,16 +389,20 @@ def fk_up(frame: np.ndarray) -> bool:
     return bool(frame[COCO17.index["left_wrist"], 1] < frame[COCO17.index["left_elbow"], 1])
 
 
-def test_straightening_the_elbow_is_continuous():
+@pytest.mark.parametrize("chain", ["ideal", "urdf"])
+def test_straightening_the_elbow_is_continuous(chain):
     # Arms forward; the forearm swings from bent up, through straight, to bent down: the arm
-    # plane flips by 180° (LElbowYaw −π/2 → +π/2), so an undamped ElbowYaw would jump by π.
+    # plane flips by 180° (LElbowYaw −π/2 → +π/2), so an undamped ElbowYaw would jump by π; on
+    # the urdf chain the exact ElbowYaw would also cross ±π near the straight arm.
     s = np.linspace(-1, 1, 2001)
     frames = []
     for t in s:
         fore = Rotation.from_rotvec(np.deg2rad(40) * t * LEFT).apply(FWD)
         frames.append(_camera_joints(_person(**_both_arms(FWD, fore, FWD, fore)))[0])
-    path = pepper_angles(np.stack(frames))
+    path = pepper_angles(np.stack(frames), config=CHAINS[chain])
     assert _max_step(path).max() < np.deg2rad(1.0), np.rad2deg(_max_step(path))
+    if chain == "urdf":
+        return  # the end values below are the ideal chain's (the urdf chain: −97° and +95°)
     # Away from the straight band the yaw is the true one at both ends (forearm up: the bicep
     # frame's +z is up, so the left forearm at −90° yaw; the right arm mirrors).
     assert fk_up(frames[0])
@@ -329,8 +411,9 @@ def test_straightening_the_elbow_is_continuous():
     assert path[0, J["RElbowYaw"]] == pytest.approx(np.pi / 2, abs=DEG2)
 
 
+@pytest.mark.parametrize("chain", ["ideal", "urdf"])
 @pytest.mark.parametrize("fore", ["forward", "forward-up", "straight"])
-def test_arm_through_the_pitch_axis_is_continuous(fore):
+def test_arm_through_the_pitch_axis_is_continuous(fore, chain):
     # Raise the arm sideways from hanging to overhead in the frontal plane, through the T-pose
     # (upper arm along the pitch axis): on its two sides ShoulderPitch is +π/2 and −π/2, so a
     # plain atan2 jumps by π there. The blend spreads that turn over the 10° band.
@@ -342,7 +425,7 @@ def test_arm_through_the_pitch_axis_is_continuous(fore):
         forearm = {"forward": FWD, "forward-up": FWD + UP, "straight": upper}[fore]
         forearm_r = forearm if fore != "straight" else upper_r
         frames.append(_camera_joints(_person(**_both_arms(upper, forearm, upper_r, forearm_r)))[0])
-    path = pepper_angles(np.stack(frames))
+    path = pepper_angles(np.stack(frames), config=CHAINS[chain])
     steps = _max_step(path)
     arm = [J[f"{s}{j}"] for s in "LR" for j in ("ShoulderRoll", "ShoulderPitch", "ElbowYaw")]
     assert steps[arm].max() < np.deg2rad(3.0), np.rad2deg(steps)
@@ -366,6 +449,7 @@ def test_wrong_shape_is_input_error(shape):
 
 def test_face_forward_fraction_flags_mirrored_input():
     rng = np.random.default_rng(4)
-    joints = pepper.fk_coco17(_random_angles(rng, 200) * [0, 0.6, 1, 1, 1, 1, 1, 1, 1, 1, 1])
+    angles = _random_poses(rng, 200, "urdf")[0] * [0, 0.6, 1, 1, 1, 1, 1, 1, 1, 1, 1]
+    joints = pepper.fk_coco17(angles)
     assert face_forward_fraction(joints) == 1.0
     assert face_forward_fraction(joints * [1.0, 1.0, -1.0]) == 0.0  # mirrored z: left-handed
