@@ -398,36 +398,47 @@ def replay(
     compare: Annotated[
         Path | None, typer.Option(help="sim: a second CSV rendered side by side.")
     ] = None,
+    clamp: Annotated[
+        bool, typer.Option("--clamp", help="Play angles far outside the limits clamped.")
+    ] = False,
     config_file: Annotated[
         Path | None, typer.Option("--config", "-c", help="TOML config file ([playback]).")
     ] = None,
     sets: Annotated[
-        list[str] | None, typer.Option("--set", help="e.g. --set playback.speed_fraction=0.5.")
+        list[str] | None, typer.Option("--set", help="e.g. --set playback.max_speed_fraction=1.")
     ] = None,
 ) -> None:
     """Play an angle timeline on Pepper, a simulator render, or a file — safely.
 
-    Every backend gets angles inside the robot's limits and within its joint speeds; the robot
-    moves smoothly from its current pose to the first frame and back to neutral at the end, on
-    Ctrl-C or on an error. A lost connection stops playback with a one-line error.
+    Every backend gets angles inside the robot's limits and within a share of its joint speeds
+    (playback.max_speed_fraction); the robot moves smoothly from its current pose to the first
+    frame and back to neutral at the end, on Ctrl-C or on an error. A lost connection stops
+    playback with a one-line error. A timeline that looks wrong is refused: angles far outside
+    the limits (degrees?) unless --clamp, a gap in its times, a first frame long after 0 s.
     """
     from gesturebank.robot.playback import replay_command
 
     with user_errors():
         config = resolve_config(config_file, sets, {})
-        result = replay_command(
-            angles,
-            backend,
-            url,
-            out_file,
-            audio,
-            config.playback,
-            clip=clip,
-            compare=compare,
-            profile=config.robot.profile,
-        )
-    status = getattr(result, "status", "done")
+        try:
+            result = replay_command(
+                angles,
+                backend,
+                url,
+                out_file,
+                audio,
+                config.playback,
+                clip=clip,
+                compare=compare,
+                profile=config.robot.profile,
+                clamp=clamp,
+            )
+        except KeyboardInterrupt:  # while the sim renders: the video is never half-written
+            result = None
+    status = "interrupted" if result is None else getattr(result, "status", "done")
     where = f" → {out_file}" if out_file else ""
+    if status == "interrupted" and backend == "sim":
+        where = f", nothing written to {out_file}"
     out.print(f"replay {status} on {backend}{where}", highlight=False, soft_wrap=True)
     if status == "interrupted":
         raise typer.Exit(130)

@@ -654,12 +654,35 @@ class PlaybackConfig(Section):
         description="Pause between reaching frame 0 and starting the audio, seconds (gives "
         "the audio device time to open).",
     )
-    speed_fraction: float = Field(
-        1.0,
+    max_speed_fraction: float = Field(
+        0.5,
         gt=0,
         le=1,
-        description="Share of each joint's maximum velocity the sent motion may use; also "
-        "ALMotion's fractionMaxSpeed. Lower it for a gentler robot.",
+        description="Cap on each joint's speed as a share of its maximum velocity; also "
+        "ALMotion's fractionMaxSpeed. The dissertation used 1.0; 0.5 by default because the "
+        "profile's velocities are the motors' no-load maxima (URDF), not a pace to drive a "
+        "robot at unasked, while half (3.7 rad/s at the shoulders) still follows a beat of "
+        "0.5 rad in a quarter of a second. 1.0 reproduces the dissertation.",
+    )
+    max_outside_share: float = Field(
+        0.05,
+        ge=0,
+        le=1,
+        description="Replay refuses a timeline with more than this share of frames beyond the "
+        "robot's limits (or any angle beyond ±2π): radians expected, degrees are the usual "
+        "cause. `--clamp` plays it clamped instead.",
+    )
+    max_gap_s: float = Field(
+        0.5,
+        gt=0,
+        description="Replay refuses a timeline with a longer gap between two frames, seconds "
+        "(the robot would hold still, then jump).",
+    )
+    max_start_s: float = Field(
+        5.0,
+        ge=0,
+        description="Replay refuses a timeline whose first frame comes later than this after "
+        "the audio starts, seconds (a timeline on another clock, e.g. the source video's).",
     )
     ramp_rate_hz: float = Field(
         100.0, gt=0, le=1000, description="Command rate of the start and return moves, Hz."
@@ -685,6 +708,16 @@ class PlaybackConfig(Section):
     kalman_r: float = Field(
         0.01, gt=0, description="Live mode: Kalman measurement noise r (dissertation 0.01)."
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _renamed(cls, data: Any) -> Any:
+        # `speed_fraction` became `max_speed_fraction`: datasets and config files that have the
+        # old key still load, with its value unless the new key is given too.
+        if isinstance(data, dict) and "speed_fraction" in data:
+            data = dict(data)
+            data.setdefault("max_speed_fraction", data.pop("speed_fraction"))
+        return data
 
 
 class SplitsConfig(Section):

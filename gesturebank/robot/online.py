@@ -191,7 +191,7 @@ class LiveSynth:
         self.model = model
         self.hop = frame_step(self.audio)  # 160 samples = 10 ms
         self.dt = self.hop / self.audio.sample_rate
-        self.profile = speed_profile(pepper.load_profile(model.profile), cfg.speed_fraction)
+        self.profile = speed_profile(pepper.load_profile(model.profile), cfg.max_speed_fraction)
         start = safe_pose(pepper.neutral_pose() if start_pose is None else start_pose, self.profile)
         # +1 sample: pre-emphasis needs the sample just before the window (Eq. 3.1).
         self.window = np.zeros(frame_length(self.audio) + 1, np.float64)
@@ -322,7 +322,8 @@ def run_live(
             t_first = available - synth.dt if t_first is None else t_first
             t_live = available - t_first
             pose = synth.push(chunk)
-            backend.send(Command(t=t_live, angles=pose, phase="live", fraction=cfg.speed_fraction))
+            fraction = cfg.max_speed_fraction
+            backend.send(Command(t=t_live, angles=pose, phase="live", fraction=fraction))
             run.last = pose
             latencies.append(time.monotonic() - available)
             log.debug("live frame %d: latency %.3f ms", n_chunks, latencies[-1] * 1000)

@@ -2,10 +2,12 @@
 
 Safety, on every backend (the backends only translate):
 - every angle sent is clamped into the robot profile's limits;
-- every joint's speed stays below `speed_fraction` × its maximum velocity;
+- every joint's speed stays below `max_speed_fraction` × its maximum velocity;
 - playback starts by moving smoothly from the robot's current pose (read from it) to frame 0,
   and ends — normally, on Ctrl-C, or on an error — by moving smoothly back to the neutral pose;
 - a lost connection stops playback with one line (RobotError) instead of a traceback.
+`replay` also refuses a timeline that looks wrong (`check_timeline`): angles far outside the
+limits (degrees?) unless told to clamp, a gap in its times, a first frame long after the audio.
 
 Timing: frame i of the timeline is due at t0 + times[i], where t0 is the moment the audio starts.
 Two modes (`PlaybackConfig.mode`):
@@ -29,7 +31,7 @@ from typing import Protocol
 import numpy as np
 
 from gesturebank.config import PlaybackConfig
-from gesturebank.errors import RobotError
+from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import Backend, Command, Interpolating, create
 from gesturebank.robot.timeline import Timeline, from_clip, read_csv
@@ -105,6 +107,60 @@ def safe_angles(timeline: Timeline, profile: pepper.RobotProfile) -> np.ndarray:
         clamped, timestamps=timeline.times, profile=profile, start=clamped[0]
     )
     return pepper.clamp(limited, profile)
+
+
+# An angle this close to a limit counts as inside: CSV rounding and raw retargeted angles (a
+# straight elbow at 0 rad, limit ∓0.0087) put sound timelines a hair outside.
+_LIMIT_SLACK_RAD = 0.05
+
+
+def check_timeline(
+    timeline: Timeline,
+    *,
+    name: str,
+    profile: pepper.RobotProfile,
+    config: PlaybackConfig,
+    clamp: bool = False,
+) -> None:
+    """Refuse (InputError, one line naming `name`) a timeline that does not look like one to
+    play: its first frame before 0 or after `config.max_start_s`, a gap between frames longer
+    than `config.max_gap_s`, or — unless `clamp` — angles far outside `profile`: any beyond ±2π,
+    or more than `config.max_outside_share` of the frames beyond the limits. Angles that are
+    beyond the limits but let through are logged as a warning (the player clamps them)."""
+    t, a = timeline.times, timeline.angles
+    if not 0 <= t[0] <= config.max_start_s:
+        raise InputError(
+            f"{name}: first frame at t = {t[0]:.3f} s; a timeline starts between 0 (the audio's "
+            f"start) and playback.max_start_s = {config.max_start_s:g} s"
+        )
+    gaps = np.diff(t)
+    if len(gaps) and float(gaps.max()) > config.max_gap_s:
+        k = int(np.argmax(gaps))
+        raise InputError(
+            f"{name}: no frames for {gaps[k]:.3f} s after t = {t[k]:.3f} s "
+            f"(more than playback.max_gap_s = {config.max_gap_s:g} s)"
+        )
+    beyond = (a < profile.lower - _LIMIT_SLACK_RAD) | (a > profile.upper + _LIMIT_SLACK_RAD)
+    if not np.any(beyond):
+        return
+    wild = np.abs(a) > 2 * np.pi
+    i, j = np.argwhere(wild if np.any(wild) else beyond)[0]
+    example = f"{pepper.JOINTS[j]} = {a[i, j]:.4g} rad at t = {t[i]:.2f} s"
+    share = float(np.mean(np.any(beyond, axis=1)))
+    limits = f"the {profile.name} limits"
+    if not clamp and (np.any(wild) or share > config.max_outside_share):
+        what = (
+            f"{example} is beyond ±2π"
+            if np.any(wild)
+            else f"{share:.0%} of the frames are beyond {limits} (e.g. {example})"
+        )
+        raise InputError(
+            f"{name}: {what}: looks like degrees? Angles must be radians; --clamp plays it "
+            f"clamped into {limits}"
+        )
+    log.warning(
+        "%s: %.1f%% of the frames beyond %s, clamped (%s)", name, 100 * share, limits, example
+    )
 
 
 def ramp(
@@ -255,7 +311,7 @@ class _Run:
         return safe_pose(pose, self.profile)
 
     def send(self, t: float, angles: np.ndarray, phase: str) -> None:
-        cmd = Command(t=t, angles=angles, phase=phase, fraction=self.cfg.speed_fraction)
+        cmd = Command(t=t, angles=angles, phase=phase, fraction=self.cfg.max_speed_fraction)
         self.backend.send(cmd)
         self.calls += 1
         self.last = angles
@@ -337,7 +393,7 @@ def play(
     cfg = config or PlaybackConfig()
     if not isinstance(profile, pepper.RobotProfile):
         profile = pepper.load_profile(profile or pepper.DEFAULT_PROFILE)
-    prof = speed_profile(profile, cfg.speed_fraction)
+    prof = speed_profile(profile, cfg.max_speed_fraction)
     clk = clock or (RealClock() if backend.realtime else VirtualClock())
     run = _Run(backend, clk, cfg, prof)
     frames = safe_angles(timeline, prof)
@@ -402,22 +458,30 @@ def replay_command(
     clip: str | None = None,
     compare: PathLike | None = None,
     profile: str = pepper.DEFAULT_PROFILE,
+    clamp: bool = False,
 ) -> PlaybackResult | Path:
     """`gesturebank replay ANGLES.csv --backend naoqi|sim|record [--url|--out] [--audio]`.
 
     `clip`: read the timeline from that clip of the dataset folder `angles_csv` instead.
     `compare` (sim only): a second timeline CSV rendered side by side; returns the video path.
+    `clamp`: play timelines far outside the limits clamped instead of refusing them.
+    An interrupted sim replay writes no video.
     """
     cfg = config or PlaybackConfig()
+    robot = pepper.load_profile(profile)
     timeline = from_clip(angles_csv, clip) if clip else read_csv(angles_csv)
+    name = f"{os.fspath(angles_csv)} clip {clip}" if clip else os.fspath(angles_csv)
+    check_timeline(timeline, name=name, profile=robot, config=cfg, clamp=clamp)
     if compare is not None:
         if backend != "sim" or out is None:
             raise RobotError("--compare needs --backend sim and --out VIDEO.mp4")
         from gesturebank.robot.backends.sim import render_side_by_side
 
-        prof = speed_profile(pepper.load_profile(profile), cfg.speed_fraction)
+        other = read_csv(compare)
+        check_timeline(other, name=os.fspath(compare), profile=robot, config=cfg, clamp=clamp)
+        prof = speed_profile(robot, cfg.max_speed_fraction)
         return render_side_by_side(
-            [timeline, read_csv(compare)],
+            [timeline, other],
             [Path(angles_csv).stem, Path(compare).stem],
             out,
             profile=prof,
@@ -428,7 +492,12 @@ def replay_command(
     be = create(backend, url=url, out=out, audio=audio, config=cfg)
     try:
         sound = DeviceAudio(audio) if audio is not None and be.realtime else None
-        result = play(timeline, be, config=cfg, profile=profile, audio=sound)
+        result = play(timeline, be, config=cfg, profile=robot, audio=sound)
+        if result.status == "interrupted" and be.name == "sim":
+            from gesturebank.robot.backends.sim import SimBackend
+
+            if isinstance(be, SimBackend):
+                be.discard()  # its video would end early, yet look complete
     finally:
         be.close()
     p50, p99 = result.timing_ms()

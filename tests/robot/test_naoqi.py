@@ -109,7 +109,8 @@ def test_killed_session_mid_playback_stops_with_one_line(server: NaoqiServer) ->
 
 
 def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_path: Path) -> None:
-    csv = write_csv(tmp_path / "a.csv", wild_timeline(300))
+    n = 300  # a sound timeline: the one line on stderr must be the lost connection
+    csv = write_csv(tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1))))
     script = (
         "import sys\n"
         "from gesturebank.errors import GesturebankError\n"

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from gesturebank.errors import RobotError
+from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import Command
 from gesturebank.robot.backends.record import RecordBackend, read_record
@@ -31,6 +33,7 @@ VELOCITY = PROFILE.velocity
 ARMS_UP = np.array([0.3, 0.8, 1.2, -1.0, -1.0, 0.5, -1.2, -1.0, 1.0, -0.5, 0.2])
 NEUTRAL = np.clip(np.array([0, 0, 0, np.pi / 2, 0, 0, 0, np.pi / 2, 0, 0, 0]), LOWER, UPPER)
 FAST = PlaybackConfig(start_s=0.3, return_s=0.3)
+BIN = Path(sys.executable).parent
 
 
 def wild_timeline(n: int = 120) -> Timeline:
@@ -40,7 +43,7 @@ def wild_timeline(n: int = 120) -> Timeline:
     a[:, 0] = 1.0  # HeadPitch above its 0.4451 limit
     a[:, 2] = -0.5  # LShoulderRoll below its lower limit
     a[n // 2 :, 3] = -3.0  # LShoulderPitch: beyond the limit, and a jump
-    a[:, 10] = 0.3 * np.sin(2 * np.pi * t)
+    a[:, 10] = 0.15 * np.sin(2 * np.pi * t)  # 0.94 rad/s at most: half HipRoll's 2.27 is more
     return Timeline.of(t, a)
 
 
@@ -84,7 +87,8 @@ def test_play_record_is_safe_smooth_and_on_schedule(tmp_path: Path) -> None:
     np.testing.assert_allclose([c["t"] for c in timeline], tl.times, atol=1e-6)
     np.testing.assert_allclose(angles[-1], NEUTRAL, atol=1e-5)
     assert np.max(np.abs(angles[-2] - NEUTRAL)) < 1e-3  # arrived gently, not in a jump
-    # What could be followed was followed exactly: HipRoll's sine is within every limit.
+    # What could be followed was followed exactly: HipRoll's sine is within every limit (and
+    # within the default speed cap).
     np.testing.assert_allclose([c["angles"][10] for c in timeline], tl.angles[:, 10], atol=1e-5)
 
 
@@ -153,7 +157,7 @@ def test_safety_filter_clamps_and_limits_speed() -> None:
 
 def test_replay_command_record(tmp_path: Path) -> None:
     csv = write_csv(tmp_path / "a.csv", wild_timeline(30))
-    result = replay_command(csv, "record", out=tmp_path / "r.jsonl", config=FAST)
+    result = replay_command(csv, "record", out=tmp_path / "r.jsonl", config=FAST, clamp=True)
     assert not isinstance(result, Path) and result.n_frames == 30
     assert sum(c["phase"] == "timeline" for c in read_record(tmp_path / "r.jsonl")) == 30
 
@@ -165,4 +169,121 @@ OPTION_ERRORS = [("record", "--out"), ("sim", "--out"), ("naoqi", "--url"), ("na
 def test_replay_command_options(tmp_path: Path, backend: str, needle: str) -> None:
     csv = write_csv(tmp_path / "a.csv", wild_timeline(5))
     with pytest.raises(Exception, match=needle):
-        replay_command(csv, backend)
+        replay_command(csv, backend, clamp=True)
+
+
+# --------------------------------------------------------------------------------------------------
+# Replay refuses timelines that look wrong (issue #16, item 4)
+
+
+def gesture(n: int = 200, rate_hz: float = 100.0) -> Timeline:
+    """A plausible timeline in radians, within every limit: neutral, the head turning a little."""
+    t = np.arange(n) / rate_hz
+    a = np.tile(NEUTRAL, (n, 1))
+    a[:, 1] = 0.3 * np.sin(2 * np.pi * t)
+    return Timeline.of(t, a)
+
+
+def refused(path: Path, out: Path) -> str:
+    with pytest.raises(InputError) as info:
+        replay_command(path, "record", out=out, config=FAST)
+    msg = str(info.value)
+    assert str(path) in msg and "\n" not in msg
+    assert not out.exists()  # refused before anything was written
+    return msg
+
+
+@pytest.mark.parametrize("scale", [180 / np.pi, 1e9])
+def test_replay_refuses_degrees_unless_clamp(tmp_path: Path, scale: float) -> None:
+    tl = gesture()
+    csv = write_csv(tmp_path / "deg.csv", Timeline.of(tl.times, tl.angles * scale))
+    out = tmp_path / "r.jsonl"
+    assert "looks like degrees?" in refused(csv, out)
+    result = replay_command(csv, "record", out=out, config=FAST, clamp=True)
+    assert not isinstance(result, Path) and result.status == "completed"
+    check_safe(np.array([c["angles"] for c in read_record(out)]), dt=0.01)
+
+
+def test_replay_refuses_many_frames_beyond_the_limits(tmp_path: Path, caplog) -> None:
+    # Within ±2π, but HeadPitch 1.0 rad (limit 0.4451) in 20 % of the frames: refused;
+    # in 2 % of them (below max_outside_share 5 %): played clamped, with a warning.
+    out = tmp_path / "r.jsonl"
+    for share, ok in ((0.2, False), (0.02, True)):
+        tl = gesture()
+        angles = tl.angles.copy()
+        angles[: int(share * len(tl)), 0] = 1.0
+        csv = write_csv(tmp_path / f"head{share}.csv", Timeline.of(tl.times, angles))
+        if not ok:
+            msg = refused(csv, out)
+            assert "20% of the frames" in msg and "HeadPitch = 1 rad" in msg
+            continue
+        with caplog.at_level("WARNING", logger="gesturebank.robot.playback"):
+            replay_command(csv, "record", out=out, config=FAST)
+        assert "2.0% of the frames beyond" in caplog.text
+    # A sound timeline passes without a word.
+    caplog.clear()
+    replay_command(write_csv(tmp_path / "ok.csv", gesture()), "record", out=out, config=FAST)
+    assert "beyond" not in caplog.text
+
+
+def test_replay_refuses_gaps_and_far_starts(tmp_path: Path) -> None:
+    tl = gesture()
+    out = tmp_path / "r.jsonl"
+    gap = tl.times.copy()
+    gap[100:] += 5.0  # 5 s without a frame, then a jump
+    gap_csv = write_csv(tmp_path / "gap.csv", Timeline.of(gap, tl.angles))
+    assert "playback.max_gap_s" in refused(gap_csv, out)
+    late_csv = write_csv(tmp_path / "late.csv", Timeline.of(tl.times + 1000, tl.angles))
+    assert "playback.max_start_s" in refused(late_csv, out)
+    early_csv = write_csv(tmp_path / "early.csv", Timeline.of(tl.times - 1, tl.angles))
+    assert "playback.max_start_s" in refused(early_csv, out)
+    # The bounds are the config's: raised, the same files play.
+    loose = FAST.model_copy(update={"max_gap_s": 6.0, "max_start_s": 2000.0})
+    for csv in (gap_csv, late_csv):
+        result = replay_command(csv, "record", out=out, config=loose)
+        assert not isinstance(result, Path) and result.status == "completed"
+
+
+def test_speed_is_capped_at_max_speed_fraction(tmp_path: Path) -> None:
+    # LShoulderPitch asked to jump by 3 rad: it moves at the cap, 0.5 of its velocity by default.
+    n = 100
+    a = np.tile(NEUTRAL, (n, 1))
+    a[n // 2 :, 3] = -1.4
+    tl = Timeline.of(np.arange(n) * 0.01, a)
+    for fraction in (None, 1.0):
+        cfg = FAST if fraction is None else FAST.model_copy(update={"max_speed_fraction": fraction})
+        be = RecordBackend(tmp_path / "r.jsonl", start_pose=NEUTRAL)
+        play(tl, be, config=cfg)
+        be.close()
+        calls = [c for c in read_record(tmp_path / "r.jsonl") if c["phase"] == "timeline"]
+        cap = PlaybackConfig().max_speed_fraction if fraction is None else fraction
+        assert {c["fractionMaxSpeed"] for c in calls} == {cap}
+        speed = np.max(np.abs(np.diff([c["angles"][3] for c in calls])) / 0.01)
+        assert speed == pytest.approx(cap * VELOCITY[3], rel=1e-3)
+    assert PlaybackConfig().max_speed_fraction < 1.0  # conservative: the dissertation used 1.0
+
+
+def test_old_speed_fraction_key_still_loads(tmp_path: Path) -> None:
+    # Datasets (dataset.json) and config files written before the rename keep loading.
+    from gesturebank.config import load_config
+
+    old = tmp_path / "old.toml"
+    old.write_text("[playback]\nspeed_fraction = 0.3\n")
+    assert load_config(old).playback.max_speed_fraction == 0.3
+    newer = load_config(old, [{"playback": {"max_speed_fraction": 0.8}}])
+    assert newer.playback.max_speed_fraction == 0.8  # the new key, when given too, wins
+    assert "speed_fraction" not in newer.to_json_dict()["playback"]
+
+
+def test_cli_replay_degrees_exit_2_and_clamp(tmp_path: Path) -> None:
+    tl = gesture()
+    csv = write_csv(tmp_path / "deg.csv", Timeline.of(tl.times, np.degrees(tl.angles)))
+    cmd = [str(BIN / "gesturebank"), "replay", str(csv), "--backend", "record"]
+    cmd += ["--out", str(tmp_path / "r.jsonl"), "--set", "playback.start_s=0.3"]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "looks like degrees?" in lines[0] and str(csv) in lines[0]
+    r = subprocess.run([*cmd, "--clamp"], capture_output=True, text=True, timeout=120, check=False)
+    assert r.returncode == 0, r.stderr
+    assert "replay completed" in r.stdout

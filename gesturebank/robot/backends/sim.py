@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 
 from gesturebank.errors import InputError
+from gesturebank.fileio import atomic_open
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import Command
 from gesturebank.robot.timeline import Timeline
@@ -119,40 +120,67 @@ def write_video(
     """Render `tracks` = [(label, times (N,), angles (N, 11)), …] side by side for `duration` s.
 
     Each track gets a front and a side view. The audio (if any) is cut to `duration`.
+    The video is written to a hidden temporary name beside `out` and renamed only when complete,
+    so an interrupted render (Ctrl-C) leaves nothing under `out`; InputError naming `out` when
+    it cannot be written.
     """
     path = Path(out)
-    path.parent.mkdir(parents=True, exist_ok=True)
     n_frames = max(1, round(duration * fps))
     frame_times = np.arange(n_frames) / fps
     points = [pepper.fk(poses_at(times, angles, frame_times)) for _, times, angles in tracks]
     sound = _audio(audio, n_frames / fps)
-    width = 2 * view_px * len(tracks)
     try:
-        container = av.open(str(path), mode="w")
+        with atomic_open(path) as f, av.open(f, mode="w", format="mp4") as container:
+            _encode(
+                container,
+                tracks=tracks,
+                points=points,
+                times=frame_times,
+                sound=sound,
+                view_px=view_px,
+                fps=fps,
+            )
     except (av.FFmpegError, OSError) as exc:
-        raise InputError(f"{path}: cannot write video ({exc})") from None
-    with container:
-        vstream = container.add_stream("libx264", rate=fps)
-        vstream.width, vstream.height, vstream.pix_fmt = width, view_px, "yuv420p"
-        vstream.options = {"crf": "20", "preset": "veryfast"}
-        astream = None
-        if sound is not None:
-            astream = container.add_stream("aac", rate=AUDIO_RATE, layout="mono")
-        for k in range(n_frames):
-            panels = []
-            for (label, _, _), pts in zip(tracks, points, strict=True):
-                pose = {name: p[k] for name, p in pts.items()}
-                panels += [draw_view(pose, v, view_px, label) for v in ("front", "side")]
-            img = np.concatenate(panels, axis=1)
-            cv2.putText(img, f"{frame_times[k]:6.2f} s", (width - 110, view_px - 12),
-                        cv2.FONT_HERSHEY_SIMPLEX, 0.5, _TEXT, 1, cv2.LINE_AA)  # fmt: skip
-            frame = av.VideoFrame.from_ndarray(img, format="bgr24")
-            for packet in vstream.encode(frame):
-                container.mux(packet)
-        container.mux(vstream.encode(None))
-        if astream is not None and sound is not None:
-            _mux_audio(container, astream, sound)
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        folder = getattr(exc, "filename", None)  # e.g. a file where a folder should be
+        if folder and Path(folder) in path.parents:
+            reason = f"{reason}: {folder}"
+        raise InputError(f"{path}: cannot write video ({reason})") from None
     return path
+
+
+def _encode(
+    container: av.container.OutputContainer,
+    *,
+    tracks: Sequence[tuple[str, np.ndarray, np.ndarray]],
+    points: list[dict[str, np.ndarray]],
+    times: np.ndarray,
+    sound: np.ndarray | None,
+    view_px: int,
+    fps: int,
+) -> None:
+    """Draw and encode one video frame per `times (K,)` s, then mux `sound` (if any)."""
+    width = 2 * view_px * len(tracks)
+    vstream = container.add_stream("libx264", rate=fps)
+    vstream.width, vstream.height, vstream.pix_fmt = width, view_px, "yuv420p"
+    vstream.options = {"crf": "20", "preset": "veryfast"}
+    astream = None
+    if sound is not None:
+        astream = container.add_stream("aac", rate=AUDIO_RATE, layout="mono")
+    for k in range(len(times)):
+        panels = []
+        for (label, _, _), pts in zip(tracks, points, strict=True):
+            pose = {name: p[k] for name, p in pts.items()}
+            panels += [draw_view(pose, v, view_px, label) for v in ("front", "side")]
+        img = np.concatenate(panels, axis=1)
+        cv2.putText(img, f"{times[k]:6.2f} s", (width - 110, view_px - 12),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.5, _TEXT, 1, cv2.LINE_AA)  # fmt: skip
+        frame = av.VideoFrame.from_ndarray(img, format="bgr24")
+        for packet in vstream.encode(frame):
+            container.mux(packet)
+    container.mux(vstream.encode(None))
+    if astream is not None and sound is not None:
+        _mux_audio(container, astream, sound)
 
 
 def _mux_audio(
@@ -220,6 +248,11 @@ class SimBackend:
     def send(self, cmd: Command) -> None:
         self.commands.append(cmd)
         self.pose = cmd.angles
+
+    def discard(self) -> None:
+        """Forget the commands so far: `close` then writes no video (after an interrupted
+        replay, whose truncated video would look complete)."""
+        self.commands.clear()
 
     def close(self) -> None:
         shown = [c for c in self.commands if c.phase in ("timeline", "live")]
