@@ -310,7 +310,9 @@ def train(
     ] = "si",
     fold: Annotated[int | None, typer.Option(help="SI fold (default 0).")] = None,
     subject: Annotated[str | None, typer.Option(help="SD subject.")] = None,
-    out_dir: Annotated[Path, typer.Option("--out", help="Model folder to write.")] = Path("model"),
+    out_dir: Annotated[
+        Path, typer.Option("--out", help="Model folder to write (an older one is replaced whole).")
+    ] = Path("model"),
     config_file: Annotated[
         Path | None, typer.Option("--config", "-c", help="TOML config file ([train]).")
     ] = None,

@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset as TorchDataset
 
-from gesturebank.datasets.splits import SPLITS_DIR
+from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
 from gesturebank.datasets.store import Dataset
 from gesturebank.errors import InputError
 from gesturebank.extract.audio import apply_znorm
@@ -81,6 +81,8 @@ def split_items(
         if fold is None:
             raise InputError("a subject-independent split needs a fold number")
         path = folder / f"si_fold_{fold:02d}.json"
+        if not path.is_file():
+            raise _missing_fold(dataset, fold)
         spec = _read_json(path)
         return [(t, 0, n_frames[t]) for t in spec[part]]
     if variant == "sd":
@@ -92,6 +94,22 @@ def split_items(
             raise InputError(f"subject {subject!r} is not in {folder / 'sd.json'} ({known})")
         return [(str(t), int(a), int(b)) for t, a, b in spec["subjects"][subject][part]]
     raise InputError(f"variant must be 'si' or 'sd', got {variant!r}")
+
+
+def _missing_fold(dataset: Dataset, fold: int) -> InputError:
+    """Why fold `fold` has no file: another fold number, too few subjects, or stale splits."""
+    folder = dataset.path / SPLITS_DIR
+    folds = sorted(int(p.stem.removeprefix("si_fold_")) for p in folder.glob("si_fold_*.json"))
+    if folds:
+        return InputError(f"{folder}: no fold {fold}; the dataset has folds {folds[0]}–{folds[-1]}")
+    c = dataset.info.config.splits
+    try:  # the rule that decided not to write them, asked again
+        subject_independent(
+            dataset.rows(), c.folds, seed=c.seed, include_rejected=c.include_rejected
+        )
+    except InputError as exc:
+        return InputError(f"{dataset.path}: {exc}; train with --variant sd")
+    return InputError(f"{folder}: no subject-independent folds (rewrite them: gesturebank qc)")
 
 
 def _read_json(path: Any) -> Any:

@@ -14,6 +14,7 @@ A model folder (written by `train_command`):
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 from pathlib import Path
@@ -26,16 +27,18 @@ from rich.console import Console
 from gesturebank import __version__
 from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.datasets import open as open_dataset
+from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.extract.audio import apply_znorm, features
-from gesturebank.fileio import write_bytes_atomic
+from gesturebank.fileio import atomic_folder, output_errors, write_bytes_atomic
 from gesturebank.robot import pepper
 from gesturebank.train.evaluate import (
     SEED_MEASURES,
     TABLE_5_1,
     average,
     evaluate_segments,
+    not_computable,
     postprocess,
     table,
 )
@@ -82,8 +85,16 @@ def train_command(
     *,
     quiet: bool = False,
 ) -> TrainResult:
-    """Train `model` ('mlp' | 'lstm') on a SI fold or a SD subject; write the model folder."""
+    """Train `model` ('mlp' | 'lstm') on a SI fold (default 0) or a SD subject.
+
+    The model folder is written beside `out_dir` and swapped in whole, so no file of an older
+    model survives and a failed or interrupted run keeps the old one.
+    """
     cfg = config or TrainConfig()
+    if variant == "si" and fold is None:
+        fold = 0
+    out = Path(out_dir)
+    _check_model_folder(out)
     ds = open_dataset(dataset)
     train_segments = load_segments(
         ds, split_items(ds, variant, "train", fold=fold, subject=subject)
@@ -96,10 +107,43 @@ def train_command(
         net = build_model(model, n_features, cfg)
     part = f"fold {fold}" if variant == "si" else f"subject {subject}"
     what = f"{model.upper()}-{variant.upper()} {part}"
-    result = train(net, train_segments, val_segments, cfg, quiet=quiet, description=what)
+    # the temporary folder is made before training, so an unwritable --out fails at once
+    with output_errors(out, "the model folder"), atomic_folder(out) as tmp:
+        result = train(net, train_segments, val_segments, cfg, quiet=quiet, description=what)
+        _write_model(
+            tmp,
+            net=net,
+            ds=ds,
+            variant=variant,
+            fold=fold,
+            subject=subject,
+            cfg=cfg,
+            result=result,
+            train_segments=train_segments,
+        )
+    return result
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+
+def _check_model_folder(out: Path) -> None:
+    """Refuse an --out that training would wipe although it holds something else."""
+    if out.exists() and (
+        not out.is_dir() or (any(out.iterdir()) and not (out / MODEL_JSON).is_file())
+    ):
+        raise InputError(f"{out}: exists and is not a model folder (no {MODEL_JSON}); choose --out")
+
+
+def _write_model(
+    out: Path,
+    *,
+    net: MLP | LSTMModel,
+    ds: Dataset,
+    variant: str,
+    fold: int | None,
+    subject: str | None,
+    cfg: TrainConfig,
+    result: TrainResult,
+    train_segments: list[Segment],
+) -> None:
     torch.save(net.state_dict(), out / WEIGHTS)
     export_onnx(net, out)
     _write_json(
@@ -135,7 +179,6 @@ def train_command(
             "mean_pose01": _mean_pose01(train_segments).tolist(),
         },
     )
-    return result
 
 
 def load_model(model_dir: PathLike) -> tuple[MLP | LSTMModel, dict[str, Any], dict[str, Any]]:
@@ -193,11 +236,14 @@ def evaluate_command(
         "per_subject": results,
         "average": average(results),
     }
-    _write_json(Path(model_dir) / METRICS, report)
+    with output_errors(Path(model_dir) / METRICS, "the metrics"):
+        _write_json(Path(model_dir) / METRICS, report)
     out = console or Console()
     title = f"{name} on {split} ({ds.path.name})"
     out.print(table(results, title, TABLE_5_1))
     out.print(table(results, f"{title}: seed measures", SEED_MEASURES))
+    for line in not_computable(results):  # n/a in the tables: say why, not a number
+        out.print(f"note: {line}", highlight=False, soft_wrap=True)
     return report
 
 
@@ -236,11 +282,11 @@ def synthesize_command(
     profile = _profile(norm["limits"], norm["robot_profile"])
     angles = postprocess(pred01, profile, float(info["rate_hz"]), cfg)
     times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
-    out = Path(out_csv)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with open(out, "w", newline="", encoding="utf-8") as f:
-        writer = csv.writer(f)
-        writer.writerow(["time_s", *pepper.JOINTS])
-        for t, row in zip(times, angles, strict=True):
-            writer.writerow([f"{t:.4f}", *(f"{v:.6f}" for v in row)])
+    text = io.StringIO(newline="")
+    writer = csv.writer(text)
+    writer.writerow(["time_s", *pepper.JOINTS])
+    for t, row in zip(times, angles, strict=True):
+        writer.writerow([f"{t:.4f}", *(f"{v:.6f}" for v in row)])
+    with output_errors(out_csv, "the angle CSV"):
+        write_bytes_atomic(out_csv, text.getvalue().encode("utf-8"))
     return angles

@@ -8,15 +8,17 @@ with the ground truth. Two baselines are scored the same way in every evaluation
   it is undefined for the first frames and after unknown ones, which its scores leave out.
 
 Per subject: L, RMSE and APE pool all frames where truth and prediction are known; the sequence
-measures (CCA, FCCA, local CCA, jerkiness, speed histograms) run over the contiguous stretches
-where both whole poses are known (≥ 4 frames); local CCA pools the windows of all stretches
-(Eq. 3.18), J̃ and ΔJ̃ average over stretches (Eq. 3.22). The table's average row is the mean
-over subjects.
+measures run over the contiguous stretches where both whole poses are known: CCA, FCCA and local
+CCA over those at least as long as the LCCA window (a shorter one has too few frames for its
+dimensions and would score 1.0), jerkiness and speed histograms over those of ≥ 4 frames. Local
+CCA pools the windows of all stretches (Eq. 3.18), J̃ and ΔJ̃ average over stretches (Eq. 3.22).
+A measure without the data it needs is None and the row says why (`not_computable`), rather than
+a number. The table's average row is the mean over the subjects where a measure is computable.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -78,6 +80,13 @@ def _runs(ok: np.ndarray, min_len: int = MIN_RUN) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True) if b - a >= min_len]
 
 
+# Measures by what they need; one that cannot be computed is None, with the reason in
+# "not_computable" (a CCA of fewer frames than dimensions is 1.0 whatever the data).
+ERROR_KEYS = ("loss_l", "rmse_rad", "rmse_deg", "ape_rad", "ape_deg")
+CCA_KEYS = ("lcca_theta", "lcca_audio_true", "lcca_audio_pred", "delta_lcca", "cca", "fcca")
+MOTION_KEYS = ("jerk_pred", "jerk_true", "delta_jerk", "hellinger_speed")
+
+
 def subject_metrics(
     segments: Sequence[Segment],
     predictions: Sequence[np.ndarray],
@@ -85,21 +94,37 @@ def subject_metrics(
     rate_hz: float,
     config: TrainConfig,
 ) -> dict[str, Any]:
-    """Every measure for one subject: segments' ground truth vs `predictions` `(n_k, 11)` rad."""
+    """Every measure for one subject: segments' ground truth vs `predictions` `(n_k, 11)` rad.
+
+    A measure without enough data is None and `not_computable` maps its group to the reason:
+    the errors need a frame where both are known, the CCA measures a stretch of known poses at
+    least as long as the LCCA window, jerkiness and speeds a stretch of `MIN_RUN` frames.
+    """
     pred = np.concatenate(predictions).astype(np.float64)
     true = np.concatenate([s.angles for s in segments]).astype(np.float64)
     true[~np.isfinite(pred)] = np.nan  # score only frames where both are known
-    true01 = np.where(np.isfinite(true), pepper.normalise(np.nan_to_num(true), profile), np.nan)
-    pred01 = pepper.normalise(pred, profile)
     known = np.isfinite(true)
+    out: dict[str, Any] = {"frames": int(known.any(axis=1).sum()), "not_computable": {}}
+    out |= dict.fromkeys((*ERROR_KEYS, *CCA_KEYS, *MOTION_KEYS))
+    out["rmse_per_joint_rad"] = out["rmse_per_joint_deg"] = dict.fromkeys(pepper.JOINTS)
+    if out["frames"] == 0:
+        out["not_computable"]["every measure"] = (
+            "no frame where the truth and this system are both known"
+        )
+        return out
+    true01 = np.where(known, pepper.normalise(np.nan_to_num(true), profile), np.nan)
+    pred01 = pepper.normalise(pred, profile)
     per_joint = M.rmse_per_joint(true, pred)
-    out: dict[str, Any] = {
-        "frames": int(known.any(axis=1).sum()),
+    out |= {
         "loss_l": M.loss_l(true01, pred01),  # Eq. 3.15
         "rmse_rad": M.rmse(true, pred),  # Eq. 3.12
-        "rmse_per_joint_rad": dict(zip(pepper.JOINTS, per_joint.tolist(), strict=True)),
         "ape_rad": M.ape(true[known], pred[known]),
     }
+    out["rmse_deg"] = float(np.degrees(out["rmse_rad"]))
+    out["ape_deg"] = float(np.degrees(out["ape_rad"]))
+    out["rmse_per_joint_rad"] = _joints(per_joint)
+    out["rmse_per_joint_deg"] = _joints(np.degrees(per_joint))
+
     window = max(2, round(config.lcca_window_s * rate_hz))
     t_runs, p_runs, a_runs = [], [], []
     for s, p in zip(segments, predictions, strict=True):
@@ -108,50 +133,77 @@ def subject_metrics(
             t_runs.append(s.angles[a:b].astype(np.float64))
             p_runs.append(np.asarray(p[a:b], dtype=np.float64))
             a_runs.append(s.audio[a:b].astype(np.float64))
-    if t_runs:
-
-        def pooled(f: Callable[[np.ndarray, np.ndarray], np.ndarray], xs: list, ys: list) -> float:
-            return float(np.mean(np.concatenate([f(x, y) for x, y in zip(xs, ys, strict=True)])))
-
-        def lcca(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-            return M.local_cca_values(x, y, window, stride=config.lcca_stride)  # Eq. 3.18
-
-        lcca_at = pooled(lcca, a_runs, t_runs)
-        lcca_ap = pooled(lcca, a_runs, p_runs)
-        j_mean, dj_mean = M.mean_jerkiness(t_runs, p_runs, rate_hz)  # Eq. 3.22
-        h_true = M.speed_histogram(
-            np.concatenate([M.speeds(t, rate_hz) for t in t_runs]),
-            config.speed_bin,
-            config.speed_max,
+    long_ = [i for i, t in enumerate(t_runs) if len(t) >= window]
+    if long_:
+        out |= _cca_measures(
+            truth=[t_runs[i] for i in long_],
+            pred=[p_runs[i] for i in long_],
+            audio=[a_runs[i] for i in long_],
+            window=window,
+            stride=config.lcca_stride,
         )
-        h_pred = M.speed_histogram(
-            np.concatenate([M.speeds(p, rate_hz) for p in p_runs]),
-            config.speed_bin,
-            config.speed_max,
+    else:
+        longest = max((len(t) for t in t_runs), default=0) / rate_hz
+        out["not_computable"]["LCCA, CCA, FCCA"] = (
+            f"no stretch of whole known poses as long as the {config.lcca_window_s:g} s LCCA "
+            f"window (longest {longest:.2f} s)"
+        )
+    if t_runs:
+        j_mean, dj_mean = M.mean_jerkiness(t_runs, p_runs, rate_hz)  # Eq. 3.22
+        h_true, h_pred = (
+            M.speed_histogram(
+                np.concatenate([M.speeds(x, rate_hz) for x in runs]),
+                config.speed_bin,
+                config.speed_max,
+            )
+            for runs in (t_runs, p_runs)
         )
         out |= {
-            "lcca_theta": pooled(lcca, t_runs, p_runs),  # Eq. 3.19
-            "lcca_audio_true": lcca_at,
-            "lcca_audio_pred": lcca_ap,
-            "delta_lcca": abs(lcca_at - lcca_ap),  # Eq. 3.20
-            "cca": float(np.mean([M.cca(t, p) for t, p in zip(t_runs, p_runs, strict=True)])),
-            "fcca": float(
-                np.mean([M.fcca(t, p, a) for t, p, a in zip(t_runs, p_runs, a_runs, strict=True)])
-            ),
             "jerk_pred": j_mean,
             "jerk_true": float(np.mean([M.jerkiness(t, rate_hz) for t in t_runs])),
             "delta_jerk": dj_mean,
             "hellinger_speed": M.hellinger(h_true, h_pred),  # seed 001, Eq. 2
         }
-    else:  # no stretch long enough for the sequence measures
-        for key in ("lcca_theta", "delta_lcca", "cca", "fcca", "delta_jerk", "hellinger_speed"):
-            out[key] = float("nan")
-    out["rmse_deg"] = float(np.degrees(out["rmse_rad"]))
-    out["ape_deg"] = float(np.degrees(out["ape_rad"]))
-    out["rmse_per_joint_deg"] = dict(
-        zip(pepper.JOINTS, np.degrees(per_joint).tolist(), strict=True)
-    )
+    else:
+        out["not_computable"]["jerk, speeds"] = f"no stretch of {MIN_RUN} whole known poses"
     return out
+
+
+def _cca_measures(
+    *,
+    truth: list[np.ndarray],
+    pred: list[np.ndarray],
+    audio: list[np.ndarray],
+    window: int,
+    stride: int,
+) -> dict[str, float]:
+    """The CCA family over stretches `(n_i, ·)` at least `window` frames long."""
+
+    def pooled(xs: list[np.ndarray], ys: list[np.ndarray]) -> float:
+        values = [
+            M.local_cca_values(x, y, window, stride=stride) for x, y in zip(xs, ys, strict=True)
+        ]
+        return float(np.mean(np.concatenate(values)))  # Eq. 3.18, windows of all stretches
+
+    lcca_at = pooled(audio, truth)
+    lcca_ap = pooled(audio, pred)
+    return {
+        "lcca_theta": pooled(truth, pred),  # Eq. 3.19
+        "lcca_audio_true": lcca_at,
+        "lcca_audio_pred": lcca_ap,
+        "delta_lcca": abs(lcca_at - lcca_ap),  # Eq. 3.20
+        "cca": float(np.mean([M.cca(t, p) for t, p in zip(truth, pred, strict=True)])),
+        "fcca": float(
+            np.mean([M.fcca(t, p, a) for t, p, a in zip(truth, pred, audio, strict=True)])
+        ),
+    }
+
+
+def _joints(values: np.ndarray) -> dict[str, float | None]:
+    """Per-joint values by name; None for a joint never known."""
+    return {
+        j: float(v) if np.isfinite(v) else None for j, v in zip(pepper.JOINTS, values, strict=True)
+    }
 
 
 def evaluate_segments(
@@ -184,15 +236,29 @@ def evaluate_segments(
     return result
 
 
-def average(results: dict[str, dict[str, dict[str, Any]]]) -> dict[str, dict[str, float]]:
+def average(
+    results: dict[str, dict[str, dict[str, Any]]],
+) -> dict[str, dict[str, float | None]]:
     """Mean over subjects of every scalar measure, per system (Table 5.1's averaging)."""
     systems = next(iter(results.values())).keys() if results else []
-    out: dict[str, dict[str, float]] = {}
+    out: dict[str, dict[str, float | None]] = {}
     for system in systems:
         rows = [results[s][system] for s in results]
-        keys = [k for k, v in rows[0].items() if isinstance(v, int | float)]
-        out[system] = {k: float(np.nanmean([r[k] for r in rows])) for k in keys}
+        keys = [k for k, v in rows[0].items() if v is None or isinstance(v, int | float)]
+        known = {k: [r[k] for r in rows if r[k] is not None] for k in keys}
+        # the mean over the subjects where a measure is computable; None where it is for none
+        out[system] = {k: float(np.mean(v)) if v else None for k, v in known.items()}
     return out
+
+
+def not_computable(results: dict[str, dict[str, dict[str, Any]]]) -> list[str]:
+    """One line per subject and system with measures that could not be computed, and why."""
+    return [
+        f"{subject}, {system}: {group} not computable — {reason}"
+        for subject, systems in results.items()
+        for system, row in systems.items()
+        for group, reason in row["not_computable"].items()
+    ]
 
 
 def table(
@@ -208,7 +274,10 @@ def table(
         t.add_column(header, justify="right")
 
     def cells(row: dict[str, Any]) -> list[str]:
-        return [fmt.format(row[k] * scale) if k in row else "–" for k, _, scale, fmt in columns]
+        return [
+            "–" if k not in row else "n/a" if row[k] is None else fmt.format(row[k] * scale)
+            for k, _, scale, fmt in columns
+        ]
 
     for subject, systems in results.items():
         for i, (system, row) in enumerate(systems.items()):

@@ -56,10 +56,15 @@ def loss_l(true01: ArrayLike, pred01: ArrayLike) -> float:
 
 
 def rmse_per_joint(true: ArrayLike, pred: ArrayLike) -> F64:
-    """RMSE(θ_j) (Eq. 3.11) of `(N, J)` angles → `(J,)`, radians; NaN ground truth left out."""
+    """RMSE(θ_j) (Eq. 3.11) of `(N, J)` angles → `(J,)`, radians; NaN ground truth left out.
+
+    NaN (without a warning) for a joint whose ground truth is never known.
+    """
     t, p = _pair(true, pred)
-    sq = np.where(np.isfinite(t), (t - p) ** 2, np.nan)
-    return np.sqrt(np.nanmean(sq, axis=0))  # Eq. 3.11
+    ok = np.isfinite(t)
+    n = ok.sum(axis=0)
+    sq = np.where(ok, (t - p) ** 2, 0.0).sum(axis=0)
+    return np.sqrt(np.divide(sq, n, out=np.full(n.shape, np.nan), where=n > 0))  # Eq. 3.11
 
 
 def rmse(true: ArrayLike, pred: ArrayLike) -> float:

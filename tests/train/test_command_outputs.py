@@ -1,0 +1,211 @@
+"""The train / evaluate / synthesize commands on bad outputs and short splits (issue #16)."""
+
+from __future__ import annotations
+
+import json
+import re
+import resource
+import signal
+import subprocess
+import sys
+import warnings
+import wave
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gesturebank.config import TrainConfig
+from gesturebank.datasets.torch import Segment
+from gesturebank.errors import InputError
+from gesturebank.fileio import atomic_folder, permissions
+from gesturebank.robot import pepper
+from gesturebank.testing.speech_motion import write_synthetic_dataset
+from gesturebank.train.commands import synthesize_command, train_command
+from gesturebank.train.evaluate import (
+    MEAN_POSE,
+    SHIFTED,
+    average,
+    evaluate_segments,
+    not_computable,
+    table,
+)
+
+ONE_EPOCH = TrainConfig.model_validate({"mlp": {"max_epochs": 1}, "lstm": {"max_epochs": 1}})
+
+
+def _write_wav(path: Path, seconds: float, sr: int = 16000) -> None:
+    t = np.arange(int(seconds * sr)) / sr
+    signal_ = 0.3 * np.sin(2 * np.pi * 220 * t) * (np.sin(2 * np.pi * 2 * t) > 0)
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(sr)
+        w.writeframes((signal_ * 32767).astype("<i2").tobytes())
+
+
+@pytest.fixture(scope="module")
+def mlp_model(synthetic_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("model") / "mlp"
+    train_command(synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    return out
+
+
+def test_si_fold_defaults_to_0(synthetic_dataset: Path, tmp_path: Path) -> None:
+    out = tmp_path / "m"
+    train_command(synthetic_dataset, "mlp", "si", None, None, out, ONE_EPOCH, quiet=True)
+    assert json.loads((out / "model.json").read_text())["fold"] == 0
+
+
+def test_missing_fold_says_why(synthetic_dataset: Path, tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="no fold 7; the dataset has folds 0–3"):
+        train_command(synthetic_dataset, "mlp", "si", 7, None, tmp_path / "m", ONE_EPOCH)
+    two = write_synthetic_dataset(tmp_path / "two", subjects=2, seconds=4.0)
+    with pytest.raises(InputError, match="at least 3 subjects, the dataset has 2; .*--variant sd"):
+        train_command(two, "mlp", "si", None, None, tmp_path / "m", ONE_EPOCH)
+
+
+def test_training_replaces_the_whole_model_folder(synthetic_dataset: Path, tmp_path: Path) -> None:
+    out = tmp_path / "model"
+    train_command(synthetic_dataset, "lstm", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    (out / "metrics.json").write_text("{}")  # as evaluate leaves it
+    assert (out / "model_step.onnx").is_file()
+    train_command(synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    names = {p.name for p in out.iterdir()}
+    assert names == {"weights.pt", "model.json", "normalisers.json", "model.onnx"}
+    assert [p.name for p in tmp_path.iterdir()] == ["model"]  # no temporary left beside it
+
+
+def test_training_refuses_to_wipe_a_folder_that_is_not_a_model(
+    synthetic_dataset: Path, tmp_path: Path
+) -> None:
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(InputError, match="is not a model folder"):
+        train_command(synthetic_dataset, "mlp", "si", 0, None, tmp_path, ONE_EPOCH, quiet=True)
+    assert (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_unwritable_outputs_are_input_errors_naming_the_path(
+    synthetic_dataset: Path, mlp_model: Path, tmp_path: Path
+) -> None:
+    blocker = tmp_path / "file"  # a path under a regular file fails for root too (ENOTDIR)
+    blocker.write_text("x")
+    with pytest.raises(
+        InputError, match=re.escape(f"{blocker / 'm'}: cannot write the model folder")
+    ):
+        train_command(synthetic_dataset, "mlp", "si", 0, None, blocker / "m", ONE_EPOCH)
+    wav = tmp_path / "speech.wav"
+    _write_wav(wav, 1.0)
+    with pytest.raises(
+        InputError, match=re.escape(f"{blocker / 'a.csv'}: cannot write the angle CSV")
+    ):
+        synthesize_command(mlp_model, wav, blocker / "a.csv")
+    with pytest.raises(InputError, match=re.escape(f"{tmp_path}: cannot write the angle CSV")):
+        synthesize_command(mlp_model, wav, tmp_path)  # a folder is not a CSV
+
+
+def _limit_file_size() -> None:
+    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # writes fail with EFBIG instead of a kill
+
+
+def test_synthesize_keeps_the_old_csv_when_the_write_fails(mlp_model: Path, tmp_path: Path) -> None:
+    """A real failing write (a 4 KiB file-size limit on the process): one line, exit 2, the old
+    CSV untouched and no partial file, where a plain open had truncated it."""
+    wav = tmp_path / "speech.wav"
+    _write_wav(wav, 2.0)  # ~20 KB of CSV
+    csv = tmp_path / "angles.csv"
+    csv.write_text("old\n")
+    script = Path(sys.executable).parent / "gesturebank"
+    r = subprocess.run(
+        [str(script), "synthesize", str(mlp_model), str(wav), "--out", str(csv)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        preexec_fn=_limit_file_size,
+    )
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert lines == [f"error: {csv}: cannot write the angle CSV (File too large)"]
+    assert csv.read_text() == "old\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["angles.csv", "speech.wav"]
+
+
+def _segments(n: int, subject: str, rng: np.random.Generator) -> Segment:
+    profile = pepper.load_profile()
+    t = np.arange(n)[:, None] / 100.0
+    angles01 = 0.5 + 0.3 * np.sin(2 * np.pi * (0.7 + rng.uniform(0, 1, 11)) * t)
+    angles = pepper.denormalise(angles01, profile).astype(np.float32)
+    return Segment(
+        clip_id=f"{subject}-c",
+        subject=subject,
+        start=0,
+        audio=rng.normal(size=(n, 26)).astype(np.float32),
+        target=angles01.astype(np.float32),
+        mask=np.ones((n, 11), bool),
+        angles=angles,
+    )
+
+
+def _evaluate(segments: list[Segment], rng: np.random.Generator) -> dict:
+    config = TrainConfig()
+    preds = [np.clip(s.target + rng.normal(0, 0.05, s.target.shape), 0, 1) for s in segments]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no RuntimeWarning may reach the user
+        results = evaluate_segments(
+            segments,
+            preds,
+            name="MLP",
+            mean_pose01=np.full(11, 0.5),
+            profile=pepper.load_profile(),
+            rate_hz=100.0,
+            config=config,
+        )
+        average(results)
+        table(results, "t")
+    return results
+
+
+def test_a_split_shorter_than_the_windows_is_flagged_not_scored() -> None:
+    rng = np.random.default_rng(0)
+    results = _evaluate([_segments(25, "s0", rng)], rng)  # 0.25 s: < LCCA window, < shift
+    rows = results["s0"]
+    assert rows["MLP"]["cca"] is None and rows["MLP"]["lcca_theta"] is None  # not 1.000
+    assert rows["MLP"]["loss_l"] is not None and rows["MLP"]["delta_jerk"] is not None
+    assert "3 s LCCA window (longest 0.25 s)" in rows["MLP"]["not_computable"]["LCCA, CCA, FCCA"]
+    shifted = {k: v for k, v in rows[SHIFTED].items() if k not in ("frames", "not_computable")}
+    assert all(v is None or set(v.values()) == {None} for v in shifted.values())
+    assert rows[SHIFTED]["frames"] == 0 and "every measure" in rows[SHIFTED]["not_computable"]
+    assert average(results)[SHIFTED]["loss_l"] is None
+    lines = not_computable(results)
+    assert any(ln.startswith("s0, shifted truth: every measure not computable") for ln in lines)
+    json.dumps(results, allow_nan=False)  # valid JSON: None, not NaN
+
+
+def test_long_enough_splits_are_scored_without_warnings() -> None:
+    rng = np.random.default_rng(1)
+    results = _evaluate([_segments(400, "s0", rng), _segments(25, "s1", rng)], rng)
+    assert 0 < results["s0"]["MLP"]["cca"] <= 1 and results["s0"]["MLP"]["not_computable"] == {}
+    assert results["s0"][MEAN_POSE]["lcca_theta"] == 0.0
+    avg = average(results)["MLP"]
+    assert avg["cca"] == results["s0"]["MLP"]["cca"]  # the mean over subjects where computable
+    assert avg["loss_l"] == pytest.approx(
+        (results["s0"]["MLP"]["loss_l"] + results["s1"]["MLP"]["loss_l"]) / 2
+    )
+
+
+def test_model_folder_swap_keeps_the_old_one_on_failure(tmp_path: Path) -> None:
+    folder = tmp_path / "m"
+    folder.mkdir()
+    (folder / "model.json").write_text("old")
+    with pytest.raises(KeyboardInterrupt), atomic_folder(folder) as tmp:
+        (tmp / "model.json").write_text("new")
+        raise KeyboardInterrupt  # Ctrl-C while training
+    assert [p.name for p in tmp_path.iterdir()] == ["m"]
+    assert (folder / "model.json").read_text() == "old"
+    with atomic_folder(folder) as tmp:
+        (tmp / "weights.pt").write_text("new")
+    assert [p.name for p in folder.iterdir()] == ["weights.pt"]
+    assert [p.name for p in tmp_path.iterdir()] == ["m"]
+    assert folder.stat().st_mode & 0o777 == permissions(folder=True)  # not mkdtemp's 0700
