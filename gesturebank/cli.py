@@ -203,11 +203,15 @@ def build_dataset(
     """Build a dataset of Pepper angles and audio features from videos.
 
     Every video under VIDEOS_DIR becomes a take of aligned 100 Hz Pepper angles and audio
-    features in OUT_DIR. Re-running resumes: built takes are skipped.
+    features in OUT_DIR. Re-running resumes: built takes are skipped, and the QC thresholds
+    and splits OUT_DIR was last judged with (see `gesturebank qc`) stay unless --config or
+    --set change them.
 
     Exit code 0 when every take built, 1 when some failed (see the summary), 2 on a usage or
     configuration error.
     """
+    from gesturebank.datasets.pipeline import check_names
+    from gesturebank.datasets.refresh import judged_with
     from gesturebank.datasets.takes import discover_takes
 
     with user_errors():
@@ -224,8 +228,10 @@ def build_dataset(
                     "cache_detections": False if no_cache else None,
                 },
             },
+            base=judged_with(out_dir),
         )
-        takes = discover_takes(videos_dir, config.build)
+        check_names(config)
+        takes = discover_takes(videos_dir, config.build, out_dir=out_dir)
         if not takes:
             exts = ", ".join(config.build.video_extensions)
             raise InputError(f"{videos_dir}: no videos found ({exts})")

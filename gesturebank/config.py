@@ -537,6 +537,14 @@ class QCConfig(Section):
         gt=0,
         description="Most people in the frame on average (youtube-gesture-dataset: 5).",
     )
+    max_trimmed_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Largest share of a take's video that trimming audio and video to their "
+        "common span may drop (a .wav much shorter than its video is often the wrong file); "
+        "above it the build warns and the take's clips are rejected.",
+    )
     max_jerk_raw: float | None = Field(
         None,
         gt=0,

@@ -56,15 +56,24 @@ class Registry(Generic[T]):
             return real
         plugin = self._plugins().get(name)
         if plugin is None:
-            raise InputError(
-                f"unknown {self.kind} {name!r}; available: {', '.join(self.names()) or 'none'}"
-            )
+            raise self._unknown(name)
         try:
             factory = plugin.load()  # type: ignore[attr-defined]
         except Exception as exc:  # a broken plug-in must not look like a missing one
             raise InputError(f"{self.kind} plug-in {name!r} failed to load: {exc}") from exc
         self._factories[name] = factory
         return factory
+
+    def check(self, name: str) -> None:
+        """InputError, as `get` raises it, when `name` is not registered; imports nothing, so a
+        command can check its names before any work starts."""
+        if name not in self.names():
+            raise self._unknown(name)
+
+    def _unknown(self, name: str) -> InputError:
+        return InputError(
+            f"unknown {self.kind} {name!r}; available: {', '.join(self.names()) or 'none'}"
+        )
 
     def create(self, name: str, *args: object, **kwargs: object) -> T:
         return self.get(name)(*args, **kwargs)

@@ -142,3 +142,52 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     r = run("gesturebank", "replay", str(csv), "--backend", "naoqi", "--url", "tcp://127.0.0.1:1")
     assert r.returncode == 1  # the robot failed: one line, no traceback
     assert len([ln for ln in r.stderr.splitlines() if ln.strip()]) == 1
+
+
+def test_unknown_plugin_names_are_one_usage_error_before_any_take(tmp_path: Path) -> None:
+    videos, out = tmp_path / "videos", tmp_path / "out"
+    (videos / "s1").mkdir(parents=True)
+    (videos / "s1" / "a.mp4").write_bytes(b"")  # would fail as a take: no take may start
+    for option, message in [
+        (("--detector", "foo"), "unknown detector 'foo'; available: blazepose"),
+        (("--lifter", "bar"), "unknown lifter 'bar'; available: blazepose-world"),
+        (("--set", "robot.profile=nao"), "unknown robot profile 'nao'"),
+    ]:
+        r = run("build-dataset", str(videos), str(out), "--quiet", *option)
+        assert r.returncode == 2, (option, r.stdout, r.stderr)
+        lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+        assert len(lines) == 1 and message in lines[0], r.stderr
+        assert not (out / "takes").exists()
+
+
+def test_qc_thresholds_survive_the_next_build(
+    demo_dataset: Path, samples: Path, tmp_path: Path
+) -> None:
+    """`qc --set` is saved in dataset.json, and a re-run of build-dataset keeps it (it used to
+    judge again with the defaults, silently undoing the verdicts)."""
+    import json
+    import shutil
+
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "ds"
+    shutil.copytree(demo_dataset, out)
+
+    def statuses() -> set[str]:
+        rows = pq.read_table(out / "manifest.parquet").to_pylist()
+        return {r["qc_status"] for r in rows if r["kind"] == "clip"}
+
+    def saved() -> float:
+        return json.loads((out / "dataset.json").read_text())["config"]["qc"]["max_people"]
+
+    assert "accepted" in statuses()
+    r = run("gesturebank", "qc", str(out), "--set", "qc.max_people=0.5")  # all: "too many people"
+    assert r.returncode == 0, r.stderr
+    assert statuses() == {"rejected"} and saved() == 0.5
+    r = run("build-dataset", str(samples / "talking"), str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert statuses() == {"rejected"} and saved() == 0.5  # every take skipped, verdicts kept
+    r = run("build-dataset", str(samples / "talking"), str(out), "--quiet",
+            "--set", "qc.max_people=5")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "accepted" in statuses() and saved() == 5  # the command line still wins

@@ -55,6 +55,21 @@ def frame_ends(timestamps: np.ndarray) -> np.ndarray:
     return np.append(t[1:], t[-1] + dt) if len(t) else t
 
 
+def has_audio(timestamps: np.ndarray, audio_span: tuple[float, float]) -> np.ndarray:
+    """(T,) bool: the frames at `timestamps` (s) inside `audio_span` (first, last time)."""
+    t = np.asarray(timestamps, dtype=np.float64)
+    return np.asarray((t >= audio_span[0]) & (t <= audio_span[1]))
+
+
+def trimmed_share(timestamps: np.ndarray, audio_span: tuple[float, float]) -> float:
+    """Share of the video's time (`timestamps` (T,) s, each frame until the next) without audio:
+    what trimming audio and video to their common span drops of the video."""
+    ends = frame_ends(timestamps)
+    lasts = ends - np.asarray(timestamps, dtype=np.float64)
+    total = float(lasts.sum())
+    return float(lasts[~has_audio(timestamps, audio_span)].sum()) / total if total > 0 else 0.0
+
+
 def cut_clips(
     *,
     timestamps: np.ndarray,
@@ -77,7 +92,7 @@ def cut_clips(
     t = cutter.t
     speaker = np.asarray(speaker)
     usable = np.asarray(usable, bool) & cutter.present & (speaker >= 0)
-    has_audio = (t >= audio_span[0]) & (t <= audio_span[1])
+    audio = has_audio(t, audio_span)
     # Pieces no clip crosses: shots and changes of the main speaker.
     starts = np.searchsorted(t, np.asarray(cuts, dtype=np.float64), side="left")
     boundary = np.zeros(len(t), dtype=bool)
@@ -85,9 +100,9 @@ def cut_clips(
     boundary[1:] |= speaker[1:] != speaker[:-1]
     edges = [0, *np.flatnonzero(boundary).tolist(), len(t)]
     for a0, b0 in itertools.pairwise(edges):
-        for a, b in _runs(~has_audio[a0:b0]):
+        for a, b in _runs(~audio[a0:b0]):
             cutter.drop(a0 + a, a0 + b, "no audio")
-        for a, b in _runs(has_audio[a0:b0]):
+        for a, b in _runs(audio[a0:b0]):
             cutter.piece(a0 + a, a0 + b, usable)
     return Cutting(
         tuple(sorted(cutter.clips, key=lambda s: s.start)),

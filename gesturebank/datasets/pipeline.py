@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,7 +22,7 @@ import numpy as np
 
 from gesturebank.config import Config
 from gesturebank.datasets.clip import Clip
-from gesturebank.datasets.cut import Span, cut_clips, frame_ends
+from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
@@ -35,6 +36,7 @@ if TYPE_CHECKING:
     from gesturebank.extract.tracking import TrackReport
 
 _I = COCO17.index
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,17 @@ class _View:
     detect_s: float
     tracking: dict[str, Any]
     preview: tuple[tuple[float, np.ndarray], ...]
+
+
+def check_names(config: Config) -> None:
+    """The detector, lifter and robot profile a build uses by name, checked before any take
+    starts (a typo is one usage error, not a failure of every take); imports no model."""
+    from gesturebank.extract.detectors import DETECTORS
+    from gesturebank.lift import LIFTERS
+
+    DETECTORS.check(config.detector.name)
+    LIFTERS.check(config.lifter.name)
+    pepper.load_profile(config.robot.profile)
 
 
 def measure_digest(config: Config) -> str:
@@ -305,6 +318,7 @@ def build_take(take: Take, source: str, config: Config) -> BuiltTake:
     profile = pepper.load_profile(config.robot.profile)
     feats = features(view.audio.signal, view.audio.sample_rate, config.audio)
     audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate
+    audio_span = (float(view.audio.start_s), float(audio_end))
     ts = view.pose2d.timestamps
     present = np.isfinite(view.pose2d.keypoints[..., 0]).any(axis=1)
     cutting = cut_clips(
@@ -313,15 +327,24 @@ def build_take(take: Take, source: str, config: Config) -> BuiltTake:
         speaker=view.speaker,
         present=present,
         usable=usable_frames(view.valid),
-        audio_span=(float(view.audio.start_s), float(audio_end)),
+        audio_span=audio_span,
         config=config.clips,
     )
+    trimmed = trimmed_share(ts, audio_span)  # judged on every clip (qc.max_trimmed_fraction)
+    if trimmed > config.qc.max_trimmed_fraction:
+        log.warning(
+            "%s: audio and video overlap for %.0f%% of the video; trimming to their common span "
+            "drops %.0f%% of it (more than qc.max_trimmed_fraction %.0f%%)",
+            *(take.audio or take.video, 100 * (1 - trimmed), 100 * trimmed),
+            100 * config.qc.max_trimmed_fraction,
+        )
     measured = measure_digest(config)
     clips: list[Clip] = []
     rows: list[ClipRecord] = []
     for k, span in enumerate(cutting.clips):
         clip = _clip(view, span, f"{take.take_id}__c{k:03d}", take.take_id, feats, config, profile)
-        metrics = clip_metrics(clip, profile=profile, qc=config.qc)
+        # trimmed_fraction: of the whole take, so each of its clips carries it
+        metrics = {**clip_metrics(clip, profile=profile, qc=config.qc), "trimmed_fraction": trimmed}
         reasons = absolute_reasons(metrics, config.qc)
         clips.append(clip)
         rows.append(

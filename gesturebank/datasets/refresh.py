@@ -22,6 +22,7 @@ from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.splits import write_splits
+from gesturebank.errors import InputError
 
 log = logging.getLogger(__name__)
 
@@ -42,9 +43,9 @@ def _remeasure(out: Path, record: store.TakeRecord, config: Config) -> store.Tak
             path = store.clip_npz(out, record.take_id, c.clip_id)
             with np.load(path, allow_pickle=False) as data:
                 clip = Clip.from_arrays({k: data[k] for k in data.files})
-            c = replace(
-                c, metrics=clip_metrics(clip, profile=profile, qc=config.qc), measured=digest
-            )
+            # metrics of the whole take (trimmed_fraction) are not in the clip: kept as measured
+            metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc)}
+            c = replace(c, metrics=metrics, measured=digest)
         clips.append(c)
     return store.with_clips(record, clips)
 
@@ -86,6 +87,19 @@ def audio_znorm(records: Sequence[store.TakeRecord]) -> dict[str, store.ZNorm]:
         std = np.sqrt(np.maximum(q / n - mean**2, 0.0))
         out[key] = store.ZNorm(mean=mean.tolist(), std=std.tolist())
     return out
+
+
+def judged_with(out: Path) -> Config | None:
+    """The defaults with the [qc] and [splits] sections the dataset in `out` was last judged
+    with (`gesturebank qc --set` may have changed them), or None when there is no readable
+    dataset.json. A re-run of build-dataset starts from it, so it does not silently undo them."""
+    if not (Path(out) / store.DATASET_JSON).is_file():
+        return None
+    try:
+        saved = store.read_dataset_json(out).config
+    except InputError:  # an old or broken dataset.json: the build rewrites it
+        return None
+    return Config(qc=saved.qc, splits=saved.splits)
 
 
 def _text(record: store.TakeRecord) -> str:

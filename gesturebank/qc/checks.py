@@ -100,6 +100,12 @@ def absolute_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[str
     )
     under("image_change", c.min_image_change, "still picture: image change {v:.3f} (min {lim:g})")
     over("people", c.max_people, "too many people: {v:.1f} on average (max {lim:g})")
+    over(
+        "trimmed_fraction",
+        c.max_trimmed_fraction,
+        "audio and video overlap in part: trimming to their common span drops {v:.0%} of the "
+        "take's video (max {lim:.0%})",
+    )
     if c.max_jerk_raw is not None:
         over("jerk_raw", c.max_jerk_raw, "raw jerk {v:.3g} rad²/s⁵ (max {lim:.3g})")
     return reasons

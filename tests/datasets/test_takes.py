@@ -1,3 +1,6 @@
+import logging
+import re
+import unicodedata
 from pathlib import Path
 
 import pytest
@@ -47,3 +50,82 @@ def test_colliding_ids_are_an_error(tmp_path: Path) -> None:
     touch(tmp_path, "a b/c.mp4", "a_b/c.mp4")
     with pytest.raises(InputError, match="same take id"):
         discover_takes(tmp_path)
+
+
+def test_ids_transliterate_accents_and_keep_other_scripts(tmp_path: Path) -> None:
+    assert take_id(Path("ünï cödé/x.mp4")) == "uni_code__x"  # was '_n_c_d___x'
+    assert take_id(Path(unicodedata.normalize("NFD", "ünï cödé/x.mp4"))) == "uni_code__x"
+    assert take_id(Path("Ｆｕｌｌ ﬁle.mp4")) == "Full_file"
+    # ASCII names keep the ids they always had (existing datasets stay valid)
+    ascii_name = "".join(chr(c) for c in range(32, 127) if chr(c) not in "/\\")
+    expected = re.sub(r"[^A-Za-z0-9._-]+", "_", ascii_name)
+    assert take_id(Path(ascii_name), folder=True) == expected
+    # other scripts stay readable, distinct and non-empty (が and か differ by a mark only)
+    names = ["日本/がか.mp4", "日本/かか.mp4", "Привет мир.mp4", "Привет миp.mp4", "हिन्दी.mp4"]
+    touch(tmp_path, *names)
+    ids = [t.take_id for t in discover_takes(tmp_path)]
+    assert len(set(ids)) == len(names) and all(i.strip("_") for i in ids)
+    assert "Привет_мир" in ids and "日本__がか" in ids
+    touch(tmp_path, "ü.mp4", "u.mp4")  # transliterated alike: refused, never merged
+    with pytest.raises(InputError, match="same take id 'u'"):
+        discover_takes(tmp_path)
+
+
+def test_output_folder_inside_videos_dir_is_not_searched(tmp_path: Path) -> None:
+    touch(tmp_path, "anna/a.mp4", "out/qc/render.mp4", "out/takes/x.mp4")
+    assert [t.take_id for t in discover_takes(tmp_path, out_dir=tmp_path / "out")] == ["anna__a"]
+    assert len(discover_takes(tmp_path, out_dir=tmp_path / "elsewhere")) == 3
+    # OUT_DIR = VIDEOS_DIR: the videos are still found
+    assert len(discover_takes(tmp_path / "anna", out_dir=tmp_path / "anna")) == 1
+
+
+def warnings(caplog: pytest.LogCaptureFixture) -> list[str]:
+    return [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+
+
+def test_subjects_csv_mistakes_are_warned_with_file_and_row(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    touch(tmp_path, "day1/p07_story.mp4", "day1/p08_story.mp4", "day1/p09_story.mp4")
+    csv_path = tmp_path / "subjects.csv"
+    csv_path.write_text("take,subject\np07_story,alice\np08_story,bob\np09_story,carol\n")
+    with caplog.at_level(logging.WARNING):
+        takes = discover_takes(tmp_path)
+    assert warnings(caplog) == []  # a correct file is quiet
+    assert [t.subject for t in takes] == ["alice", "bob", "carol"]
+    caplog.clear()
+    csv_path.write_text(
+        "take,subject\n"
+        "p07_story,alice\n"  # row 2
+        "p08_stroy,bob\n"  # row 3: a typo
+        "p07_story,dave\n"  # row 4: the same take again
+        "ghost,eve\n"  # row 5: no such take
+        ",frank\n"  # row 6: no take name
+        "day1/p07_story.mp4,gina,extra\n"  # row 7: another name of p07, one cell too many
+    )
+    with caplog.at_level(logging.WARNING):
+        takes = discover_takes(tmp_path)
+    text = warnings(caplog)
+    assert all(str(csv_path) in w for w in text), text
+
+    def said(*words: str) -> bool:
+        return any(all(w in line for w in words) for line in text)
+
+    assert said("row 3", "'p08_stroy'", "did you mean 'p08_story'?")
+    assert said("row 4", "also on row 2")
+    assert said("row 5", "'ghost'") and not said("row 5", "did you mean")
+    assert said("row 6", "no take name")
+    assert said("row 7", "more cells than columns")
+    assert said("rows 7 and 4", "same take day1__p07_story", "row 7 is used")  # a path wins
+    assert said("no row for 2 take(s)", "day1__p08_story", "day1__p09_story")
+    assert [t.subject for t in takes] == ["gina", "day1", "day1"]
+
+
+def test_a_row_naming_several_takes_is_warned(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    touch(tmp_path, "a/story.mp4", "b/story.mp4")
+    (tmp_path / "subjects.csv").write_text("take,subject\nstory,alice\n")
+    with caplog.at_level(logging.WARNING):
+        discover_takes(tmp_path)
+    assert any("row 2: 'story' names 2 takes (a__story, b__story)" in w for w in warnings(caplog))
