@@ -371,6 +371,42 @@ class MultiviewConfig(Section):
     reference_camera: int = Field(
         0, ge=0, description="Index of the camera whose clock and frames the 3D pose follows."
     )
+    max_bone_dev: float = Field(
+        0.2,
+        gt=0,
+        description="A joint whose bone to its parent is off the take's median length by more "
+        "than this share is solved again from other cameras and labels (a mislabelled or "
+        "swapped 2D point), else dropped.",
+    )
+    max_jump: float = Field(
+        0.5,
+        gt=0,
+        description="Same for a joint this far (shoulder widths) from the running median of "
+        "its own track over 7 frames.",
+    )
+    refine: bool = Field(
+        False,
+        description="After the robust DLT, fit the whole take at once (soft-L1 reprojection, "
+        "smooth acceleration, one length per bone); false keeps the per-point DLT. Off by "
+        "default: on the Pose2Sim demo it evens bones and spikes out further but raises the "
+        "reprojection error and does not bring disjoint camera pairs closer, at 10-25 s a "
+        "hundred frames.",
+    )
+    smooth_accel_mps2: float = Field(
+        30.0,
+        gt=0,
+        description="Refinement: acceleration (m/s²) that costs as much as 3 px of "
+        "reprojection error; lower smooths more.",
+    )
+    bone_tolerance_m: float = Field(
+        0.01,
+        gt=0,
+        description="Refinement: bone-length deviation (m) that costs as much as 3 px of "
+        "reprojection error; lower holds bones more rigid.",
+    )
+    refine_chunk_frames: int = Field(
+        300, ge=30, description="Refinement: frames fitted together (long takes in chunks)."
+    )
 
     @model_validator(mode="after")
     def _reject(self) -> MultiviewConfig:

@@ -177,12 +177,12 @@ def _multi_view(take: Take, config: Config) -> _View:
     from gesturebank.extract.pipeline import extract_take
     from gesturebank.extract.video import read_audio
     from gesturebank.lift.multiview.cameras import CameraGroup
-    from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
+    from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
     from gesturebank.qc.repair import repair_pose2d, repair_pose3d
 
     assert take.calibration is not None
-    cameras = CameraGroup.load(take.calibration)
-    videos = match_videos(cameras, take.videos)
+    # any subset of the calibrated cameras, by name (a broken camera left out)
+    cameras, videos = match_cameras(CameraGroup.load(take.calibration), take.videos)
     exts = [extract_take(v, config) for v in videos]
     repaired = [repair_pose2d(e.tracked.pose, config=config.repair) for e in exts]
     poses = [pose for pose, _ in repaired]

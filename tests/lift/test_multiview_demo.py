@@ -14,7 +14,7 @@ from gesturebank.datasets.takes import find_calibration
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift.multiview.cameras import CameraGroup
-from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
+from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras, match_videos
 from gesturebank.poses import Pose2D
 from gesturebank.skeletons import COCO17
 
@@ -37,17 +37,25 @@ def demo(samples: Path) -> tuple[list[Pose2D], CameraGroup]:
 
 
 def raw_reprojection(
-    joints: np.ndarray, used: np.ndarray, poses: list[Pose2D], cams: CameraGroup
+    joints: np.ndarray,
+    used: np.ndarray,
+    poses: list[Pose2D],
+    cams: CameraGroup,
+    labels: np.ndarray | None = None,
 ) -> np.ndarray:
     """(T, 17) mean pixel distance, over the cameras used, between the detector's raw 2D
-    keypoints and OpenCV's projection of the 3D joints (independent of the lifter's maths)."""
+    keypoints and OpenCV's projection of the 3D joints (independent of the lifter's maths).
+    labels (C, T, 17): the 2D joint each camera's joint was solved from (a repaired swap)."""
     T = joints.shape[0]
     total, n = np.zeros((T, 17)), np.zeros((T, 17))
     for c, (cam, pose) in enumerate(zip(cams, poses, strict=True)):
         ok = np.isfinite(joints).all(-1) & used[c]
         proj, _ = cv2.projectPoints(np.nan_to_num(joints).reshape(-1, 3), cam.rvec, cam.t, cam.K,
                                     cam.dist)  # fmt: skip
-        err = np.linalg.norm(proj.reshape(T, 17, 2) - pose.to_coco17().xy, axis=-1)
+        xy = pose.to_coco17().xy
+        if labels is not None:
+            xy = np.take_along_axis(xy, labels[c][..., None], axis=1)
+        err = np.linalg.norm(proj.reshape(T, 17, 2) - xy, axis=-1)
         total += np.where(ok, err, 0)
         n += ok
     with np.errstate(invalid="ignore"):
@@ -59,7 +67,7 @@ def test_demo_reprojection_error(demo: tuple[list[Pose2D], CameraGroup]) -> None
     pose3d, report = MultiviewLifter(MultiviewConfig()).lift_with_report(poses, cams)
     all_views, _ = MultiviewLifter(MultiviewConfig(max_error_px=1e6, reject_error_px=None)
                                    ).lift_with_report(poses, cams)  # fmt: skip
-    err = raw_reprojection(pose3d.joints, report.triangulation.used, poses, cams)
+    err = raw_reprojection(pose3d.joints, report.triangulation.used, poses, cams, report.labels)
     used_all = np.isfinite(all_views.joints).all(-1)[None] & np.stack(
         [(p.to_coco17().confidence >= 0.3) for p in poses]
     )
@@ -152,6 +160,11 @@ def test_take_folder_helpers(samples: Path, tmp_path: Path) -> None:
         find_calibration(tmp_path)
     with pytest.raises(CalibrationError, match="3 videos for 4"):
         match_videos(cams, [Path("a.mp4"), Path("b.mp4"), Path("c.mp4")])
+    # a take with some of the calibrated cameras (a broken one left out): matched by name
+    used, ordered = match_cameras(cams, [root / "videos/cam04.mp4", root / "videos/cam02.mp4"])
+    assert used.names == ["cam02", "cam04"] and [v.stem for v in ordered] == ["cam02", "cam04"]
+    with pytest.raises(CalibrationError, match="2 videos for 4"):
+        match_cameras(cams, [Path("a.mp4"), Path("b.mp4")])
 
 
 def test_bad_lifter_inputs(demo: tuple[list[Pose2D], CameraGroup]) -> None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,15 @@ from gesturebank.config import Config, MultiviewConfig
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.extract.video import Audio
 from gesturebank.lift.multiview.cameras import CameraGroup
+from gesturebank.lift.multiview.refine import Refinement, refine, reprojection
+from gesturebank.lift.multiview.robust import (
+    Cleaning,
+    Views,
+    fix_swaps,
+    make_consistent,
+    relabel,
+    untangle,
+)
 from gesturebank.lift.multiview.sync import align, estimate_offsets
 from gesturebank.lift.multiview.triangulate import Triangulation, triangulate
 from gesturebank.poses import Pose2D, Pose3D
@@ -36,13 +45,19 @@ class MultiviewReport:
     """What the lifter did to one take.
 
     offsets_s (C,): camera clock minus reference clock; sync: method per camera;
-    triangulation: per-point result on the reference timeline (T, 17); camera_names (C,).
+    triangulation: per-point result on the reference timeline (T, 17); camera_names (C,);
+    cleaning: swaps and gross outliers found; refinement: before/after of the take's fit
+    (None when `refine` is off); labels (C, T, 17): the 2D joint of each camera that each
+    joint was solved from (left/right swaps repaired; None: its own).
     """
 
     offsets_s: np.ndarray
     sync: list[str]
     triangulation: Triangulation
     camera_names: list[str]
+    cleaning: Cleaning = field(default_factory=Cleaning)
+    refinement: Refinement | None = None
+    labels: np.ndarray | None = None
 
     def joint_table(self) -> list[tuple[str, float, float, float]]:
         """(joint, median error px, 90th percentile px, mean cameras used) per COCO-17 joint;
@@ -136,6 +151,10 @@ class MultiviewLifter:
         offsets, methods = self._offsets(views, audios)
         times = coco[cfg.reference_camera].timestamps
         kp = align(coco, offsets, times)  # (C, T, 17, 3)
+        obs = Views.of(kp, cams, min_confidence=cfg.min_confidence)
+        swapped = fix_swaps(obs, max_error_px=cfg.max_error_px)
+        kp, obs = relabel(kp, swapped), obs.relabel(swapped)
+        labels = relabel(np.broadcast_to(np.arange(kp.shape[2]), kp.shape[:3]), swapped)
         tri = triangulate(
             kp[..., :2],
             kp[..., 2],
@@ -145,16 +164,45 @@ class MultiviewLifter:
             min_cameras=cfg.min_cameras,
             max_combinations=cfg.max_combinations,
         )
-        joints, error, used = tri.points.copy(), tri.error.copy(), tri.used.copy()
+        # A pair mirrored in 3D (two cameras agreeing on a swap): all its labels exchanged.
+        crossed = untangle(tri.points)
+        every = np.broadcast_to(crossed, swapped.shape)
+        kp, obs, labels = relabel(kp, every), obs.relabel(every), relabel(labels, every)
+        joints, error, used, mirrored, cleaning = make_consistent(
+            relabel(tri.points[None], crossed[None])[0],
+            relabel(tri.error[None], crossed[None])[0],
+            relabel(tri.used, every),
+            obs,
+            max_error_px=cfg.max_error_px,
+            max_bone_dev=cfg.max_bone_dev,
+            max_jump=cfg.max_jump,
+        )
+        cleaning = replace(cleaning, swapped=int(swapped.sum()) // 2)  # a pair: two joints
+        kp, obs, labels = relabel(kp, mirrored), obs.relabel(mirrored), relabel(labels, mirrored)
+        # the error of what the take keeps (joints solved again from a pair included)
+        error = reprojection(joints, obs, used)
         if cfg.reject_error_px is not None:
             bad = error > cfg.reject_error_px
             joints[bad], error[bad], used[:, bad] = np.nan, np.nan, False
+        refinement = None
+        if cfg.refine:
+            joints, refinement = refine(
+                joints,
+                times,
+                obs,
+                used,
+                max_error_px=cfg.max_error_px,
+                smooth_accel_mps2=cfg.smooth_accel_mps2,
+                bone_tolerance_m=cfg.bone_tolerance_m,
+                chunk_frames=cfg.refine_chunk_frames,
+            )
+            error = reprojection(joints, obs, used)
         tri = Triangulation(points=joints, error=error, used=used)
         conf2d = np.where(used, np.nan_to_num(kp[..., 2]), 0.0).sum(0) / np.maximum(used.sum(0), 1)
         with np.errstate(invalid="ignore"):
             confidence = np.clip(conf2d * cfg.max_error_px / (cfg.max_error_px + error), 0, 1)
         confidence[~np.isfinite(error)] = np.nan
-        report = MultiviewReport(offsets, methods, tri, cams.names)
+        report = MultiviewReport(offsets, methods, tri, cams.names, cleaning, refinement, labels)
         pose3d = Pose3D(
             joints.astype(np.float32),
             confidence.astype(np.float32),
@@ -198,24 +246,41 @@ def _nanmedian(values: np.ndarray) -> float:
     return float(np.median(finite)) if finite.size else float("nan")
 
 
-def match_videos(cameras: CameraGroup, videos: Sequence[str | os.PathLike[str]]) -> list[Path]:
-    """The videos in camera order: by name (a camera called 'cam01' takes the video whose stem
-    is or starts with 'cam01'), else by sorted file name when the counts agree."""
+def match_cameras(
+    cameras: CameraGroup, videos: Sequence[str | os.PathLike[str]]
+) -> tuple[CameraGroup, list[Path]]:
+    """The calibrated cameras that have a video, and those videos in camera order.
+
+    By name: a camera called 'cam01' takes the video whose stem is 'cam01' (else starts with
+    it); any two or more of the calibrated cameras may be used (a broken camera left out).
+    Else, when the counts agree, by sorted file name. CalibrationError when neither works.
+    """
     paths = sorted(Path(v) for v in videos)
-    by_name: list[Path] = []
+    names, matched = [], []
     for cam in cameras:
         hits = [p for p in paths if p.stem == cam.name] or [
             p for p in paths if p.stem.startswith(cam.name)
         ]
-        if len(hits) != 1:
-            break
-        by_name.append(hits[0])
-    if len(by_name) == len(cameras) and len(set(by_name)) == len(by_name):
-        return by_name
+        if len(hits) == 1:
+            names.append(cam.name)
+            matched.append(hits[0])
+    if len(matched) >= 2 and len(set(matched)) == len(matched) == len(paths):
+        return cameras.subset(names), matched
     if len(paths) != len(cameras):
         raise CalibrationError(
             f"{len(paths)} videos for {len(cameras)} calibrated cameras ({cameras.names}) and "
             "the names do not match"
         )
     log.warning("videos matched to cameras %s by sorted file name", cameras.names)
-    return paths
+    return cameras, paths
+
+
+def match_videos(cameras: CameraGroup, videos: Sequence[str | os.PathLike[str]]) -> list[Path]:
+    """The videos in the order of all the `cameras` (see `match_cameras`); CalibrationError
+    when some camera has no video."""
+    used, ordered = match_cameras(cameras, videos)
+    if len(used) != len(cameras):
+        raise CalibrationError(
+            f"{len(ordered)} videos for {len(cameras)} calibrated cameras ({cameras.names})"
+        )
+    return ordered

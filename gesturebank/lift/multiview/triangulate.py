@@ -21,12 +21,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gesturebank.config import MultiviewConfig
 from gesturebank.errors import InputError
 from gesturebank.lift.multiview.cameras import CameraGroup
 
 log = logging.getLogger(__name__)
 
 _BATCH = 100_000  # most (subset, point) pairs solved in one vectorised call
+_DEFAULTS = MultiviewConfig()  # the defaults below are the config's own fields
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,15 +115,34 @@ def _subsets(members: np.ndarray, keep: int) -> np.ndarray:
     return masks
 
 
+@dataclass(eq=False)
+class _Search:
+    """The camera-subset search over N points: the observations it solves from and the best
+    estimate so far, which `_adopt` improves in place.
+
+    normalised (C, N, 2), extrinsics (C, 3, 4), focals (C, 2), weights (C, N): the inputs;
+    points (N, 3), errs (C, N), mean (N,), used (C, N): the current estimate of each point.
+    """
+
+    normalised: np.ndarray
+    extrinsics: np.ndarray
+    focals: np.ndarray
+    weights: np.ndarray
+    points: np.ndarray
+    errs: np.ndarray
+    mean: np.ndarray
+    used: np.ndarray
+
+
 def triangulate(
     pixels: np.ndarray,
     confidence: np.ndarray,
     cameras: CameraGroup,
     *,
-    min_confidence: float = 0.3,
-    max_error_px: float = 15.0,
-    min_cameras: int = 2,
-    max_combinations: int = 64,
+    min_confidence: float = _DEFAULTS.min_confidence,
+    max_error_px: float = _DEFAULTS.max_error_px,
+    min_cameras: int = _DEFAULTS.min_cameras,
+    max_combinations: int = _DEFAULTS.max_combinations,
 ) -> Triangulation:
     """Triangulate points seen by calibrated cameras, excluding cameras that disagree.
 
@@ -131,6 +152,7 @@ def triangulate(
     max_error_px: mean reprojection error above which cameras are excluded.
     min_cameras: fewest cameras a point is triangulated from (≥ 2).
     max_combinations: most camera subsets tried per point in the exhaustive search.
+    Defaults: the `[multiview]` config fields of the same names.
     """
     px = np.asarray(pixels, np.float64)
     conf = np.asarray(confidence, np.float64)
@@ -152,58 +174,45 @@ def triangulate(
     weights = np.where(valid, conf, 0.0)
 
     points, errs, mean = _solve(normalised, extr, focals, weights)
-    used = valid.copy()
-    todo = np.flatnonzero((mean > max_error_px) & (used.sum(axis=0) > min_cameras))
+    search = _Search(normalised, extr, focals, weights, points, errs, mean, used=valid.copy())
+    todo = np.flatnonzero((mean > max_error_px) & (valid.sum(axis=0) > min_cameras))
     if todo.size:
         _exclude(
+            search,
             todo,
-            normalised=normalised,
-            extrinsics=extr,
-            focals=focals,
-            weights=weights,
-            points=points,
-            errs=errs,
-            mean=mean,
-            used=used,
             max_error_px=max_error_px,
             min_cameras=min_cameras,
             max_combinations=max_combinations,
         )
-    lost = ~np.isfinite(mean)  # no two views, or behind a camera whatever the subset
-    points[lost] = np.nan
-    mean[lost] = np.nan
-    used &= ~lost
+    lost = ~np.isfinite(search.mean)  # no two views, or behind a camera whatever the subset
+    search.points[lost] = np.nan
+    search.mean[lost] = np.nan
+    search.used &= ~lost
     log.debug("triangulated %d points, %d needed camera exclusion", n, todo.size)
     return Triangulation(
-        points=points.reshape(*shape, 3),
-        error=mean.reshape(shape),
-        used=used.reshape(C, *shape),
+        points=search.points.reshape(*shape, 3),
+        error=search.mean.reshape(shape),
+        used=search.used.reshape(C, *shape),
     )
 
 
 def _exclude(
+    search: _Search,
     todo: np.ndarray,
     *,
-    normalised: np.ndarray,
-    extrinsics: np.ndarray,
-    focals: np.ndarray,
-    weights: np.ndarray,
-    points: np.ndarray,
-    errs: np.ndarray,
-    mean: np.ndarray,
-    used: np.ndarray,
     max_error_px: float,
     min_cameras: int,
     max_combinations: int,
 ) -> None:
-    """Bounded camera-exclusion search for the points `todo`; updates the arrays in place.
+    """Bounded camera-exclusion search for the points `todo`; improves `search` in place.
 
     Points with the same set of valid cameras share their candidate subsets, so each group is
     solved as one batch of shape (subsets × points).
     """
     groups: dict[bytes, list[int]] = {}
     for i in todo:
-        groups.setdefault(used[:, i].tobytes(), []).append(int(i))
+        groups.setdefault(search.used[:, i].tobytes(), []).append(int(i))
+    mean = search.mean
     for key, members in groups.items():
         valid = np.frombuffer(key, dtype=bool)
         idx = np.asarray(members)
@@ -219,72 +228,36 @@ def _exclude(
             else:
                 budget = 0
                 # Greedy step: drop the worst camera of each point's best subset so far.
-                worst = np.where(used[:, idx], errs[:, idx], -np.inf).argmax(axis=0)
-                masks_pp = used[:, idx].copy()
+                used = search.used[:, idx]
+                worst = np.where(used, search.errs[:, idx], -np.inf).argmax(axis=0)
+                masks_pp = used.copy()
                 masks_pp[worst, np.arange(idx.size)] = False
                 for start in range(0, idx.size, _BATCH):
                     sl = slice(start, start + _BATCH)
-                    _adopt(
-                        idx[sl],
-                        masks_pp[None, :, sl],
-                        normalised,
-                        extrinsics,
-                        focals,
-                        weights,
-                        points,
-                        errs,
-                        mean,
-                        used,
-                        force=True,
-                    )
+                    _adopt(search, idx[sl], masks_pp[None, :, sl], force=True)
                 continue
             # Chunks keep the (subsets × points) batch small on long takes.
             step = max(1, _BATCH // len(masks))
             for start in range(0, idx.size, step):
-                _adopt(
-                    idx[start : start + step],
-                    masks[:, :, None],
-                    normalised,
-                    extrinsics,
-                    focals,
-                    weights,
-                    points,
-                    errs,
-                    mean,
-                    used,
-                    force=False,
-                )
+                _adopt(search, idx[start : start + step], masks[:, :, None], force=False)
 
 
-def _adopt(
-    idx: np.ndarray,
-    masks: np.ndarray,
-    normalised: np.ndarray,
-    extrinsics: np.ndarray,
-    focals: np.ndarray,
-    weights: np.ndarray,
-    points: np.ndarray,
-    errs: np.ndarray,
-    mean: np.ndarray,
-    used: np.ndarray,
-    *,
-    force: bool,
-) -> None:
+def _adopt(search: _Search, idx: np.ndarray, masks: np.ndarray, *, force: bool) -> None:
     """Solve points `idx` with each candidate mask (S, C, n or 1); keep the best candidate per
     point when it beats the current estimate (always when `force`, the greedy step)."""
-    S = masks.shape[0]
-    m = np.broadcast_to(masks, (S, masks.shape[1], idx.size))
-    w = (weights[:, idx][None] * m).transpose(1, 0, 2).reshape(len(weights), S * idx.size)
-    obs = np.repeat(normalised[:, idx][:, None], S, axis=1).reshape(len(weights), -1, 2)
-    p, e, mu = _solve(obs, extrinsics, focals, w)
+    s = search
+    S, C = masks.shape[:2]
+    m = np.broadcast_to(masks, (S, C, idx.size))
+    w = (s.weights[:, idx][None] * m).transpose(1, 0, 2).reshape(C, S * idx.size)
+    obs = np.repeat(s.normalised[:, idx][:, None], S, axis=1).reshape(C, -1, 2)
+    p, e, mu = _solve(obs, s.extrinsics, s.focals, w)
     mu = np.where(np.isfinite(mu), mu, np.inf).reshape(S, idx.size)
     best = mu.argmin(axis=0)
     flat = best * idx.size + np.arange(idx.size)
-    better = force | (
-        mu[best, np.arange(idx.size)] < np.where(np.isnan(mean[idx]), np.inf, mean[idx])
-    )
+    current = np.where(np.isnan(s.mean[idx]), np.inf, s.mean[idx])
+    better = force | (mu[best, np.arange(idx.size)] < current)
     take = idx[better]
-    points[take] = p[flat[better]]
-    errs[:, take] = e[:, flat[better]]
-    mean[take] = mu[best, np.arange(idx.size)][better]
-    used[:, take] = m[best[better], :, np.flatnonzero(better)].T
+    s.points[take] = p[flat[better]]
+    s.errs[:, take] = e[:, flat[better]]
+    s.mean[take] = mu[best, np.arange(idx.size)][better]
+    s.used[:, take] = m[best[better], :, np.flatnonzero(better)].T
