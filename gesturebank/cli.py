@@ -1,7 +1,8 @@
 """The `gesturebank` command line (and its `build-dataset` shortcut).
 
 Exit codes: 0 ok; 1 some takes failed (the summary says which and why) or the robot failed;
-2 usage, config or input error; 130 interrupted (Ctrl-C).
+2 usage, config or input error (a full disk, a dataset another process is writing);
+130 interrupted (Ctrl-C), 143 build-dataset stopped by SIGTERM.
 """
 
 from __future__ import annotations
@@ -261,8 +262,11 @@ def build_dataset(
         with user_errors():
             summary = build(takes, videos_dir, out_dir, config, force=force, on_result=show)
     _print_summary(console, summary)
+    if summary.error:
+        typer.echo(f"error: {summary.error}", err=True)
+        raise typer.Exit(EXIT_USAGE)
     if summary.interrupted:
-        raise typer.Exit(130)
+        raise typer.Exit(128 + summary.interrupted)  # the shell's code for death by that signal
     raise typer.Exit(EXIT_FAILED if summary.failed else EXIT_OK)
 
 
@@ -538,8 +542,10 @@ def qc_cmd(
     differs (the [qc] and [splits] sections; the clips stay as built).
     """
     from gesturebank.datasets import store
+    from gesturebank.datasets.lock import dataset_lock
     from gesturebank.datasets.pipeline import CONTENT_SECTIONS
     from gesturebank.datasets.refresh import refresh
+    from gesturebank.fileio import output_errors
     from gesturebank.qc.dashboard import write_dashboard
 
     with user_errors():
@@ -551,9 +557,11 @@ def qc_cmd(
                 f"{out_dir}: `gesturebank qc` re-judges the clips as built; [{changed[0]}] "
                 "changes what they contain: run build-dataset with it instead"
             )
-        for note in refresh(out_dir, config):
-            out.print(f"note: {note}", highlight=False, soft_wrap=True)
-        index = write_dashboard(out_dir)
+        # one writer per dataset: not while a build or another qc writes it
+        with dataset_lock(out_dir), output_errors(out_dir, "the QC results"):
+            for note in refresh(out_dir, config):
+                out.print(f"note: {note}", highlight=False, soft_wrap=True)
+            index = write_dashboard(out_dir)
     out.print(f"QC dashboard: {index}", highlight=False, soft_wrap=True)
 
 

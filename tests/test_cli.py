@@ -107,6 +107,29 @@ def test_config_prints_resolved_toml(tmp_path: Path) -> None:
     assert data["processing"]["butter_order"] == 5
 
 
+def test_train_and_qc_output_errors_are_one_line(demo_dataset: Path, tmp_path: Path) -> None:
+    """Too few subjects for SI (the demo has 2), unwritable --out or qc/: one line, exit 2."""
+    import shutil
+
+    blocker = tmp_path / "file"  # a path under a regular file fails for root too (ENOTDIR)
+    blocker.write_text("x")
+    dataset = tmp_path / "ds"
+    shutil.copytree(demo_dataset, dataset)
+    shutil.rmtree(dataset / "qc")
+    (dataset / "qc").write_text("not a folder")
+    sd = ["--variant", "sd", "--subject", "lab"]
+    cases = [
+        (("train", str(dataset), "-q"), "at least 3 subjects, the dataset has 2; train with"),
+        (("train", str(dataset), *sd, "--out", str(blocker / "m")), "cannot write the model"),
+        (("qc", str(dataset)), f"{dataset}: cannot write the QC results"),
+    ]
+    for args, message in cases:
+        r = run("gesturebank", *args)
+        assert r.returncode == 2, (args, r.stderr)
+        lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+        assert len(lines) == 1 and message in lines[0], r.stderr
+
+
 def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, tmp_path) -> None:
     """The robot-side commands chained as a user would, through the installed script."""
     import json

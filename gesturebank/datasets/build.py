@@ -6,6 +6,10 @@ dataset folder (`datasets.store`) as soon as it is done. A take that fails anywh
 as `failed` with its one-line reason and the build goes on. When every take is done,
 `datasets.refresh` judges all clips together and writes the manifest, dataset.json and the
 splits; then the dashboard is written.
+
+One build at a time holds OUT_DIR's lock (`datasets.lock`); pool workers die with the build
+(`datasets.lifeline`); SIGTERM stops it as Ctrl-C does. A take that cannot be written (a full
+disk) fails alone, with nothing of it under a final name.
 """
 
 from __future__ import annotations
@@ -14,16 +18,21 @@ import importlib
 import logging
 import multiprocessing
 import os
+import signal
+import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import closing, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 from gesturebank.config import Config
 from gesturebank.datasets import store
+from gesturebank.datasets.lifeline import die_with
+from gesturebank.datasets.lock import dataset_lock
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError, InputError
@@ -67,7 +76,8 @@ class BuildSummary:
     out: Path
     results: list[TakeResult] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    interrupted: bool = False
+    interrupted: int = 0  # the signal that stopped the build (SIGINT, SIGTERM); 0: it ran through
+    error: str = ""  # one line when the dataset's shared files could not be written (full disk)
     dashboard: Path | None = None
     takes: list[store.TakeRecord] = field(default_factory=list)  # final records (after QC)
 
@@ -122,17 +132,21 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
         log.exception("%s: unexpected error", take.video)
         reason = f"{take.video}: unexpected {type(exc).__name__}: {exc}"
     else:
-        store.write_take(out, built.record, built.clips, built.preview)
-        return TakeResult(
-            take.take_id,
-            "built",
-            "",
-            time.perf_counter() - start,
-            built.record.seconds,
-            built.detect_s,
-            len(built.clips),
-            built.record.usable_s,
-        )
+        try:
+            store.write_take(out, built.record, built.clips, built.preview)
+        except OSError as exc:  # a full disk or quota: nothing of it stays under a final name
+            reason = f"{store.take_dir(out, take.take_id)}: cannot write ({exc.strerror or exc})"
+        else:
+            return TakeResult(
+                take.take_id,
+                "built",
+                "",
+                time.perf_counter() - start,
+                built.record.seconds,
+                built.detect_s,
+                len(built.clips),
+                built.record.usable_s,
+            )
     return _record_failure(take, source, out, config, reason, time.perf_counter() - start)
 
 
@@ -149,13 +163,16 @@ def _record_failure(
         lifter="multiview" if take.multi_camera else config.lifter.name,
         traits=take.traits,
     )
-    store.write_take(out, record)
+    try:
+        store.write_take(out, record)
+    except OSError as exc:  # the disk is full: the summary still reports the failure
+        log.warning("%s: cannot record the failure (%s)", take.take_id, exc.strerror or exc)
     return TakeResult(take.take_id, "failed", reason, wall_s)
 
 
 def _local(
     jobs: list[tuple[Take, str]], out: Path, config: Config, workers: int
-) -> Iterator[TakeResult]:
+) -> Generator[TakeResult, None, None]:
     if workers == 1:
         for module in PIPELINE_MODULES:  # as the pool does: start-up is not a take's time
             importlib.import_module(module)
@@ -166,7 +183,9 @@ def _local(
     # imports the pipeline once; every worker forks from it instead of importing for seconds.
     ctx = multiprocessing.get_context("forkserver")
     ctx.set_forkserver_preload(list(PIPELINE_MODULES))
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+    with ProcessPoolExecutor(
+        max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(os.getpid(),)
+    ) as pool:
         futures = {pool.submit(run_take, *job, out, config): job for job in jobs}
         pending: set[Future[TakeResult]] = set(futures)
         try:
@@ -182,12 +201,16 @@ def _local(
         except BaseException:
             for fut in pending:
                 fut.cancel()
+            # takes already queued cannot be cancelled, and running ones would go on writing
+            # into OUT_DIR after an interrupt: stop the workers (no public API before 3.14)
+            for process in list(pool._processes.values()):
+                process.terminate()
             raise
 
 
 def _ray(
     jobs: list[tuple[Take, str]], out: Path, config: Config, address: str | None
-) -> Iterator[TakeResult]:
+) -> Generator[TakeResult, None, None]:
     try:
         import ray
     except ImportError:
@@ -196,7 +219,10 @@ def _ray(
         ) from None
     started = not ray.is_initialized()
     if started:
+        handler = signal.getsignal(signal.SIGTERM)
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
+        if handler is not None and threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, handler)  # Ray's sys.exit()s: SIGTERM stops as Ctrl-C
     try:
         remote = ray.remote(run_take)
         pending = [remote.remote(take, source, out, config) for take, source in jobs]
@@ -206,6 +232,51 @@ def _ray(
     finally:
         if started:
             ray.shutdown()
+
+
+@contextmanager
+def _sigterm_interrupts() -> Iterator[list[int]]:
+    """Inside, SIGTERM raises KeyboardInterrupt, as SIGINT does: the build stops as on Ctrl-C.
+    Yields the list of the SIGTERMs received (Ray turns any signal's exception into its own)."""
+    received: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield received  # only the main thread may set handlers (and receives the signals)
+        return
+
+    def stop(signum: int, frame: object) -> None:
+        received.append(signum)
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield received
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+def _stamp(out: Path, take_id: str) -> tuple[int, int] | None:
+    """Identity of a take's record file: records are replaced whole, so a rewrite changes it."""
+    try:
+        st = store.take_json(out, take_id).stat()
+    except OSError:
+        return None
+    return st.st_ino, st.st_mtime_ns
+
+
+def _written_result(out: Path, take_id: str) -> TakeResult | None:
+    """The result of a take written in this run whose result never reached us (interrupt)."""
+    record = store.read_record(out, take_id)
+    if record is None:
+        return None
+    if record.failed:
+        return TakeResult(take_id, "failed", record.failed)
+    return TakeResult(
+        take_id,
+        "built",
+        video_s=record.seconds,
+        clips=len(record.data_clips),
+        usable_s=record.usable_s,
+    )
 
 
 def build_dataset(
@@ -218,11 +289,41 @@ def build_dataset(
     dashboard: bool = True,
     on_result: Callable[[TakeResult], None] | None = None,
 ) -> BuildSummary:
-    """Build (or resume) the dataset in `out`; see the module docstring."""
+    """Build (or resume) the dataset in `out`; see the module docstring.
+
+    Holds the dataset's lock throughout (InputError naming the holder when another build or
+    `gesturebank qc` writes `out`). SIGTERM and Ctrl-C stop it the same way: the workers are
+    stopped, finished takes are kept and counted, the manifest covers them.
+    """
+    out = Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot create the dataset folder ({exc.strerror})") from None
+    with dataset_lock(out):
+        return _build(
+            list(takes),
+            Path(videos_dir),
+            out,
+            config,
+            force=force,
+            dashboard=dashboard,
+            on_result=on_result,
+        )
+
+
+def _build(
+    takes: list[Take],
+    videos_dir: Path,
+    out: Path,
+    config: Config,
+    *,
+    force: bool,
+    dashboard: bool,
+    on_result: Callable[[TakeResult], None] | None,
+) -> BuildSummary:
     from gesturebank.datasets.refresh import refresh
 
-    out = Path(out)
-    takes = list(takes)
     summary = BuildSummary(out)
     if store.remove_stale_temporaries(out):
         log.info("%s: removed temporary files of an interrupted build", out)
@@ -246,18 +347,38 @@ def build_dataset(
         if config.build.executor == "ray"
         else _local(jobs, out, config, workers)
     )
+    stamps = {take.take_id: _stamp(out, take.take_id) for take, _ in jobs}
+    terms: list[int] = []
     try:
-        for result in results:
-            summary.results.append(result)
-            if on_result:
-                on_result(result)
+        # closing: an interrupt stops the workers here, not whenever the generator is collected
+        with _sigterm_interrupts() as terms, closing(results):
+            for result in results:
+                summary.results.append(result)
+                if on_result:
+                    on_result(result)
     except KeyboardInterrupt:
-        summary.interrupted = True  # finished takes are on disk; the manifest still covers them
+        summary.interrupted = signal.SIGTERM if terms else signal.SIGINT
+        store.remove_stale_temporaries(out)  # what the stopped workers left half-written
+        reported = {r.take_id for r in summary.results}
+        for take, _ in jobs:
+            if take.take_id in reported or _stamp(out, take.take_id) == stamps[take.take_id]:
+                continue
+            written = _written_result(out, take.take_id)
+            if written:
+                summary.results.append(written)
+                if on_result:
+                    on_result(written)
     ids = [t.take_id for t in takes]
-    summary.notes = refresh(out, config, take_ids=ids, videos_dir=Path(videos_dir))
-    summary.takes = store.records(out, ids)
-    if dashboard:
-        from gesturebank.qc.dashboard import write_dashboard
+    try:
+        summary.notes = refresh(out, config, take_ids=ids, videos_dir=videos_dir)
+        if dashboard:
+            from gesturebank.qc.dashboard import write_dashboard
 
-        summary.dashboard = write_dashboard(out)
+            summary.dashboard = write_dashboard(out)
+    except OSError as exc:  # a full disk: the finished takes are kept, a re-run completes it
+        summary.error = (
+            f"{exc.filename or out}: cannot write ({exc.strerror or exc}); finished takes are "
+            "kept: free some space and run the same command again"
+        )
+    summary.takes = store.records(out, ids)
     return summary

@@ -221,7 +221,10 @@ def detect_people(
             raise
         raise type(exc)(f"{path}: {exc}") from None
     if key is not None:
-        store.save(key, multi, shots)
+        try:
+            store.save(key, multi, shots)
+        except OSError as exc:  # e.g. a full disk: the cache only saves time, the take goes on
+            log.warning("%s: detection cache not written (%s)", path, exc.strerror or exc)
     return multi, shots, det.name, None if key is None else False, taps.preview
 
 
