@@ -253,7 +253,8 @@ class ClipsConfig(Section):
 class LifterConfig(Section):
     name: str = Field(
         "blazepose-world",
-        description="3D lifter of single-view takes: 'blazepose-world' (learned), 'geometric' "
+        description="3D lifter of single-view takes: 'blazepose-world' (learned), 'fitted' (a "
+        "skeleton fitted to the 2D with BlazePose's 3D as prior), 'geometric' "
         "(assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
     )
 
@@ -322,6 +323,56 @@ class GeometricConfig(Section):
         0.35,
         gt=0,
         description="Assumed distance between the shoulder joints, metres (units = 'm' only).",
+    )
+
+
+class FittedConfig(Section):
+    """Options of the `fitted` lifter: a constant-length skeleton fitted to the 2D per frame."""
+
+    fov_deg: float = Field(
+        60.0,
+        gt=1,
+        lt=179,
+        description="Field of view across the longer image side, degrees, when no calibration "
+        "gives the focal length; typical of phones and webcams (wide-angle lenses: raise it).",
+    )
+    min_confidence: float = Field(
+        0.3, ge=0, le=1, description="Keypoints below this confidence do not pull the fit."
+    )
+    prior_weight: float = Field(
+        40.0,
+        ge=0,
+        description="Pixels of reprojection error worth a unit difference between a fitted bone "
+        "direction and the prior's (BlazePose world landmarks, else the geometric lifter); "
+        "raise it when the detector's 2D is noisy, lower it to trust the image more.",
+    )
+    smoothness: float = Field(
+        0.05,
+        ge=0,
+        description="Pixels of reprojection error worth 1 m/s² of bone acceleration (temporal "
+        "smoothness); 0 fits every frame on its own.",
+    )
+    length_weight: float | None = Field(
+        5.0,
+        gt=0,
+        description="Pixels of reprojection error worth a 100 % change of a bone length from "
+        "the prior's, when the take's lengths are fitted to the image; none keeps the prior's "
+        "lengths.",
+    )
+    flag_angle_deg: float = Field(
+        30.0,
+        gt=0,
+        description="A bone whose fitted direction differs from the prior's by more than this "
+        "flags its joint (degrees).",
+    )
+    flag_confidence: float = Field(
+        0.25, ge=0, le=1, description="Confidence of a flagged joint is multiplied by this."
+    )
+    chunk_frames: int = Field(
+        300,
+        ge=10,
+        description="Frames fitted in one least-squares problem (long takes are cut into "
+        "overlapping chunks, so memory stays bounded).",
     )
 
 
@@ -832,6 +883,7 @@ class Config(Section):
     clips: ClipsConfig = Field(default_factory=ClipsConfig)
     lifter: LifterConfig = Field(default_factory=LifterConfig)
     geometric: GeometricConfig = Field(default_factory=GeometricConfig)
+    fitted: FittedConfig = Field(default_factory=FittedConfig)
     multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)
     retarget: RetargetConfig = Field(default_factory=RetargetConfig)

@@ -22,4 +22,5 @@ LIFTERS: Registry[Lifter] = Registry("lifter", "gesturebank.lifters")
 
 LIFTERS.register_lazy("blazepose-world", "gesturebank.lift.blazepose_world:BlazePoseWorldLifter")
 LIFTERS.register_lazy("geometric", "gesturebank.lift.geometric:GeometricLifter")
+LIFTERS.register_lazy("fitted", "gesturebank.lift.fitted:FittedLifter")
 LIFTERS.register_lazy("multiview", "gesturebank.lift.multiview.lifter:MultiviewLifter")
