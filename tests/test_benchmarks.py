@@ -16,8 +16,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = sorted((ROOT / "benchmarks").glob("*.py"))
 
-# Quick modes that take more than ~30 s on the 2-core development machine (build.py: ~42 s).
-SLOW: set[str] = {"build.py"}
+# Quick modes that take more than ~30 s on the 2-core development machine (build.py: ~42 s,
+# faults.py: ~4 min).
+SLOW: set[str] = {"build.py", "faults.py"}
 
 # Lines of a rich table (its box) in any of rich's box styles.
 BOX_CHARS = "─━│┃"
