@@ -28,7 +28,8 @@ from rich.table import Table
 
 from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.extract.audio import frame_features
-from gesturebank.train.export import MODEL_ONNX, STEP_ONNX, OnnxModel, StreamingLSTM, export_onnx
+from gesturebank.train.export import OnnxModel, StreamingLSTM, export_onnx
+from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
 from gesturebank.train.models import LSTMModel, build_model
 
 WINDOW = 300  # N_τ frames the baseline re-runs every frame
@@ -37,7 +38,7 @@ WINDOW = 300  # N_τ frames the baseline re-runs every frame
 def models(model_dir: Path | None, tmp: Path) -> tuple[Path, Path, LSTMModel]:
     """(MLP folder, LSTM folder, torch LSTM) — trained ones from model_dir, else fresh ones."""
     if model_dir is not None:
-        from gesturebank.train.commands import load_model
+        from gesturebank.train.model_folder import load_model
 
         lstm, _, _ = load_model(model_dir / "lstm")
         assert isinstance(lstm, LSTMModel)

@@ -27,7 +27,8 @@ from tiny_models import write_model_dir
 from gesturebank.config import AudioConfig
 from gesturebank.extract.audio import apply_znorm, features
 from gesturebank.extract.video import read_audio
-from gesturebank.robot.online import LiveSynth, live_command, load_frame_model
+from gesturebank.robot.commands import live_command
+from gesturebank.robot.online import LiveSynth, load_frame_model
 from gesturebank.samples import default_samples_dir, fetch_samples
 
 WINDOW = 300

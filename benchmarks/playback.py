@@ -23,9 +23,10 @@ from rich.table import Table
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "robot"))
 from naoqi_server import NaoqiServer
 
+from gesturebank.config import PlaybackConfig
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.naoqi import NaoqiBackend
-from gesturebank.robot.playback import PlaybackConfig, play
+from gesturebank.robot.playback import play
 from gesturebank.robot.timeline import Timeline
 
 

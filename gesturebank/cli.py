@@ -14,7 +14,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import typer
 from rich.console import Console
@@ -22,13 +22,46 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from gesturebank import __version__
-from gesturebank.config import Config, load_config, parse_override
+from gesturebank.config import Config, Executor, ModelKind, Variant, load_config, parse_override
 from gesturebank.errors import GesturebankError, InputError, RobotError
+from gesturebank.extract.detectors import DETECTORS
+from gesturebank.lift import LIFTERS
+from gesturebank.registry import Registry
+from gesturebank.robot.backends import BACKENDS
 
 if TYPE_CHECKING:
     from gesturebank.datasets.build import BuildSummary, TakeResult
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+def _one_of(registry: Registry[Any]) -> str:
+    """The names a registry knows (plug-ins too), for a help text."""
+    return "one of: " + ", ".join(registry.names())
+
+
+# Options shared by several commands, defined once.
+ConfigOption = Annotated[
+    Path | None,
+    typer.Option("--config", "-c", help="TOML config file (see `gesturebank config`)."),
+]
+SetOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--set", help="Override one config key, e.g. --set processing.cutoff_hz=6 (repeatable)."
+    ),
+]
+QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")]
+ModelDirArg = Annotated[Path, typer.Argument(help="A model folder written by `train`.")]
+DatasetArg = Annotated[Path, typer.Argument(help="A dataset folder written by build-dataset.")]
+# a registry, not a Literal: plug-in backends are valid too
+BackendOption = Annotated[
+    str, typer.Option(help=f"{_one_of(BACKENDS)} (naoqi: a robot, sim: an MP4, record: JSONL).")
+]
+OutFileOption = Annotated[
+    Path | None, typer.Option("--out", help="sim: video.mp4; record: timeline.jsonl.")
+]
+SplitPart = Literal["test", "val", "train"]
 
 app = typer.Typer(
     name="gesturebank",
@@ -69,10 +102,10 @@ def _main(
 
 
 def resolve_config(
+    *,
     config_file: Path | None,
     sets: list[str] | None,
     flags: dict[str, dict[str, Any]],
-    *,
     base: Config | None = None,
 ) -> Config:
     """Defaults (or `base`) < config file < --set KEY=VALUE < dedicated flags (those given)."""
@@ -96,9 +129,6 @@ def info() -> None:
     Lists gesturebank's main dependencies (and how to install mediapipe when it is missing)
     and every detector and lifter a run can use, built-in or from a plug-in package.
     """
-    from gesturebank.extract.detectors import DETECTORS
-    from gesturebank.lift import LIFTERS
-
     table = Table(title=f"gesturebank {__version__}", show_header=False)
     table.add_row("python", platform.python_version())
     for dist in ("numpy", "scipy", "opencv-contrib-python-headless", "av", "onnxruntime"):
@@ -143,15 +173,7 @@ def fetch_samples_cmd(
 
 
 @app.command("config")
-def config_cmd(
-    config_file: Annotated[
-        Path | None, typer.Option("--config", "-c", help="TOML config file.")
-    ] = None,
-    sets: Annotated[
-        list[str] | None,
-        typer.Option("--set", help="Override one key, e.g. --set audio.nfilt=40 (repeatable)."),
-    ] = None,
-) -> None:
+def config_cmd(config_file: ConfigOption = None, sets: SetOption = None) -> None:
     """Print the resolved configuration as TOML.
 
     Precedence: defaults < --config file < --set KEY=VALUE. Unset optional keys are omitted.
@@ -159,7 +181,7 @@ def config_cmd(
     import tomli_w
 
     with user_errors():
-        config = resolve_config(config_file, sets, {})
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
     out.print(
         tomli_w.dumps(_without_none(config.to_json_dict())), end="", highlight=False, markup=False
     )
@@ -175,18 +197,16 @@ def _without_none(data: dict[str, Any]) -> dict[str, Any]:
 def build_dataset(
     videos_dir: Annotated[Path, typer.Argument(help="Folder of videos (searched recursively).")],
     out_dir: Annotated[Path, typer.Argument(help="Dataset folder to create or resume.")],
-    config_file: Annotated[
-        Path | None, typer.Option("--config", "-c", help="TOML config file.")
-    ] = None,
+    config_file: ConfigOption = None,
     detector: Annotated[
-        str | None, typer.Option(help="2D detector (see `gesturebank info`).")
+        str | None, typer.Option(help=f"2D detector, {_one_of(DETECTORS)}.")
     ] = None,
-    lifter: Annotated[str | None, typer.Option(help="3D lifter (see `gesturebank info`).")] = None,
+    lifter: Annotated[str | None, typer.Option(help=f"3D lifter, {_one_of(LIFTERS)}.")] = None,
     workers: Annotated[
         int | None, typer.Option(min=1, help="Takes built in parallel (default: CPU cores).")
     ] = None,
     executor: Annotated[
-        str | None, typer.Option(help="'local' process pool (default) or 'ray'.")
+        Executor | None, typer.Option(help="'local' process pool (default) or 'ray'.")
     ] = None,
     ray_address: Annotated[
         str | None, typer.Option(help="Ray cluster address (default: start a local Ray).")
@@ -195,11 +215,8 @@ def build_dataset(
     no_cache: Annotated[
         bool, typer.Option("--no-cache", help="Run the detector even on videos seen before.")
     ] = False,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
-    sets: Annotated[
-        list[str] | None,
-        typer.Option("--set", help="Override one config key, e.g. --set processing.cutoff_hz=6."),
-    ] = None,
+    quiet: QuietOption = False,
+    sets: SetOption = None,
 ) -> None:
     """Build a dataset of Pepper angles and audio features from videos.
 
@@ -217,9 +234,9 @@ def build_dataset(
 
     with user_errors():
         config = resolve_config(
-            config_file,
-            sets,
-            {
+            config_file=config_file,
+            sets=sets,
+            flags={
                 "detector": {"name": detector},
                 "lifter": {"name": lifter},
                 "build": {
@@ -260,7 +277,14 @@ def build_dataset(
             )
 
         with user_errors():
-            summary = build(takes, videos_dir, out_dir, config, force=force, on_result=show)
+            summary = build(
+                takes=takes,
+                videos_dir=videos_dir,
+                out=out_dir,
+                config=config,
+                force=force,
+                on_result=show,
+            )
     _print_summary(console, summary)
     if summary.error:
         typer.echo(f"error: {summary.error}", err=True)
@@ -313,23 +337,19 @@ def _print_summary(console: Console, summary: BuildSummary) -> None:
 
 @app.command()
 def train(
-    dataset: Annotated[Path, typer.Argument(help="A dataset folder written by build-dataset.")],
-    model: Annotated[str, typer.Option(help="'mlp' or 'lstm'.")] = "mlp",
+    dataset: DatasetArg,
+    model: Annotated[ModelKind, typer.Option(help="The network.")] = "mlp",
     variant: Annotated[
-        str, typer.Option(help="'si' subject-independent (a fold) or 'sd' (one subject).")
+        Variant, typer.Option(help="'si' subject-independent (a fold) or 'sd' (one subject).")
     ] = "si",
     fold: Annotated[int | None, typer.Option(help="SI fold (default 0).")] = None,
     subject: Annotated[str | None, typer.Option(help="SD subject.")] = None,
     out_dir: Annotated[
         Path, typer.Option("--out", help="Model folder to write (an older one is replaced whole).")
     ] = Path("model"),
-    config_file: Annotated[
-        Path | None, typer.Option("--config", "-c", help="TOML config file ([train]).")
-    ] = None,
-    sets: Annotated[
-        list[str] | None, typer.Option("--set", help="Override a key, e.g. --set train.seed=1.")
-    ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")] = False,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+    quiet: QuietOption = False,
 ) -> None:
     """Train a speech-to-motion model (MLP or LSTM, dissertation §4.3) on a dataset split.
 
@@ -338,21 +358,28 @@ def train(
     """
     from gesturebank.train.commands import train_command
 
-    if model not in ("mlp", "lstm") or variant not in ("si", "sd"):
-        raise typer.BadParameter("--model is mlp or lstm, --variant is si or sd")
     with user_errors():
-        config = resolve_config(config_file, sets, {})
-        train_command(dataset, model, variant, fold, subject, out_dir, config.train, quiet=quiet)
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        train_command(
+            dataset=dataset,
+            model=model,
+            variant=variant,
+            fold=fold,
+            subject=subject,
+            out_dir=out_dir,
+            config=config.train,
+            quiet=quiet,
+        )
     out.print(f"model written to {out_dir}", highlight=False, soft_wrap=True)
 
 
 @app.command()
 def evaluate(
-    model_dir: Annotated[Path, typer.Argument(help="A model folder written by `train`.")],
+    model_dir: ModelDirArg,
     dataset: Annotated[
         Path | None, typer.Argument(help="Dataset (default: the one it was trained on).")
     ] = None,
-    split: Annotated[str, typer.Option(help="Split part: test, val or train.")] = "test",
+    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
 ) -> None:
     """Score a model like Table 5.1 of the dissertation, per subject and averaged.
 
@@ -363,12 +390,12 @@ def evaluate(
     from gesturebank.train.commands import evaluate_command
 
     with user_errors():
-        evaluate_command(model_dir, dataset, split, console=out)
+        evaluate_command(model_dir=model_dir, dataset=dataset, split=split, console=out)
 
 
 @app.command()
 def synthesize(
-    model_dir: Annotated[Path, typer.Argument(help="A model folder written by `train`.")],
+    model_dir: ModelDirArg,
     audio: Annotated[Path, typer.Argument(help="Speech: a WAV or any file with an audio track.")],
     out_csv: Annotated[Path, typer.Option("--out", help="CSV of angles to write.")] = Path(
         "angles.csv"
@@ -385,7 +412,9 @@ def synthesize(
     from gesturebank.train.commands import synthesize_command
 
     with user_errors():
-        angles = synthesize_command(model_dir, audio, out_csv, znorm=znorm)
+        angles = synthesize_command(
+            model_dir=model_dir, audio_path=audio, out_csv=out_csv, znorm=znorm
+        )
     out.print(f"{len(angles)} frames written to {out_csv}", highlight=False, soft_wrap=True)
 
 
@@ -394,13 +423,11 @@ def replay(
     angles: Annotated[
         Path, typer.Argument(help="Angle CSV (from `synthesize`), or a dataset folder with --clip.")
     ],
-    backend: Annotated[str, typer.Option(help="naoqi (a robot), sim (MP4) or record (JSONL).")],
+    backend: BackendOption,
     url: Annotated[
         str | None, typer.Option(help="naoqi: the robot's address, e.g. tcp://192.168.1.10:9559.")
     ] = None,
-    out_file: Annotated[
-        Path | None, typer.Option("--out", help="sim: video.mp4; record: timeline.jsonl.")
-    ] = None,
+    out_file: OutFileOption = None,
     audio: Annotated[
         Path | None, typer.Option(help="Speech to play (naoqi: here; sim: muxed into the video).")
     ] = None,
@@ -413,12 +440,8 @@ def replay(
     clamp: Annotated[
         bool, typer.Option("--clamp", help="Play angles far outside the limits clamped.")
     ] = False,
-    config_file: Annotated[
-        Path | None, typer.Option("--config", "-c", help="TOML config file ([playback]).")
-    ] = None,
-    sets: Annotated[
-        list[str] | None, typer.Option("--set", help="e.g. --set playback.max_speed_fraction=1.")
-    ] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
 ) -> None:
     """Play an angle timeline on Pepper, a simulator render, or a file — safely.
 
@@ -428,18 +451,18 @@ def replay(
     playback with a one-line error. A timeline that looks wrong is refused: angles far outside
     the limits (degrees?) unless --clamp, a gap in its times, a first frame long after 0 s.
     """
-    from gesturebank.robot.playback import replay_command
+    from gesturebank.robot.commands import replay_command
 
     with user_errors():
-        config = resolve_config(config_file, sets, {})
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
         try:
             result = replay_command(
-                angles,
-                backend,
-                url,
-                out_file,
-                audio,
-                config.playback,
+                angles_csv=angles,
+                backend=backend,
+                url=url,
+                out=out_file,
+                audio=audio,
+                config=config.playback,
                 clip=clip,
                 compare=compare,
                 profile=config.robot.profile,
@@ -458,25 +481,19 @@ def replay(
 
 @app.command()
 def live(
-    model_dir: Annotated[Path, typer.Argument(help="A model folder written by `train`.")],
-    backend: Annotated[str, typer.Option(help="naoqi (a robot), sim (MP4) or record (JSONL).")],
+    model_dir: ModelDirArg,
+    backend: BackendOption,
     input_: Annotated[
         str, typer.Option("--input", help="'mic' (the default microphone) or a WAV file.")
     ] = "mic",
     url: Annotated[str | None, typer.Option(help="naoqi: the robot's address.")] = None,
-    out_file: Annotated[
-        Path | None, typer.Option("--out", help="sim: video.mp4; record: timeline.jsonl.")
-    ] = None,
+    out_file: OutFileOption = None,
     znorm: Annotated[
         str, typer.Option(help="Audio z-norm stats: '*' (whole training set) or a subject.")
     ] = "*",
     seconds: Annotated[float | None, typer.Option(help="Stop after this many seconds.")] = None,
-    config_file: Annotated[
-        Path | None, typer.Option("--config", "-c", help="TOML config file ([playback]).")
-    ] = None,
-    sets: Annotated[
-        list[str] | None, typer.Option("--set", help="e.g. --set playback.kalman_q=0.2.")
-    ] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
 ) -> None:
     """Live synthesis: speech from a microphone (or a WAV in real time) drives the robot.
 
@@ -484,17 +501,17 @@ def live(
     the LSTM) → inverse normalisation → Kalman smoothing → safety → the backend. Per-frame
     latency p50/p99 is reported at the end.
     """
-    from gesturebank.robot.online import live_command
+    from gesturebank.robot.commands import live_command
 
     with user_errors():
-        config = resolve_config(config_file, sets, {})
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
         result = live_command(
-            model_dir,
-            backend,
-            input_,
-            url,
-            out_file,
-            config.playback,
+            model_dir=model_dir,
+            backend=backend,
+            input=input_,
+            url=url,
+            out=out_file,
+            config=config.playback,
             max_seconds=seconds,
             znorm=znorm,
         )
@@ -523,16 +540,7 @@ app.command("build-dataset")(build_dataset)
 
 
 @app.command("qc")
-def qc_cmd(
-    out_dir: Annotated[Path, typer.Argument(help="A dataset folder written by build-dataset.")],
-    config_file: Annotated[
-        Path | None, typer.Option("--config", "-c", help="TOML config file ([qc] thresholds).")
-    ] = None,
-    sets: Annotated[
-        list[str] | None,
-        typer.Option("--set", help="Override a threshold, e.g. --set qc.max_swap_events=2."),
-    ] = None,
-) -> None:
+def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOption = None) -> None:
     """Re-run the quality checks on a dataset and write its dashboard.
 
     Judges every clip (jerk, unseen head or arms, bone lengths, limits, jitter, swaps, spikes,
@@ -550,7 +558,7 @@ def qc_cmd(
 
     with user_errors():
         built = store.read_dataset_json(out_dir).config
-        config = resolve_config(config_file, sets, {}, base=built)
+        config = resolve_config(config_file=config_file, sets=sets, flags={}, base=built)
         changed = [s for s in CONTENT_SECTIONS if config.digest(s) != built.digest(s)]
         if changed:
             raise InputError(

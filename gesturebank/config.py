@@ -836,13 +836,14 @@ class SplitsConfig(Section):
         return self
 
 
+Executor = Literal["local", "ray"]
+
+
 class BuildConfig(Section):
     workers: int | None = Field(
         None, ge=1, description="Takes built in parallel (none = number of CPU cores)."
     )
-    executor: Literal["local", "ray"] = Field(
-        "local", description="'local' process pool, or 'ray' for a cluster."
-    )
+    executor: Executor = Field("local", description="'local' process pool, or 'ray' for a cluster.")
     ray_address: str | None = Field(None, description="Ray cluster address ('auto', host:port).")
     decode_threads: int | None = Field(
         None,

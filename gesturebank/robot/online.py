@@ -7,52 +7,39 @@ speed) → backend. Input: the microphone (sounddevice) or a WAV streamed in rea
 loop is testable without an audio device. Per-frame latency (chunk available → pose handed to the
 backend) is measured and summarised as p50/p99.
 
-The model folder is the one `gesturebank train` writes (gesturebank.train.export):
-- `model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state) or, for the MLP,
-  `model.onnx` (`(N, F)` → `(N, 11)`); inputs and outputs are taken by position;
-- `model.json`: its "audio" entry is the feature configuration the model was trained with;
-- `normalisers.json`: "audio_znorm_by_subject" (z-norm stats per subject and "*" for the whole
-  dataset — the dissertation's online mode used the global ones) and "robot_profile".
+The model folder is the one `gesturebank train` writes (`gesturebank.train.model_folder` reads
+it): `model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state) or, for the
+MLP, `model.onnx` (`(N, F)` → `(N, 11)`), inputs and outputs taken by position; the audio config
+the model was trained with; z-norm stats per subject and "*" for the whole dataset (the
+dissertation's online mode used the global ones); the robot profile.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 import queue
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
-from gesturebank.config import AudioConfig
+from gesturebank.config import AudioConfig, PlaybackConfig
 from gesturebank.errors import InputError, RobotError
 from gesturebank.extract.audio import apply_znorm, frame_features, frame_length, frame_step
 from gesturebank.filters import KalmanConstAcc
 from gesturebank.robot import pepper
-from gesturebank.robot.backends import Backend, Command, create
-from gesturebank.robot.playback import (
-    Clock,
-    PlaybackConfig,
-    RealClock,
-    SafetyFilter,
-    VirtualClock,
-    _Run,
-    safe_pose,
-    speed_profile,
-)
+from gesturebank.robot.backends import Backend, Command
+from gesturebank.robot.clock import Clock, RealClock, VirtualClock
+from gesturebank.robot.playback import Player
+from gesturebank.robot.safety import SafetyFilter, safe_pose, speed_profile
+from gesturebank.train import model_folder
 
 log = logging.getLogger(__name__)
 
 PathLike = str | os.PathLike[str]
-STEP_ONNX = "model_step.onnx"
-MODEL_ONNX = "model.onnx"
-MODEL_JSON = "model.json"
-NORMALISERS = "normalisers.json"
 
 
 # --------------------------------------------------------------------------------------------------
@@ -75,16 +62,8 @@ class OnnxFrameModel:
     """`model_step.onnx` through onnxruntime (one thread: the graph is tiny, hand-offs cost)."""
 
     def __init__(self, path: PathLike) -> None:
-        import onnxruntime as ort
-
         name = os.fspath(path)
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = 1
-        opts.inter_op_num_threads = 1
-        try:
-            self.session = ort.InferenceSession(name, opts, providers=["CPUExecutionProvider"])
-        except Exception as exc:  # onnxruntime raises its own exception types
-            raise InputError(f"{name}: not a loadable ONNX model ({_first_line(exc)})") from None
+        self.session = model_folder.session(path)
         inputs = self.session.get_inputs()
         if len(inputs) not in (1, 3) or len(self.session.get_outputs()) != len(inputs):
             raise InputError(f"{name}: expected inputs x[, h, c] and outputs y[, h_out, c_out]")
@@ -118,13 +97,18 @@ class OnnxFrameModel:
 
 @dataclass(frozen=True, eq=False)
 class LiveModel:
-    """A frame model with what it needs around it: z-norm stats `(F,)`, profile, audio config."""
+    """A frame model with what it needs around it: z-norm stats `(F,)`, robot, audio config."""
 
     model: FrameModel
     audio_mean: np.ndarray
     audio_std: np.ndarray
-    profile: str
+    robot: pepper.RobotProfile
     audio: AudioConfig
+
+    @property
+    def profile(self) -> str:
+        """The robot profile's name."""
+        return self.robot.name
 
     @property
     def features(self) -> str:
@@ -142,29 +126,14 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
     znorm: whose audio statistics normalise the live features — "*" (the whole dataset) or a
     subject of the training data.
     """
-    folder = Path(model_dir)
-    onnx_path = folder / STEP_ONNX if (folder / STEP_ONNX).is_file() else folder / MODEL_ONNX
-    for p in (onnx_path, folder / MODEL_JSON, folder / NORMALISERS):
-        if not p.is_file():
-            raise InputError(f"{p}: missing — is {folder} a model folder written by `train`?")
-    try:
-        audio = AudioConfig.model_validate(json.loads((folder / MODEL_JSON).read_text())["audio"])
-        norm = json.loads((folder / NORMALISERS).read_text(encoding="utf-8"))
-        stats = norm["audio_znorm_by_subject"]
-        profile = str(norm["robot_profile"])
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise InputError(f"{folder}: unreadable model.json or normalisers.json ({exc})") from None
-    if znorm not in stats:
-        raise InputError(f"{folder}: no audio statistics for {znorm!r}; have {', '.join(stats)}")
-    mean = np.asarray(stats[znorm]["mean"], np.float64)
-    std = np.asarray(stats[znorm]["std"], np.float64)
-    pepper.load_profile(profile)  # unknown profile → InputError now, not mid-performance
-    model = OnnxFrameModel(onnx_path)
+    folder = model_folder.load(model_dir)
+    mean, std = folder.znorm(znorm)
+    model = OnnxFrameModel(folder.graph)
     if model.n_features is not None and model.n_features != len(mean):
         raise InputError(
-            f"{onnx_path}: model takes {model.n_features} features, normalisers have {len(mean)}"
+            f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
         )
-    return LiveModel(model, mean, std, profile, audio)
+    return LiveModel(model, mean, std, folder.profile, folder.audio)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -191,7 +160,7 @@ class LiveSynth:
         self.model = model
         self.hop = frame_step(self.audio)  # 160 samples = 10 ms
         self.dt = self.hop / self.audio.sample_rate
-        self.profile = speed_profile(pepper.load_profile(model.profile), cfg.max_speed_fraction)
+        self.profile = speed_profile(model.robot, cfg.max_speed_fraction)
         start = safe_pose(pepper.neutral_pose() if start_pose is None else start_pose, self.profile)
         # +1 sample: pre-emphasis needs the sample just before the window (Eq. 3.1).
         self.window = np.zeros(frame_length(self.audio) + 1, np.float64)
@@ -309,7 +278,7 @@ def run_live(
     back to neutral. RobotError (one line) if the robot is lost."""
     cfg = config or PlaybackConfig()
     clk = clock or (RealClock() if backend.realtime else VirtualClock())
-    run = _Run(backend, clk, cfg, synth.profile)
+    run = Player(backend, clock=clk, config=cfg, profile=synth.profile)
     neutral = safe_pose(pepper.neutral_pose(), synth.profile)
     run.t0 = clk.now()
     run.move(neutral, "start", cfg.start_s, 0.0)
@@ -339,53 +308,9 @@ def run_live(
     return LiveResult(status, n_chunks, len(latencies), np.asarray(latencies))
 
 
-def _back(run: _Run, t_live: float) -> None:
+def _back(run: Player, t_live: float) -> None:
     try:
         run.t0 = run.clock.now() - t_live
         run.back_to_neutral()
     except Exception as exc:
         log.warning("could not return to the neutral pose: %s", exc)
-
-
-def live_command(
-    model_dir: PathLike,
-    backend: str,
-    input: str = "mic",
-    url: str | None = None,
-    out: PathLike | None = None,
-    config: PlaybackConfig | None = None,
-    *,
-    audio_config: AudioConfig | None = None,
-    max_seconds: float | None = None,
-    znorm: str = "*",
-) -> LiveResult:
-    """`gesturebank live MODEL_DIR --backend naoqi|sim|record [--input mic|FILE.wav]`."""
-    cfg = config or PlaybackConfig()
-    model = load_frame_model(model_dir, znorm)
-    synth = LiveSynth(model, audio=audio_config, config=cfg)
-    rate = synth.audio.sample_rate
-    if input == "mic":
-        chunks = mic_chunks(synth.hop, rate, max_seconds=max_seconds)
-        next_chunk = next(chunks)  # fail on a missing microphone before touching the robot
-        source: Chunks = _prepend(next_chunk, chunks)
-    else:
-        source = wav_chunks(input, synth.hop, rate)
-    be = create(backend, url=url, out=out, audio=None if input == "mic" else input, config=cfg)
-    try:
-        result = run_live(synth, source, be, config=cfg)
-    finally:
-        be.close()
-    p50, p99 = result.latency_ms()
-    log.info(
-        "live: %d frames, %d skipped, latency p50 %.2f ms, p99 %.2f ms",
-        result.n_sent,
-        result.skipped,
-        p50,
-        p99,
-    )
-    return result
-
-
-def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:
-    yield first
-    yield from rest

@@ -12,8 +12,7 @@ Files:
   `h_out`, `c_out`. `StreamingLSTM` carries (h, c) between 10 ms frames, so live synthesis costs
   one LSTM step per frame instead of re-running a 300-frame window (§5.1.2).
 
-Sessions use one intra-op thread: these graphs are a few thousand multiply-adds, and thread
-hand-offs would cost more than the arithmetic.
+The file names and the onnxruntime session builder are the model folder's (`model_folder`).
 """
 
 from __future__ import annotations
@@ -23,15 +22,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import onnxruntime as ort
 import torch
 
 from gesturebank.errors import InputError
+from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX, session
 from gesturebank.train.models import MLP, LSTMModel, LSTMStep
 
 OPSET = 17
-MODEL_ONNX = "model.onnx"
-STEP_ONNX = "model_step.onnx"
 
 
 def _export(module: torch.nn.Module, args: tuple[torch.Tensor, ...], path: Path, **kw: Any) -> None:
@@ -78,23 +75,11 @@ def export_onnx(model: MLP | LSTMModel, out_dir: Path) -> list[Path]:
     return [path, step_path]
 
 
-def session(path: Path, threads: int = 1) -> ort.InferenceSession:
-    """An onnxruntime CPU session with `threads` intra-op threads and sequential execution."""
-    if not Path(path).is_file():
-        raise InputError(f"{path}: ONNX model not found")
-    opts = ort.SessionOptions()
-    opts.intra_op_num_threads = threads
-    opts.inter_op_num_threads = 1
-    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-    return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
-
-
 class OnnxModel:
     """Offline inference of `model.onnx`: z-normalised audio `(N, F)` → `(N, 11)` in [0, 1]."""
 
     def __init__(self, path: Path, threads: int = 1) -> None:
-        self.session = session(path, threads)
+        self.session = session(path, threads=threads)
         shape = self.session.get_inputs()[0].shape
         self.sequence = len(shape) == 3  # LSTM graphs take (B, T, F)
 
@@ -114,7 +99,7 @@ class StreamingLSTM:
     """
 
     def __init__(self, path: Path, threads: int = 1) -> None:
-        self.session = session(path, threads)
+        self.session = session(path, threads=threads)
         inputs = {i.name: i.shape for i in self.session.get_inputs()}
         if set(inputs) != {"audio", "h", "c"}:
             raise InputError(f"{path}: not a stateful LSTM step model (inputs {sorted(inputs)})")

@@ -12,15 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.config import PlaybackConfig
 from gesturebank.errors import RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.naoqi import NaoqiBackend
-from gesturebank.robot.playback import PlaybackConfig, play, replay_command
+from gesturebank.robot.commands import replay_command
+from gesturebank.robot.playback import play
 from gesturebank.robot.timeline import Timeline, write_csv
-
-sys.path.insert(0, str(Path(__file__).parent))
-from naoqi_server import PEPPER_JOINTS, NaoqiServer
-from test_playback import ARMS_UP, LOWER, NEUTRAL, UPPER, VELOCITY, wild_timeline
+from tests.robot.naoqi_server import PEPPER_JOINTS, NaoqiServer
+from tests.robot.test_playback import ARMS_UP, LOWER, NEUTRAL, UPPER, VELOCITY, wild_timeline
 
 START = dict(zip(pepper.JOINTS, ARMS_UP.tolist(), strict=True))
 FAST = PlaybackConfig(start_s=0.3, return_s=0.3)
@@ -114,7 +114,8 @@ def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_p
     script = (
         "import sys\n"
         "from gesturebank.errors import GesturebankError\n"
-        "from gesturebank.robot.playback import PlaybackConfig, replay_command\n"
+        "from gesturebank.config import PlaybackConfig\n"
+        "from gesturebank.robot.commands import replay_command\n"
         "try:\n"
         f"    replay_command({str(csv)!r}, 'naoqi', url={server.url!r},\n"
         "                   config=PlaybackConfig(start_s=0.3, return_s=0.3))\n"

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,11 +15,10 @@ from gesturebank.extract.audio import features
 from gesturebank.extract.video import read_audio
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
-from gesturebank.robot.online import LiveSynth, OnnxFrameModel, live_command, load_frame_model
-
-sys.path.insert(0, str(Path(__file__).parent))
-from test_playback import LOWER, NEUTRAL, UPPER, VELOCITY
-from tiny_models import StepLSTM, write_model_dir
+from gesturebank.robot.commands import live_command
+from gesturebank.robot.online import LiveSynth, OnnxFrameModel, load_frame_model
+from tests.robot.test_playback import LOWER, NEUTRAL, UPPER, VELOCITY
+from tests.robot.tiny_models import StepLSTM, write_model_dir
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +46,7 @@ def test_onnx_step_matches_torch(tmp_path: Path, kind: str) -> None:
             out, _ = ref.lstm(torch.from_numpy(x)[None])  # the whole sequence in one go
             expected = torch.sigmoid(ref.head(out[0])).numpy()
     else:
-        from tiny_models import MLP
+        from tests.robot.tiny_models import MLP
 
         with torch.no_grad():
             expected = MLP(26, 8).eval()(torch.from_numpy(x)).numpy()

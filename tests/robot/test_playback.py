@@ -9,18 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.config import PlaybackConfig
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import Command
 from gesturebank.robot.backends.record import RecordBackend, read_record
-from gesturebank.robot.playback import (
-    PlaybackConfig,
-    SafetyFilter,
-    adaptive_sleep,
-    play,
-    ramp,
-    replay_command,
-)
+from gesturebank.robot.clock import adaptive_sleep
+from gesturebank.robot.commands import replay_command
+from gesturebank.robot.playback import play
+from gesturebank.robot.safety import SafetyFilter, ramp
 from gesturebank.robot.timeline import Timeline, write_csv
 
 PROFILE = pepper.load_profile("pepper-1.7")
@@ -217,7 +214,7 @@ def test_replay_refuses_many_frames_beyond_the_limits(tmp_path: Path, caplog) ->
             msg = refused(csv, out)
             assert "20% of the frames" in msg and "HeadPitch = 1 rad" in msg
             continue
-        with caplog.at_level("WARNING", logger="gesturebank.robot.playback"):
+        with caplog.at_level("WARNING", logger="gesturebank.robot.safety"):
             replay_command(csv, "record", out=out, config=FAST)
         assert "2.0% of the frames beyond" in caplog.text
     # A sound timeline passes without a word.

@@ -9,7 +9,8 @@ import pytest
 import torch
 
 from gesturebank.errors import InputError
-from gesturebank.train.export import MODEL_ONNX, STEP_ONNX, OnnxModel, StreamingLSTM, export_onnx
+from gesturebank.train.export import OnnxModel, StreamingLSTM, export_onnx
+from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
 from gesturebank.train.models import MLP, LSTMModel, predict
 
 

@@ -16,13 +16,9 @@ import gesturebank.datasets as gds
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.robot import pepper
-from gesturebank.train.commands import (
-    evaluate_command,
-    load_model,
-    synthesize_command,
-    train_command,
-)
+from gesturebank.train.commands import evaluate_command, synthesize_command, train_command
 from gesturebank.train.evaluate import MEAN_POSE, SHIFTED, shifted_truth
+from gesturebank.train.model_folder import load_model
 from gesturebank.train.trainer import validation_loss
 
 

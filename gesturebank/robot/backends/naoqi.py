@@ -20,7 +20,7 @@ from gesturebank.robot.backends import Command
 from gesturebank.robot.pepper import JOINTS
 
 if TYPE_CHECKING:
-    from gesturebank.robot.playback import PlaybackConfig
+    from gesturebank.config import PlaybackConfig
 
 log = logging.getLogger(__name__)
 

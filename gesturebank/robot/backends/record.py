@@ -23,7 +23,7 @@ from gesturebank.robot.backends import Command
 from gesturebank.robot.pepper import JOINTS, neutral_pose
 
 if TYPE_CHECKING:
-    from gesturebank.robot.playback import PlaybackConfig
+    from gesturebank.config import PlaybackConfig
 
 
 def _round(values: np.ndarray) -> list[float]:

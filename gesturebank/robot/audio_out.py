@@ -1,0 +1,45 @@
+"""Audio out on this computer's default output device, started in step with a robot's playback."""
+
+from __future__ import annotations
+
+import os
+from typing import Protocol
+
+from gesturebank.errors import RobotError
+
+PathLike = str | os.PathLike[str]
+
+
+class AudioOut(Protocol):
+    def start(self) -> None: ...
+
+    def stop(self) -> None: ...
+
+
+class DeviceAudio:
+    """Plays an audio file on this computer's default output (as the dissertation did)."""
+
+    def __init__(self, path: PathLike, sample_rate: int = 48000) -> None:
+        from gesturebank.extract.video import read_audio
+
+        name = os.fspath(path)
+        track = read_audio(path, sample_rate)
+        if track is None:
+            raise RobotError(f"{name}: no audio track to play")
+        self.signal, self.rate = track.signal, track.sample_rate
+        try:
+            import sounddevice
+
+            sounddevice.check_output_settings(samplerate=self.rate, channels=1)
+        except Exception as exc:  # OSError: no PortAudio; PortAudioError: no device
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise RobotError(
+                f"{name}: cannot play audio here: no output device ({reason})"
+            ) from None
+        self._sd = sounddevice
+
+    def start(self) -> None:
+        self._sd.play(self.signal, self.rate)
+
+    def stop(self) -> None:
+        self._sd.stop()
