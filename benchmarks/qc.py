@@ -8,12 +8,12 @@ Clean variants (on evidence outside the QC), from takes not listed in `--defecti
 1. whole clips in which the head and both arms were seen in at least 95 % of the frames — the
    long ones included (the 60 s take gives clips of up to a minute);
 2. windows of `--window` s every `--stride` s over them in which they were seen in every frame
-   (`qc.corrupt.window`; overlapping windows are not independent: the table counts variants,
+   (`testing.corrupt.window`; overlapping windows are not independent: the table counts variants,
    not independent clips);
-3. each window also mirrored left↔right (`qc.corrupt.mirror`: the real motion of a mirrored
-   person), angles re-derived as the builder does (`qc.corrupt.rederive`).
+3. each window also mirrored left↔right (`testing.corrupt.mirror`: the real motion of a mirrored
+   person), angles re-derived as the builder does (`testing.corrupt.rederive`).
 
-Corrupted variants: every clean variant × every corruption kind × strength (`qc.corrupt`,
+Corrupted variants: every clean variant × every corruption kind × strength (`testing.corrupt`,
 seeded by the variant's index), angles re-derived. They act on what the repair left, as a glitch
 that survived it would. Each corrupted variant is judged in a dataset made of the whole clean
 pool plus itself (a bad clip among good ones, as the dataset-relative checks assume); the clean
@@ -37,12 +37,12 @@ from rich.table import Table
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets.clip import Clip
 from gesturebank.qc.checks import verdicts
-from gesturebank.qc.corrupt import corrupt, mirror, rederive, window
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
+from gesturebank.testing.corrupt import corrupt, mirror, rederive, window
 
-# (kind, strength) cells; units as in gesturebank/qc/corrupt.py
+# (kind, strength) cells; units as in gesturebank/testing/corrupt.py
 STRENGTHS = {
     "spikes": (1.0, 2.0, 4.0),  # jump size, shoulder widths, one per started second
     "jitter": (0.05, 0.1, 0.2),  # noise std, shoulder widths

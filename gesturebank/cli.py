@@ -573,6 +573,61 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
     out.print(f"QC dashboard: {index}", highlight=False, soft_wrap=True)
 
 
+@app.command()
+def calibrate(
+    photos: Annotated[
+        Path,
+        typer.Argument(help="Folder with one sub-folder of board photos per camera."),
+    ],
+    placement: Annotated[
+        Path,
+        typer.Option(
+            "--placement", help="Calibration (.toml, .qca.txt) whose camera positions are kept."
+        ),
+    ],
+    out_file: Annotated[Path, typer.Option("--out", help="Calibration TOML to write.")],
+    kind: Annotated[Literal["checkerboard", "charuco"] | None, typer.Option("--board")] = None,
+    inner_corners: Annotated[
+        tuple[int, int] | None, typer.Option(help="Checkerboard: inner corners x y.")
+    ] = None,
+    squares: Annotated[tuple[int, int] | None, typer.Option(help="ChArUco: squares x y.")] = None,
+    square_size: Annotated[float | None, typer.Option(help="Square side, metres.")] = None,
+) -> None:
+    """Calibrate each camera's intrinsics from photos of a board; write the TOML `multiview` reads.
+
+    PHOTOS holds one sub-folder per camera (Pose2Sim's `int_cam01_img` is camera `cam01`, the
+    stem of its video). Rotation and translation come from --placement; board options left out
+    take the defaults of `BoardConfig` (Pose2Sim's 4 x 7 inner-corner, 6 cm checkerboard).
+    """
+    from pydantic import ValidationError
+
+    from gesturebank.fileio import output_errors, write_bytes_atomic
+    from gesturebank.lift.multiview.calibrate import BoardConfig, calibrate_group
+    from gesturebank.lift.multiview.cameras import CameraGroup
+
+    given: dict[str, Any] = dict(
+        kind=kind, inner_corners=inner_corners, squares=squares, square_size=square_size
+    )
+    with user_errors():
+        try:
+            board = BoardConfig(**{k: v for k, v in given.items() if v is not None})
+        except ValidationError as exc:
+            raise InputError(f"board: {exc.errors()[0]['msg']}") from None
+        group, reports = calibrate_group(
+            photos=photos, placement=CameraGroup.load(placement), board=board
+        )
+        with output_errors(out_file, "the calibration"):
+            write_bytes_atomic(out_file, group.to_toml().encode())
+    for name, r in reports.items():
+        out.print(
+            f"{name}: board in {len(r.per_image)} of "
+            f"{len(r.per_image) + len(r.rejected) + len(r.missing)} photos, "
+            f"rms {r.rms:.2f} px, focal {r.focal:.1f} px",
+            highlight=False,
+        )
+    out.print(f"calibration: {out_file}", highlight=False, soft_wrap=True)
+
+
 def main() -> None:
     app()
 

@@ -38,6 +38,7 @@ COMMANDS = [
     "synthesize",
     "replay",
     "live",
+    "calibrate",
 ]
 
 

@@ -59,7 +59,7 @@ def motion(env: np.ndarray, tau_s: float, lag_s: float) -> np.ndarray:
     return np.clip(m / 0.5, 0.0, 1.0)  # the low-passed envelope rarely exceeds 0.5
 
 
-def write_synthetic_dataset(
+def write_speech_motion_dataset(
     out: Path,
     *,
     subjects: int = 4,

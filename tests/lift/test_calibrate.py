@@ -131,3 +131,44 @@ def test_board_config_validation() -> None:
         BoardConfig(inner_corners=(1, 7))
     with pytest.raises(ValidationError):
         BoardConfig(square_size=0)
+
+
+def test_calibrate_command_writes_the_toml_multiview_reads(samples: Path, tmp_path: Path) -> None:
+    import shutil
+    import subprocess
+    import sys
+
+    from gesturebank.lift.multiview.cameras import CameraGroup
+
+    photos = tmp_path / "intrinsics"
+    for cam in ("cam01", "cam03"):  # two of the four cameras keep the test short
+        shutil.copytree(samples / DEMO / f"intrinsics/int_{cam}_img", photos / f"int_{cam}_img")
+    qca = samples / DEMO / "Calib.qca.txt"
+    out = tmp_path / "calib.toml"
+    cmd = [str(Path(sys.executable).parent / "gesturebank"), "calibrate", str(photos)]
+    cmd += ["--placement", str(qca), "--out", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert r.returncode == 0, r.stderr
+    group = CameraGroup.from_toml(out)
+    placed = CameraGroup.from_qca(qca)
+    assert group.names == ["cam01", "cam03"]
+    for cam in group:
+        ref = placed.subset([cam.name])[0]
+        np.testing.assert_allclose(cam.R, ref.R, atol=1e-9)
+        np.testing.assert_allclose(cam.t, ref.t, atol=1e-12)
+        assert cam.size == (1088, 1920)
+        assert (cam.K[0, 0] + cam.K[1, 1]) / 2 == pytest.approx(qca_focals(qca)[cam.name], rel=0.03)
+    assert "cam03: board in" in r.stdout
+
+    # Squares counted instead of inner corners: one line, exit 2, nothing written.
+    bad = tmp_path / "bad.toml"
+    r = subprocess.run(
+        [*cmd[:-1], str(bad), "--inner-corners", "5", "8"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "found in 0 of 7" in r.stderr
+    assert not bad.exists()

@@ -10,8 +10,8 @@ from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import QCConfig, absolute_reasons, robust_z, verdicts
-from gesturebank.qc.corrupt import corrupt, rederive
 from gesturebank.testing.clips import synthetic_clip, write_dataset
+from gesturebank.testing.corrupt import corrupt, rederive
 
 GOOD = {
     "duration_s": 5.0,

@@ -7,8 +7,8 @@ import pytest
 
 from gesturebank.config import QCConfig
 from gesturebank.qc import metrics as M
-from gesturebank.qc.corrupt import KINDS, corrupt, mirror, rederive, window
 from gesturebank.robot import pepper
+from gesturebank.testing.corrupt import KINDS, corrupt, mirror, rederive, window
 
 
 def measure(clip) -> dict[str, float]:

@@ -9,10 +9,10 @@ import pytest
 
 from gesturebank.config import QCConfig
 from gesturebank.qc import metrics as M
-from gesturebank.qc.corrupt import rederive
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
 from gesturebank.testing.clips import synthetic_clip
+from gesturebank.testing.corrupt import rederive
 
 IDX = COCO17.index
 

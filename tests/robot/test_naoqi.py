@@ -109,7 +109,7 @@ def test_killed_session_mid_playback_stops_with_one_line(server: NaoqiServer) ->
 
 
 def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_path: Path) -> None:
-    n = 300  # a sound timeline: the one line on stderr must be the lost connection
+    n = 1000  # a sound 10 s timeline: the one line on stderr must be the lost connection
     csv = write_csv(tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1))))
     script = (
         "import sys\n"
@@ -125,7 +125,12 @@ def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_p
     proc = subprocess.Popen(
         [sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
-    time.sleep(1.5)
+    # kill the robot once the process is driving it (no fixed delay: a loaded machine is slow
+    # to start a Python process)
+    deadline = time.monotonic() + 120
+    while not any(c["call"] == "setAngles" for c in server.calls()):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.05)
     server.kill()
     _, err = proc.communicate(timeout=20)
     lines = [ln for ln in err.splitlines() if ln.strip()]

@@ -11,14 +11,14 @@ import pytest
 import gesturebank.datasets as gds
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
-from gesturebank.testing.speech_motion import write_synthetic_dataset
+from gesturebank.testing.speech_motion import write_speech_motion_dataset
 
 
 @pytest.fixture(scope="session")
 def synthetic_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """4 subjects × 2 takes × 12 s; arms follow the audio envelope, head and shoulder rolls a
     low-passed, delayed copy of it (see gesturebank.testing.speech_motion)."""
-    return write_synthetic_dataset(tmp_path_factory.mktemp("synthetic") / "ds")
+    return write_speech_motion_dataset(tmp_path_factory.mktemp("synthetic") / "ds")
 
 
 @pytest.fixture()

@@ -20,7 +20,7 @@ from gesturebank.datasets.torch import Segment
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_folder, permissions
 from gesturebank.robot import pepper
-from gesturebank.testing.speech_motion import write_synthetic_dataset
+from gesturebank.testing.speech_motion import write_speech_motion_dataset
 from gesturebank.train.commands import synthesize_command, train_command
 from gesturebank.train.evaluate import (
     MEAN_POSE,
@@ -60,7 +60,7 @@ def test_si_fold_defaults_to_0(synthetic_dataset: Path, tmp_path: Path) -> None:
 def test_missing_fold_says_why(synthetic_dataset: Path, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="no fold 7; the dataset has folds 0–3"):
         train_command(synthetic_dataset, "mlp", "si", 7, None, tmp_path / "m", ONE_EPOCH)
-    two = write_synthetic_dataset(tmp_path / "two", subjects=2, seconds=4.0)
+    two = write_speech_motion_dataset(tmp_path / "two", subjects=2, seconds=4.0)
     with pytest.raises(InputError, match="at least 3 subjects, the dataset has 2; .*--variant sd"):
         train_command(two, "mlp", "si", None, None, tmp_path / "m", ONE_EPOCH)
 

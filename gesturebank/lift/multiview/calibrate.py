@@ -5,6 +5,7 @@ and reports the RMS and per-image reprojection error. When no photo shows the bo
 "0 boards found"), the CalibrationError names the photos and the board it looked for, because
 the cause is nearly always a board description that does not match the print: a checkerboard is
 described by its *inner* corners (squares − 1 in each direction), a ChArUco board by its squares.
+`calibrate_group` does it for every camera of a rig (`gesturebank calibrate`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from pydantic import Field, model_validator
 
 from gesturebank.config import Section
 from gesturebank.errors import CalibrationError
+from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 
 log = logging.getLogger(__name__)
 
@@ -266,3 +268,46 @@ def _fit(
         per_image[path.name] = float(np.sqrt(np.mean(err**2)))
     K = np.asarray(K, np.float64)
     return float(rms), K, np.asarray(dist, np.float64).ravel()[:5], per_image
+
+
+def camera_folders(root: PathLike) -> dict[str, Path]:
+    """The photo sub-folders of `root` by camera name, sorted.
+
+    Pose2Sim's layout names them `int_<camera>_img`; the affixes are dropped so that the name
+    matches the camera's video stem (`int_cam01_img` → `cam01`). Other folders keep their name.
+    """
+    top = Path(root)
+    if not top.is_dir():
+        raise CalibrationError(f"{top}: no such folder of calibration photos")
+    folders: dict[str, Path] = {}
+    for sub in sorted(p for p in top.iterdir() if p.is_dir()):
+        name = sub.name.removeprefix("int_").removesuffix("_img")
+        if any(p.suffix.lower() in IMAGE_SUFFIXES for p in sub.iterdir()):
+            folders[name] = sub
+    if not folders:
+        raise CalibrationError(f"{top}: no sub-folders of photos (one per camera)")
+    return folders
+
+
+def calibrate_group(
+    *, photos: PathLike, placement: CameraGroup, board: BoardConfig
+) -> tuple[CameraGroup, dict[str, Intrinsics]]:
+    """Each camera's intrinsics from its folder of board photos, placed as in `placement`.
+
+    photos: one sub-folder per camera (`camera_folders`); placement: a calibration whose
+    rotation and translation of each camera are kept (its intrinsics are replaced).
+    Returns the new group and each camera's calibration report.
+    """
+    folders = camera_folders(photos)
+    unknown = [n for n in folders if n not in placement.names]
+    if unknown:
+        raise CalibrationError(
+            f"{photos}: cameras {unknown} are not in the placement calibration ({placement.names})"
+        )
+    reports = {name: calibrate_intrinsics(folder, board) for name, folder in folders.items()}
+    poses = {cam.name: cam for cam in placement}
+    cameras = [
+        Camera(name=name, size=r.size, K=r.K, dist=r.dist, R=poses[name].R, t=poses[name].t)
+        for name, r in reports.items()
+    ]
+    return CameraGroup(cameras), reports
