@@ -1,5 +1,6 @@
 """Code for tests and benchmarks, not the product: nothing in the toolkit imports this package.
 
-Each module makes one kind of test input (e.g. `footage`: real takes of the kinds users bring,
-derived from the sample media, with real speech as their audio track).
+Each module makes one kind of test input: `clips` (datasets of synthetic clips), `corrupt`
+(corrupted copies of real clips, for the QC), `speech_motion` (a dataset whose motion follows
+its speech, for the trainer). Real footage of the kinds users bring is `gesturebank.footage`.
 """
