@@ -10,20 +10,26 @@ the script exits 1 when a row is not, so `make test` (which runs `--quick`) fail
     .venv/bin/python benchmarks/faults.py [--quick] [--out DIR]
 
 --quick: the takes at 3.5 s (the full run: 7 s), one worker where the row allows it.
+--jobs N: rows run N at a time (default 2); each row's processes carry a tag of their own, so
+a row only ever finds (and cleans up) its own.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import itertools
 import json
 import os
 import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import uuid
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +43,8 @@ from gesturebank.samples import default_samples_dir
 
 BIN = Path(sys.executable).parent
 TAG = "GESTUREBANK_FAULT_TAG"  # set in every command's environment: its processes are found by it
+FOLDERS = itertools.count(1)  # numbers the rows' folders, shared by rows running side by side
+ONE_SUBJECT = threading.Lock()  # the train rows share one dataset, built by whichever comes first
 
 
 @dataclass(frozen=True)
@@ -73,11 +81,10 @@ class Bench:
     samples: Path
     take: Path  # a short real take with speech
     quick: bool
-    n = 0
+    tag: str = "0"  # this row's value of TAG
 
     def folder(self, name: str) -> Path:
-        self.n += 1
-        path = self.root / f"{self.n:02d}-{name}"
+        path = self.root / f"{next(FOLDERS):02d}-{name}"
         path.mkdir(parents=True)
         return path
 
@@ -91,7 +98,12 @@ class Bench:
 
     def run(self, *args: str | Path, **kw: object) -> Run:
         done = subprocess.run(
-            [str(a) for a in args], capture_output=True, text=True, env=env(), timeout=600, **kw
+            [str(a) for a in args],
+            capture_output=True,
+            text=True,
+            env=env(self.tag),
+            timeout=600,
+            **kw,
         )
         return Run(done.returncode, done.stdout, done.stderr)
 
@@ -99,17 +111,17 @@ class Bench:
         return self.run(BIN / "build-dataset", videos, out, "--workers", "1", *extra)
 
 
-def env() -> dict[str, str]:
-    return os.environ | {TAG: "1", "PYTHONIOENCODING": "utf-8", "COLUMNS": "200"}
+def env(tag: str) -> dict[str, str]:
+    return os.environ | {TAG: tag, "PYTHONIOENCODING": "utf-8", "COLUMNS": "200"}
 
 
-def tagged_pids() -> list[int]:
-    """Processes (other than this one) whose environment carries TAG."""
+def tagged_pids(tag: str) -> list[int]:
+    """Processes (other than this one) whose environment carries TAG = `tag`."""
     pids = []
     for proc in Path("/proc").iterdir():
         if proc.name.isdigit() and int(proc.name) != os.getpid():
             try:
-                if f"{TAG}=1".encode() in (proc / "environ").read_bytes().split(b"\0"):
+                if f"{TAG}={tag}".encode() in (proc / "environ").read_bytes().split(b"\0"):
                     pids.append(int(proc.name))
             except OSError:
                 continue
@@ -175,6 +187,10 @@ def bad_file(b: Bench, case: str, make: Callable[[Path], None], says: str, code:
     line = next((ln for ln in run.out.splitlines() if "bad__bad:" in ln), "")
     run = Run(run.code, run.out, line + "\n" + run.err)
     return row(case, run, code=code, says=says, others=others, intact=damage(out))
+
+
+def empty(path: Path) -> None:
+    path.write_bytes(b"")
 
 
 def random_bytes(path: Path) -> None:
@@ -324,7 +340,7 @@ def start_build(b: Bench, videos: Path, out: Path, workers: int, *extra: str) ->
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env=env(),
+        env=env(b.tag),
         start_new_session=True,  # a signal to it alone, as `kill PID` would send
     )
 
@@ -344,9 +360,9 @@ def killed(b: Bench, case: str, sig: signal.Signals) -> Row:
     proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=120)
     deadline = time.monotonic() + 5
-    while tagged_pids() and time.monotonic() < deadline:
+    while tagged_pids(b.tag) and time.monotonic() < deadline:
         time.sleep(0.2)
-    orphans = tagged_pids()
+    orphans = tagged_pids(b.tag)
     for pid in orphans:  # leave the machine clean for the next row
         os.kill(pid, signal.SIGKILL)
     kept = snapshot(out)
@@ -409,8 +425,9 @@ def train(b: Bench, case: str, *extra: str, says: str) -> Row:
     """`train` on a one-subject dataset (built once): refusals come as one line, before any
     training, and leave no model folder behind."""
     out = b.root / "one-subject" / "out"
-    if not out.is_dir():
-        b.build(b.videos("one-subject"), out)
+    with ONE_SUBJECT:
+        if not out.is_dir():
+            b.build(b.videos("one-subject"), out)
     model = b.folder(case.split(":")[1].strip().split()[0]) / "model"
     run = b.run(BIN / "gesturebank", "train", out, "--out", model, "--quiet", *extra)
     intact = "yes" if not model.exists() else "a model folder was written"
@@ -420,46 +437,49 @@ def train(b: Bench, case: str, *extra: str, says: str) -> Row:
 @dataclass(frozen=True)
 class Case:
     name: str
-    make: Callable[[str], Row]
+    make: Callable[[Bench, str], Row]
 
-    def run(self) -> Row:
-        return self.make(self.name)
+    def run_in(self, b: Bench) -> Row:
+        return self.make(b, self.name)
 
 
-def cases(b: Bench) -> list[Case]:
-    replays = b.folder("replay")
+def cases(bench: Bench) -> list[Case]:
+    """The rows; each is made with the Bench of its own run (its own process tag)."""
+    replays = bench.folder("replay")
     gap = np.concatenate([np.arange(0, 1, 0.01), np.arange(6, 7, 0.01)])
     far = np.arange(1000, 1002, 0.01)
     return [
-        Case("zero-byte video", lambda n: bad_file(b, n, lambda p: p.write_bytes(b""), "bad.mp4")),
-        Case("random bytes", lambda n: bad_file(b, n, random_bytes, "bad.mp4")),
-        Case("truncated video", lambda n: bad_file(b, n, truncated(b), "bad.mp4")),
-        Case("audio only", lambda n: bad_file(b, n, audio_only(b), "no video")),
-        Case("one frame", lambda n: bad_file(b, n, one_frame(b), "too short", code=0)),
-        Case("unicode path ünï cödé", lambda n: unicode_path(b, n)),
-        Case("1.5 s .wav beside the video", lambda n: short_audio(b, n)),
-        Case("subjects.csv: typo, duplicates", lambda n: subjects_typo(b, n)),
-        Case("OUT_DIR inside VIDEOS_DIR", lambda n: out_inside_videos(b, n)),
-        Case("--detector foo", lambda n: usage(b, n, "--detector", "foo", says="foo")),
-        Case("bad --set", lambda n: usage(b, n, "--set", "processing.cutoff_hz=x", says="cutoff")),
-        Case("bad TOML", lambda n: usage(b, n, says="bad.toml", config="[processing\ncutoff_hz")),
-        Case("OUT_DIR is a file", lambda n: out_is_a_file(b, n)),
-        Case("OUT_DIR unwritable", lambda n: unwritable(b, n)),
-        Case("disk full (192 kB tmpfs)", lambda n: disk_full(b, n)),
-        Case("two writers, one OUT_DIR", lambda n: two_writers(b, n)),
-        *(Case(f"{sig.name} mid-build, 2 workers", lambda n, sig=sig: killed(b, n, sig))
+        Case("zero-byte video", lambda b, n: bad_file(b, n, empty, "bad.mp4")),
+        Case("random bytes", lambda b, n: bad_file(b, n, random_bytes, "bad.mp4")),
+        Case("truncated video", lambda b, n: bad_file(b, n, truncated(b), "bad.mp4")),
+        Case("audio only", lambda b, n: bad_file(b, n, audio_only(b), "no video")),
+        Case("one frame", lambda b, n: bad_file(b, n, one_frame(b), "too short", code=0)),
+        Case("unicode path ünï cödé", unicode_path),
+        Case("1.5 s .wav beside the video", short_audio),
+        Case("subjects.csv: typo, duplicates", subjects_typo),
+        Case("OUT_DIR inside VIDEOS_DIR", out_inside_videos),
+        Case("--detector foo", lambda b, n: usage(b, n, "--detector", "foo", says="foo")),
+        Case("bad --set", lambda b, n: usage(
+            b, n, "--set", "processing.cutoff_hz=x", says="cutoff")),
+        Case("bad TOML", lambda b, n: usage(
+            b, n, says="bad.toml", config="[processing\ncutoff_hz")),
+        Case("OUT_DIR is a file", out_is_a_file),
+        Case("OUT_DIR unwritable", unwritable),
+        Case("disk full (192 kB tmpfs)", disk_full),
+        Case("two writers, one OUT_DIR", two_writers),
+        *(Case(f"{sig.name} mid-build, 2 workers", lambda b, n, sig=sig: killed(b, n, sig))
           for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)),
-        Case("train: SI on 1 subject", lambda n: train(b, n, says="at least 3 subjects")),
-        Case("train: --out under a file", lambda n: train(
+        Case("train: SI on 1 subject", lambda b, n: train(b, n, says="at least 3 subjects")),
+        Case("train: --out under a file", lambda b, n: train(
             b, n, "--variant", "sd", "--subject", "good0", "--out", str(b.take / "model"),
             says="not a folder")),
-        Case("replay: degrees CSV", lambda n: replay(
+        Case("replay: degrees CSV", lambda b, n: replay(
             b, n, angles_csv(replays / "deg.csv", scale=57.3), "degrees")),
-        Case("replay: 5 s gap", lambda n: replay(
+        Case("replay: 5 s gap", lambda b, n: replay(
             b, n, angles_csv(replays / "gap.csv", times=gap), "gap")),
-        Case("replay: starts at 1000 s", lambda n: replay(
+        Case("replay: starts at 1000 s", lambda b, n: replay(
             b, n, angles_csv(replays / "far.csv", times=far), "1000")),
-        Case("replay: no robot listening", lambda n: replay(
+        Case("replay: no robot listening", lambda b, n: replay(
             b, n, angles_csv(replays / "ok.csv"), "127.0.0.1", backend="naoqi",
             url="tcp://127.0.0.1:9")),
     ]  # fmt: skip
@@ -478,6 +498,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="short takes, the same rows")
     parser.add_argument("--out", type=Path, help="keep the work here (default: a temp folder)")
     parser.add_argument("--only", help="run the rows whose input contains this text")
+    parser.add_argument("--jobs", type=int, default=2, help="rows run at a time (default 2)")
     args = parser.parse_args()
     samples = default_samples_dir()
     with tempfile.TemporaryDirectory() as tmp:
@@ -489,12 +510,16 @@ def main() -> None:
             make_take(samples, root, 3.5 if args.quick else 7.0),
             args.quick,
         )
-        rows = []
-        for case in cases(b):
-            if args.only and args.only.lower() not in case.name.lower():
-                continue
-            rows.append(case.run())
-            Console(stderr=True).print(f"{rows[-1].case}: {'good' if rows[-1].good else 'BAD'}")
+        chosen = [c for c in cases(b) if not args.only or args.only.lower() in c.name.lower()]
+
+        def run(numbered: tuple[int, Case]) -> Row:
+            i, case = numbered
+            r = case.run_in(dataclasses.replace(b, tag=str(i)))
+            Console(stderr=True).print(f"{r.case}: {'good' if r.good else 'BAD'}")
+            return r
+
+        with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+            rows = list(pool.map(run, enumerate(chosen, start=1)))
     table = Table(title="fault battery: input × exit code × message × others built? × intact?")
     for col in ("input", "exit", "message", "others built", "nothing lost", "good"):
         table.add_column(col, overflow="fold")
