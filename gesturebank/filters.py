@@ -4,6 +4,8 @@ Pure functions over arrays, radians and seconds inside:
 
 - `interpolate_at` / `fill_gaps` / `resample_to_clock`: linear interpolation of irregularly
   timed samples (variable frame rate is real) onto given times, bridging short gaps only.
+- `unwrap_angles` / `wrap_angles`: angles made continuous across ±π before they are
+  interpolated or filtered (an angle beyond the robot's range steps from +π to −π), and back.
 - `butter_lowpass`: the dissertation's zero-phase 5th-order Butterworth low-pass (§4.2.3).
 - `KalmanConstAcc` / `kalman_const_acc`: the online constant-acceleration Kalman filter of the
   dissertation's live mode (§4.4.2), vectorised over joints.
@@ -213,6 +215,24 @@ def resample_to_clock(
     )
     out, report = interpolate_at(arr, ts, times, max_gap_s=max_gap_s)
     return times, out, report
+
+
+def unwrap_angles(angles: ArrayLike) -> NDArray[np.float64]:
+    """`angles (T, D)` rad with each column's steps across ±π undone, over its known values
+    (NaN stays NaN; the step over a gap is undone too, so the gap is bridged the short way)."""
+    out = np.array(angles, dtype=np.float64, copy=True)
+    for col in out.reshape(len(out), -1).T:
+        known = np.isfinite(col)
+        col[known] = np.unwrap(col[known])
+    return out
+
+
+def wrap_angles(angles: ArrayLike) -> NDArray[np.float64]:
+    """`angles` rad brought back into [−π, π]; those already inside are returned unchanged
+    (bit for bit: no round trip through a modulo)."""
+    a = np.asarray(angles, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.where(np.abs(a) > np.pi, np.mod(a + np.pi, 2 * np.pi) - np.pi, a)
 
 
 def _finite_runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:

@@ -11,7 +11,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from gesturebank.config import ProcessingConfig
-from gesturebank.filters import GapReport, butter_lowpass, interpolate_at
+from gesturebank.filters import (
+    GapReport,
+    butter_lowpass,
+    interpolate_at,
+    unwrap_angles,
+    wrap_angles,
+)
 from gesturebank.robot import pepper
 
 
@@ -37,12 +43,14 @@ def process_angles(
 ) -> ProcessedAngles:
     """`raw (T, 11)` rad at `timestamps (T,)` → the processed angles on `clock (N,)` (seconds,
     uniform at processing.rate_hz). NaN in `raw` (an unseen limb) stays NaN unless it is a gap
-    of at most processing.max_gap_s; each finite run is low-passed on its own."""
+    of at most processing.max_gap_s; each finite run is low-passed on its own. An angle that
+    steps across ±π (beyond the robot's range, e.g. a head turned away) is interpolated and
+    filtered unwrapped, then wrapped back: filtered as it is, the step would become a sweep
+    through 0, across the joint's whole range."""
     p = processing
-    angles, gaps = interpolate_at(
-        np.asarray(raw, dtype=np.float64), timestamps, clock, max_gap_s=p.max_gap_s
-    )
-    smooth = butter_lowpass(angles, p.rate_hz, p.cutoff_hz, p.butter_order)
+    angles, gaps = interpolate_at(unwrap_angles(raw), timestamps, clock, max_gap_s=p.max_gap_s)
+    smooth = butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order)
+    smooth = wrap_angles(smooth)
     # clamped in the stored dtype: float32(limit) can lie outside the float64 limit
     clamped = pepper.clamp(smooth.astype(np.float32), profile)
     finite = np.isfinite(smooth)

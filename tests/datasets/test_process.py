@@ -1,0 +1,53 @@
+"""datasets.process: raw angles at the video's times → clamped, low-passed 100 Hz angles."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gesturebank.config import ProcessingConfig
+from gesturebank.datasets.process import process_angles
+from gesturebank.filters import butter_lowpass, clock, interpolate_at
+from gesturebank.robot import pepper
+
+PROFILE = pepper.load_profile()
+YAW = pepper.INDEX["HeadYaw"]
+
+
+def _run(raw: np.ndarray, t: np.ndarray) -> np.ndarray:
+    return process_angles(
+        raw=raw,
+        timestamps=t,
+        clock=clock(float(t[0]), float(t[-1]), 100.0),
+        processing=ProcessingConfig(),
+        profile=PROFILE,
+    ).angles
+
+
+def test_a_head_turned_away_stays_at_its_limit_not_swept_through_zero() -> None:
+    """HeadYaw swinging across ±π (178° ↔ −178°, a head turned away from the camera): wrapped,
+    the raw angle steps by 356°, and interpolated and filtered as it is that step became a sweep
+    through 0 — across the joint's whole range. Unwrapped, every processed value stays far from
+    0: at the limit of the side the head is on."""
+    t = np.arange(90) / 30.0
+    raw = np.tile(pepper.neutral_pose(), (len(t), 1))
+    raw[:, YAW] = np.angle(np.exp(1j * (np.pi + np.radians(2.0) * np.sin(2 * np.pi * t))))
+    yaw = _run(raw, t)[:, YAW]
+    assert np.all(np.abs(yaw) >= PROFILE.upper[YAW] - 1e-6)  # ±119.5°: never in between
+
+
+def test_angles_inside_the_range_are_processed_bit_for_bit_as_before() -> None:
+    """No step across ±π: unwrapping and wrapping back change nothing, not even the last bit."""
+    rng = np.random.default_rng(0)
+    t = np.sort(rng.uniform(0, 3, 90))
+    t[0], t[-1] = 0.0, 3.0
+    raw = pepper.neutral_pose() + 0.3 * np.sin(2 * np.pi * 0.7 * t[:, None] + np.arange(11))
+    p = ProcessingConfig()
+    times = clock(0.0, 3.0, 100.0)
+    angles, _ = interpolate_at(raw, t, times, max_gap_s=p.max_gap_s)
+    plain = pepper.clamp(
+        butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order).astype(
+            np.float32
+        ),
+        PROFILE,
+    )
+    np.testing.assert_array_equal(_run(raw, t), plain)
