@@ -35,9 +35,10 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.config import DetectorConfig, VideoConfig
-from gesturebank.extract.detectors import DETECTORS, Frame, MultiPose2D
+from gesturebank.extract.detectors import DETECTORS, Frame
 from gesturebank.extract.detectors.blazepose import BlazePoseDetector, roi_from_points
 from gesturebank.extract.video import iter_frames
+from gesturebank.poses import MultiPose2D
 
 Frames = list[Frame]
 

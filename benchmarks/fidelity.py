@@ -34,8 +34,7 @@ from rich.table import Table
 from gesturebank.config import Config
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.extract.pipeline import extract_take
-from gesturebank.lift import LIFTERS
-from gesturebank.lift.fitted import FittedLifter
+from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.poses import Pose2D, Pose3D
@@ -119,9 +118,9 @@ def consistency_table(
     """(a): disjoint camera pairs against each other, leave-one-out against all cameras."""
 
     def angles(idx: tuple[int, ...]) -> np.ndarray:
-        sub = cams.subset([cams.names[i] for i in idx])
-        lifter = MultiviewLifter(config, cameras=sub)
-        return pepper_angles(lifter.lift([poses[i] for i in idx]), config=config.retarget)
+        views = TakeViews.of([poses[i] for i in idx], cams.subset([cams.names[i] for i in idx]))
+        lifter = LIFTERS.create("multiview", config)
+        return pepper_angles(lifter.lift(views), config=config.retarget)
 
     rows: list[tuple[str, np.ndarray]] = []
     all_idx = tuple(range(len(cams)))
@@ -159,7 +158,9 @@ def main() -> None:
     cams = CameraGroup.load(find_calibration(root))
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
     poses = [extract_take(v, config, with_audio=False).tracked.pose for v in videos]
-    ref_pose, report = MultiviewLifter(config, cameras=cams).lift_with_report(poses)
+    ref_pose, report = MultiviewLifter.from_config(config).lift_with_report(
+        TakeViews.of(poses, cams)
+    )
     reference = ref_pose.joints.astype(np.float64)
     ref_angles = pepper_angles(ref_pose, config=config.retarget)
     console = Console(width=max(Console().width, 160))  # 14+ columns: keep them readable
@@ -179,13 +180,11 @@ def main() -> None:
     sources = range(1) if args.quick else range(len(cams))
     for name in MONOCULAR:
         for c in sources:
-            lifter = (
-                FittedLifter(config, camera=cams[c])
-                if name == "fitted"
-                else LIFTERS.create(name, config)
-            )
+            lifter = LIFTERS.create(name, config)
+            # the view's own calibrated camera (the fitted lifter uses its intrinsics)
+            view = TakeViews.of(poses[c], cams.subset([cams.names[c]]))
             start = time.perf_counter()
-            pose = lifter.lift(poses[c])
+            pose = lifter.lift(view)
             fps = len(pose) / (time.perf_counter() - start)
             px = cross_view_px(pose, c, reference, cams, poses)
             floor = floor_px(reference, c, cams, poses)

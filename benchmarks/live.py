@@ -1,9 +1,9 @@
 """Live-mode per-frame latency: stateful one-step LSTM vs re-running a 300-frame window (the
 dissertation's LSTM baseline, §5.1.2), and the MLP; then a real-time end-to-end run on real speech.
 
-Models are tiny random-weight torch models exported to ONNX (tests/robot/tiny_models.py), with the
-dissertation's sizes (LSTM 12 units; MLP one hidden layer of 64). The speech is the project's
-sample `speech/arctic_a0007.wav`. Run: .venv/bin/python benchmarks/live.py [--quick]
+Models are tiny random-weight torch models exported to ONNX (gesturebank/testing/tiny_models.py),
+with the dissertation's sizes (LSTM 12 units; MLP one hidden layer of 64). The speech is the
+project's sample `speech/arctic_a0007.wav`. Run: .venv/bin/python benchmarks/live.py [--quick]
 
 --quick: the first second of the speech (a few seconds in all), to check that the script runs.
 """
@@ -11,7 +11,6 @@ sample `speech/arctic_a0007.wav`. Run: .venv/bin/python benchmarks/live.py [--qu
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,15 +20,13 @@ from rich.console import Console
 from rich.table import Table
 from scipy.io import wavfile
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "robot"))
-from tiny_models import write_model_dir
-
 from gesturebank.config import AudioConfig
-from gesturebank.extract.audio import apply_znorm, features
-from gesturebank.extract.video import read_audio
+from gesturebank.extract.audio_features import apply_znorm, features
+from gesturebank.extract.audio_io import read_audio
 from gesturebank.robot.commands import live_command
 from gesturebank.robot.online import LiveSynth, load_frame_model
 from gesturebank.samples import default_samples_dir, fetch_samples
+from gesturebank.testing.tiny_models import write_model_dir
 
 WINDOW = 300
 SPEECH = "speech/arctic_a0007.wav"
@@ -63,7 +60,7 @@ def main() -> None:
 
 
 def measure(wav: Path, tmp: Path, quick: bool) -> list[tuple[str, str, str]]:
-    track = read_audio(wav, 16000)
+    track = read_audio(wav, sample_rate=16000)
     assert track is not None
     signal = track.signal
     if quick:  # the real-time runs read a file: give them the same short speech

@@ -1,8 +1,9 @@
 """Offline playback sync: stream (Eq. 4.1, η = 0.95 and 1.0) vs one angleInterpolation call.
 
 Plays a 5 s, 100 Hz timeline through the unmodified `naoqi` backend against the recording
-ALMotion of tests/robot/naoqi_server.py (a qi session in another process, over TCP) and measures,
-on the server's clock, when each frame arrived relative to when it was due (t0 + times[i]).
+ALMotion of gesturebank/testing/naoqi_server.py (a qi session in another process, over TCP) and
+measures, on the server's clock, when each frame arrived relative to when it was due
+(t0 + times[i]).
 For `interpolate` there is one call: its arrival offset applies to every frame (the robot's own
 execution of the keyframes is not modelled by the stand-in).
 Run: .venv/bin/python benchmarks/playback.py [--quick]
@@ -13,21 +14,17 @@ Run: .venv/bin/python benchmarks/playback.py [--quick]
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
 import numpy as np
 from rich.console import Console
 from rich.table import Table
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "robot"))
-from naoqi_server import NaoqiServer
 
 from gesturebank.config import PlaybackConfig
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.naoqi import NaoqiBackend
 from gesturebank.robot.playback import play
 from gesturebank.robot.timeline import Timeline
+from gesturebank.testing.naoqi_server import NaoqiServer
 
 
 def timeline(seconds: float = 5.0) -> Timeline:

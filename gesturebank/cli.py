@@ -592,29 +592,27 @@ def calibrate(
     ] = None,
     squares: Annotated[tuple[int, int] | None, typer.Option(help="ChArUco: squares x y.")] = None,
     square_size: Annotated[float | None, typer.Option(help="Square side, metres.")] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
 ) -> None:
     """Calibrate each camera's intrinsics from photos of a board; write the TOML `multiview` reads.
 
     PHOTOS holds one sub-folder per camera (Pose2Sim's `int_cam01_img` is camera `cam01`, the
-    stem of its video). Rotation and translation come from --placement; board options left out
-    take the defaults of `BoardConfig` (Pose2Sim's 4 x 7 inner-corner, 6 cm checkerboard).
+    stem of its video). Rotation and translation come from --placement; the board is the [board]
+    section (--set board.KEY=VALUE; the flags win), by default Pose2Sim's 4 x 7 inner-corner,
+    6 cm checkerboard.
     """
-    from pydantic import ValidationError
-
     from gesturebank.fileio import output_errors, write_bytes_atomic
-    from gesturebank.lift.multiview.calibrate import BoardConfig, calibrate_group
+    from gesturebank.lift.multiview.calibrate import calibrate_group
     from gesturebank.lift.multiview.cameras import CameraGroup
 
-    given: dict[str, Any] = dict(
+    board: dict[str, Any] = dict(
         kind=kind, inner_corners=inner_corners, squares=squares, square_size=square_size
     )
     with user_errors():
-        try:
-            board = BoardConfig(**{k: v for k, v in given.items() if v is not None})
-        except ValidationError as exc:
-            raise InputError(f"board: {exc.errors()[0]['msg']}") from None
+        config = resolve_config(config_file=config_file, sets=sets, flags={"board": board})
         group, reports = calibrate_group(
-            photos=photos, placement=CameraGroup.load(placement), board=board
+            photos=photos, placement=CameraGroup.load(placement), board=config.board
         )
         with output_errors(out_file, "the calibration"):
             write_bytes_atomic(out_file, group.to_toml().encode())

@@ -466,6 +466,57 @@ class MultiviewConfig(Section):
         return self
 
 
+class BoardConfig(Section):
+    """The printed board `gesturebank calibrate` finds in the photos (lift.multiview.calibrate)."""
+
+    kind: Literal["checkerboard", "charuco"] = Field(
+        "checkerboard", description="'checkerboard' (plain squares) or 'charuco' (with markers)."
+    )
+    inner_corners: tuple[int, int] = Field(
+        (4, 7),
+        description="Checkerboard only: inner corners along x and y (squares − 1 each way). "
+        "Pose2Sim's demo board is 4 x 7.",
+    )
+    squares: tuple[int, int] = Field(
+        (7, 5), description="ChArUco only: number of squares along x and y."
+    )
+    square_size: float = Field(
+        0.06, gt=0, description="Side of one square, metres (sets the unit of extrinsics)."
+    )
+    marker_size: float = Field(
+        0.045, gt=0, description="ChArUco only: side of one ArUco marker, metres."
+    )
+    dictionary: str = Field(
+        "DICT_4X4_50", description="ChArUco only: ArUco dictionary name from cv2.aruco."
+    )
+    legacy_pattern: bool = Field(
+        False, description="ChArUco only: boards made with OpenCV < 4.6 (even row count)."
+    )
+    min_corners: int = Field(
+        6, ge=4, description="ChArUco only: fewest corners for a photo to count as a view."
+    )
+
+    @model_validator(mode="after")
+    def _sizes(self) -> BoardConfig:
+        if min(self.inner_corners) < 2 or min(self.squares) < 2:
+            raise ValueError("a board needs at least 2 corners/squares in each direction")
+        if self.kind == "charuco":
+            import cv2  # only a ChArUco board needs it: loading a config stays light
+
+            if self.marker_size >= self.square_size:
+                raise ValueError("marker_size must be smaller than square_size")
+            if not hasattr(cv2.aruco, self.dictionary):
+                raise ValueError(f"unknown ArUco dictionary {self.dictionary!r}")
+        return self
+
+    def describe(self) -> str:
+        if self.kind == "checkerboard":
+            x, y = self.inner_corners
+            return f"{x}x{y} inner-corner checkerboard"
+        x, y = self.squares
+        return f"{x}x{y}-square ChArUco board ({self.dictionary})"
+
+
 class RobotConfig(Section):
     profile: str = Field(
         "pepper-1.7",
@@ -886,6 +937,7 @@ class Config(Section):
     geometric: GeometricConfig = Field(default_factory=GeometricConfig)
     fitted: FittedConfig = Field(default_factory=FittedConfig)
     multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
+    board: BoardConfig = Field(default_factory=BoardConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)
     retarget: RetargetConfig = Field(default_factory=RetargetConfig)
     processing: ProcessingConfig = Field(default_factory=ProcessingConfig)

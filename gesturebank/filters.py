@@ -244,10 +244,12 @@ def _finite_runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 def butter_lowpass(
     values: ArrayLike,
     rate_hz: float,
-    cutoff_hz: float = 4.0,
-    order: int = 5,
+    *,
+    cutoff_hz: float,
+    order: int,
 ) -> FloatArray:
-    """Zero-phase Butterworth low-pass of `values (N, D)` sampled at `rate_hz` (§4.2.3).
+    """Zero-phase Butterworth low-pass of `values (N, D)` sampled at `rate_hz` (§4.2.3); the
+    dissertation's is `processing.cutoff_hz` 4 Hz, `processing.butter_order` 5.
 
     The filter runs forward and backward (as the dissertation's filtfilt did), so there is no
     phase shift and the magnitude response is squared: −6 dB at the cut-off instead of −3 dB.

@@ -1,7 +1,9 @@
-"""Pose2D / Pose3D: the arrays that travel between stages (DESIGN.md "Contracts").
+"""Pose2D / MultiPose2D / Pose3D: the arrays that travel between stages (DESIGN.md "Contracts").
 
-Both validate shapes and dtypes on construction, keep missing values as NaN (never 0), carry their
-own timestamps (variable frame rate is real), and round-trip through `.npz` without pickle.
+Pose2D is one person's 2D keypoints, MultiPose2D everybody a detector saw (unordered slots, the
+input of tracking), Pose3D one person's 3D joints. They validate shapes and dtypes on
+construction, keep missing values as NaN (never 0), carry their own timestamps (variable frame
+rate is real), and round-trip through `.npz` without pickle.
 """
 
 from __future__ import annotations
@@ -9,7 +11,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -114,27 +116,11 @@ class Pose2D:
         )
 
     def to_arrays(self, prefix: str = "") -> dict[str, np.ndarray]:
-        out = {
-            f"{prefix}keypoints": self.keypoints,
-            f"{prefix}timestamps": self.timestamps,
-            f"{prefix}skeleton": np.array(self.skeleton),
-            f"{prefix}image_size": np.array(self.image_size, dtype=np.int64),
-        }
-        if self.world is not None:
-            out[f"{prefix}world"] = self.world
-        return out
+        return _keypoint_arrays(self, prefix)
 
     @classmethod
     def from_arrays(cls, arrays: Mapping[str, np.ndarray], prefix: str = "") -> Pose2D:
-        world = arrays[f"{prefix}world"] if f"{prefix}world" in arrays else None
-        size = np.asarray(arrays[f"{prefix}image_size"])
-        return cls(
-            keypoints=np.asarray(arrays[f"{prefix}keypoints"]),
-            timestamps=np.asarray(arrays[f"{prefix}timestamps"]),
-            skeleton=str(arrays[f"{prefix}skeleton"]),
-            image_size=(int(size[0]), int(size[1])),
-            world=None if world is None else np.asarray(world),
-        )
+        return cls(**_keypoint_fields(arrays, prefix))
 
     def save(self, path: str | os.PathLike[str]) -> None:
         save_npz(path, self.to_arrays())
@@ -142,6 +128,140 @@ class Pose2D:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Pose2D:
         return cls.from_arrays(_load_npz(path))
+
+
+@dataclass(frozen=True, eq=False)
+class MultiPose2D:
+    """Everybody a detector saw, frame by frame, in unordered slots (no identity yet).
+
+    keypoints:  (T, P, K, 3) float32 x px, y px, confidence; P = most people in one frame; a
+                slot nobody fills is all NaN.
+    timestamps: (T,) float64 seconds; skeleton, image_size (w, h) as in Pose2D.
+    world:      optional (T, P, K, 3) float32 metric landmarks (BlazePose), same slots.
+    ids:        optional (T, P) int64 track id of each slot from a detector that tracks people
+                itself (-1 = empty slot); None = no identities yet (`extract.tracking` links them).
+    """
+
+    keypoints: np.ndarray
+    timestamps: np.ndarray
+    skeleton: str
+    image_size: tuple[int, int]
+    world: np.ndarray | None = None
+    ids: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        kp = np.asarray(self.keypoints, dtype=np.float32)
+        k = len(get_skeleton(self.skeleton))
+        if kp.ndim != 4 or kp.shape[2:] != (k, 3):
+            raise InputError(f"MultiPose2D: keypoints must be (T, P, {k}, 3), got {kp.shape}")
+        object.__setattr__(self, "keypoints", kp)
+        object.__setattr__(self, "timestamps", np.asarray(self.timestamps, dtype=np.float64))
+        if self.timestamps.shape != kp.shape[:1]:
+            raise InputError("MultiPose2D: timestamps must have one entry per frame")
+        if self.world is not None:
+            object.__setattr__(self, "world", np.asarray(self.world, dtype=np.float32))
+            if self.world.shape != kp.shape:
+                raise InputError("MultiPose2D: world must have the shape of keypoints")
+        if self.ids is not None:
+            object.__setattr__(self, "ids", np.asarray(self.ids, dtype=np.int64))
+            if self.ids.shape != kp.shape[:2]:
+                raise InputError("MultiPose2D: ids must have shape (T, P)")
+        w, h = (int(v) for v in self.image_size)
+        object.__setattr__(self, "image_size", (w, h))
+
+    def __len__(self) -> int:
+        return len(self.keypoints)
+
+    @property
+    def present(self) -> np.ndarray:
+        """(T, P) bool: slot holds a person (at least one keypoint with a position)."""
+        return np.isfinite(self.keypoints[..., 0]).any(axis=-1)
+
+    @classmethod
+    def from_people(
+        cls,
+        people: list[np.ndarray],
+        timestamps: np.ndarray,
+        skeleton: str,
+        image_size: tuple[int, int],
+        world: list[np.ndarray] | None = None,
+        ids: list[np.ndarray] | None = None,
+    ) -> MultiPose2D:
+        """Pack per-frame arrays `(N_t, K, 3)` (N_t may be 0; `ids`: `(N_t,)` track ids) into
+        padded slots."""
+        k = len(get_skeleton(skeleton))
+        p = max((len(x) for x in people), default=0)
+        kp = np.full((len(people), max(p, 1), k, 3), np.nan, np.float32)
+        wd = None if world is None else np.full_like(kp, np.nan)
+        track = None if ids is None else np.full(kp.shape[:2], -1, np.int64)
+        for t, x in enumerate(people):
+            kp[t, : len(x)] = x
+            if wd is not None and world is not None:
+                wd[t, : len(world[t])] = world[t]
+            if track is not None and ids is not None:
+                track[t, : len(ids[t])] = ids[t]
+        return cls(kp, timestamps, skeleton, image_size, wd, track)
+
+    @classmethod
+    def from_pose2d(cls, pose: Pose2D) -> MultiPose2D:
+        """One slot holding a single-person detection."""
+        world = None if pose.world is None else pose.world[:, None]
+        return cls(pose.keypoints[:, None], pose.timestamps, pose.skeleton, pose.image_size, world)
+
+    def take(self, indices: np.ndarray) -> MultiPose2D:
+        """The frames at `indices` (e.g. from `video.select_indices`)."""
+        world = None if self.world is None else self.world[indices]
+        ids = None if self.ids is None else self.ids[indices]
+        return MultiPose2D(
+            self.keypoints[indices],
+            self.timestamps[indices],
+            self.skeleton,
+            self.image_size,
+            world,
+            ids,
+        )
+
+    def slot(self, p: int) -> Pose2D:
+        """Slot `p` as a Pose2D (only meaningful once slots are identities, see tracking)."""
+        world = None if self.world is None else self.world[:, p]
+        return Pose2D(self.keypoints[:, p], self.timestamps, self.skeleton, self.image_size, world)
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        out = _keypoint_arrays(self, "")
+        if self.ids is not None:
+            out["ids"] = self.ids
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray]) -> MultiPose2D:
+        ids = np.asarray(arrays["ids"]) if "ids" in arrays else None
+        return cls(**_keypoint_fields(arrays, ""), ids=ids)
+
+
+def _keypoint_arrays(pose: Pose2D | MultiPose2D, prefix: str) -> dict[str, np.ndarray]:
+    """The arrays Pose2D and MultiPose2D store alike (world only when present), keys `prefix`ed."""
+    out = {
+        f"{prefix}keypoints": pose.keypoints,
+        f"{prefix}timestamps": pose.timestamps,
+        f"{prefix}skeleton": np.array(pose.skeleton),
+        f"{prefix}image_size": np.array(pose.image_size, dtype=np.int64),
+    }
+    if pose.world is not None:
+        out[f"{prefix}world"] = pose.world
+    return out
+
+
+def _keypoint_fields(arrays: Mapping[str, np.ndarray], prefix: str) -> dict[str, Any]:
+    """The constructor fields `_keypoint_arrays` stored, read back."""
+    world = arrays[f"{prefix}world"] if f"{prefix}world" in arrays else None
+    size = np.asarray(arrays[f"{prefix}image_size"])
+    return {
+        "keypoints": np.asarray(arrays[f"{prefix}keypoints"]),
+        "timestamps": np.asarray(arrays[f"{prefix}timestamps"]),
+        "skeleton": str(arrays[f"{prefix}skeleton"]),
+        "image_size": (int(size[0]), int(size[1])),
+        "world": None if world is None else np.asarray(world),
+    }
 
 
 @dataclass(frozen=True, eq=False)

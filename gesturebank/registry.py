@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from importlib.metadata import entry_points
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar, cast
 
 from gesturebank.errors import InputError
 
@@ -34,8 +34,8 @@ class Registry(Generic[T]):
         return add
 
     def register_lazy(self, name: str, target: str) -> None:
-        """Register "module:attribute", imported only when `name` is first used, so listing the
-        names never imports heavy dependencies (mediapipe, torch)."""
+        """Register "module:attribute" (or "module:Class.method"), imported only when `name` is
+        first used, so listing the names never imports heavy dependencies (mediapipe, torch)."""
         self._lazy[name] = target
 
     def _plugins(self) -> dict[str, object]:
@@ -51,9 +51,11 @@ class Registry(Generic[T]):
             return self._factories[name]
         if name in self._lazy:
             module, _, attr = self._lazy[name].partition(":")
-            real: Callable[..., T] = getattr(importlib.import_module(module), attr)
-            self._factories[name] = real  # the class itself: its signature can be inspected
-            return real
+            real: Any = importlib.import_module(module)
+            for part in attr.split("."):  # "Class.from_config", as entry points allow
+                real = getattr(real, part)
+            self._factories[name] = real  # the object itself: its signature can be inspected
+            return cast(Callable[..., T], real)
         plugin = self._plugins().get(name)
         if plugin is None:
             raise self._unknown(name)

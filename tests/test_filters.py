@@ -18,6 +18,7 @@ from gesturebank.filters import (
 )
 
 RATE = 100.0
+LOWPASS = {"cutoff_hz": 4.0, "order": 5}  # the dissertation's (§4.2.3)
 
 
 # --- Butterworth ------------------------------------------------------------------------------
@@ -62,17 +63,17 @@ def test_butterworth_filters_each_finite_run_alone_and_keeps_nan() -> None:
     a, b = rng.normal(size=200), rng.normal(size=150)
     col = np.concatenate([a, [np.nan] * 10, b])
     other = rng.normal(size=len(col))
-    out = butter_lowpass(np.column_stack([col, other]), RATE)
+    out = butter_lowpass(np.column_stack([col, other]), RATE, **LOWPASS)
     assert np.all(np.isnan(out[200:210, 0]))
-    np.testing.assert_allclose(out[:200, 0], butter_lowpass(a[:, None], RATE)[:, 0])
-    np.testing.assert_allclose(out[210:, 0], butter_lowpass(b[:, None], RATE)[:, 0])
+    np.testing.assert_allclose(out[:200, 0], butter_lowpass(a[:, None], RATE, **LOWPASS)[:, 0])
+    np.testing.assert_allclose(out[210:, 0], butter_lowpass(b[:, None], RATE, **LOWPASS)[:, 0])
     # The NaN in column 0 does not touch column 1.
-    np.testing.assert_allclose(out[:, 1], butter_lowpass(other[:, None], RATE)[:, 0])
+    np.testing.assert_allclose(out[:, 1], butter_lowpass(other[:, None], RATE, **LOWPASS)[:, 0])
 
 
 def test_butterworth_short_runs_stay_finite_and_keep_constants() -> None:
     col = np.array([0.7] * 5 + [np.nan] + [0.2] + [np.nan] + [-0.4] * 12)
-    out = butter_lowpass(col[:, None], RATE)[:, 0]
+    out = butter_lowpass(col[:, None], RATE, **LOWPASS)[:, 0]
     np.testing.assert_allclose(out[:5], 0.7)  # unity DC gain even with reduced padding
     assert out[6] == pytest.approx(0.2)  # a single sample is left as it is
     np.testing.assert_allclose(out[8:], -0.4)
@@ -80,7 +81,7 @@ def test_butterworth_short_runs_stay_finite_and_keep_constants() -> None:
 
 
 def test_butterworth_keeps_float32() -> None:
-    out = butter_lowpass(np.zeros((50, 3), dtype=np.float32), RATE)
+    out = butter_lowpass(np.zeros((50, 3), dtype=np.float32), RATE, **LOWPASS)
     assert out.dtype == np.float32 and out.shape == (50, 3)
 
 
@@ -90,7 +91,7 @@ def test_butterworth_keeps_float32() -> None:
 )
 def test_butterworth_rejects_bad_input(values: np.ndarray, rate: float, cutoff: float) -> None:
     with pytest.raises(InputError):
-        butter_lowpass(values, rate, cutoff_hz=cutoff)
+        butter_lowpass(values, rate, cutoff_hz=cutoff, order=5)
 
 
 # --- Resampling -------------------------------------------------------------------------------

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from gesturebank import footage
-from gesturebank.extract.video import frame_timestamps, probe, read_audio
+from gesturebank.extract.audio_io import read_audio
+from gesturebank.extract.video import frame_timestamps, probe
 from gesturebank.footage import (
     CAM01,
     CAM03,
@@ -83,7 +84,7 @@ def test_every_take_has_the_looped_speech_as_long_as_the_video(samples, standard
     for name, path in standard_set.items():
         n = len(frame_timestamps(path))
         video_s = n / probe(path).fps
-        audio = read_audio(path)
+        audio = read_audio(path, sample_rate=16000)
         assert audio is not None and audio.sample_rate == 16000, name
         assert audio.start_offset_s == pytest.approx(0.0, abs=1e-6), name
         audio_s = len(audio.signal) / audio.sample_rate

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from gesturebank.errors import InputError
-from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.poses import MultiPose2D, Pose2D, Pose3D
 
 
 def make2d(t: int = 5, skeleton: str = "coco17", k: int = 17) -> Pose2D:
@@ -77,6 +77,22 @@ def test_pose2d_npz_round_trip(tmp_path: Path) -> None:
     np.testing.assert_array_equal(q.timestamps, p.timestamps)
     np.testing.assert_array_equal(q.world, p.world)
     assert (q.skeleton, q.image_size) == ("blazepose33", (640, 480))
+
+
+def test_multipose2d_stores_a_pose2d_s_arrays_and_its_ids() -> None:
+    p = make2d(skeleton="blazepose33", k=33)
+    p = Pose2D(p.keypoints, p.timestamps, p.skeleton, p.image_size, world=p.keypoints * 0.01)
+    one = MultiPose2D.from_pose2d(p)
+    ids = np.arange(len(p))[:, None]
+    multi = MultiPose2D(one.keypoints, one.timestamps, one.skeleton, one.image_size, one.world, ids)
+    arrays = multi.to_arrays()
+    assert list(arrays) == [*p.to_arrays(), "ids"]  # one format: the same names, in one order
+    back = MultiPose2D.from_arrays(arrays)
+    np.testing.assert_array_equal(back.ids, ids)
+    np.testing.assert_array_equal(back.slot(0).keypoints, p.keypoints)  # NaNs included
+    np.testing.assert_array_equal(back.slot(0).world, p.world)
+    np.testing.assert_array_equal(back.timestamps, p.timestamps)
+    assert (back.skeleton, back.image_size) == ("blazepose33", (640, 480))
 
 
 def test_pose2d_to_coco17_keeps_named_joints() -> None:

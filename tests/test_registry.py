@@ -52,6 +52,18 @@ def test_lazy_target_is_imported_on_first_use_only(
     assert registry.get("lazy") is widget
 
 
+def test_lazy_target_may_name_a_classmethod(
+    registry: Registry[object], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A "module:Class.method" target, as the lifters register their `from_config`."""
+    source = "class Widget:\n    @classmethod\n    def make(cls, n):\n        return (cls, n)\n"
+    (tmp_path / "lazy_method_mod.py").write_text(source)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "lazy_method_mod", raising=False)
+    registry.register_lazy("made", "lazy_method_mod:Widget.make")
+    assert registry.create("made", 3) == (sys.modules["lazy_method_mod"].Widget, 3)
+
+
 def test_entry_point_plugins_are_listed_and_loaded(
     registry: Registry[object], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

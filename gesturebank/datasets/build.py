@@ -33,7 +33,7 @@ from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.lifeline import die_with
 from gesturebank.datasets.lock import dataset_lock
-from gesturebank.datasets.pipeline import CONTENT_SECTIONS
+from gesturebank.datasets.pipeline import CONTENT_SECTIONS, lifter_name
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError, InputError
 
@@ -46,7 +46,7 @@ PIPELINE_MODULES = (
     "gesturebank.datasets.pipeline",
     "gesturebank.extract.pipeline",
     "gesturebank.extract.detectors.blazepose",
-    "gesturebank.extract.audio",
+    "gesturebank.extract.audio_features",
     "gesturebank.filters",
     "gesturebank.lift.blazepose_world",
     "gesturebank.qc.metrics",
@@ -160,7 +160,7 @@ def _record_failure(
         config_digest=content_digest(config),
         failed=reason,
         detector=config.detector.name,
-        lifter="multiview" if take.multi_camera else config.lifter.name,
+        lifter=lifter_name(take, config),
         traits=take.traits,
     )
     try:
@@ -380,5 +380,5 @@ def _build(
             f"{exc.filename or out}: cannot write ({exc.strerror or exc}); finished takes are "
             "kept: free some space and run the same command again"
         )
-    summary.takes = store.records(out, ids)
+    summary.takes = store.take_records(out, ids)
     return summary

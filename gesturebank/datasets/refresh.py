@@ -127,11 +127,11 @@ def refresh(
     """Re-judge, then rewrite the records whose verdicts changed, manifest.parquet, dataset.json
     and the splits of the dataset in `out`, for the takes `take_ids` (default: every take
     record in the folder). Returns notes (e.g. why no subject-independent split was written)."""
-    from gesturebank.extract.audio import feature_dim
+    from gesturebank.extract.audio_features import feature_dim
     from gesturebank.robot import pepper
 
     out = Path(out)
-    before = store.records(out, take_ids)
+    before = store.take_records(out, take_ids)
     measured = [_remeasure(out, r, config) for r in before]
     records = _judge(measured, config)
     for old, new in zip(before, records, strict=True):

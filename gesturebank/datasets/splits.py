@@ -42,14 +42,12 @@ def _usable(records: Sequence[Mapping[str, Any]], include_rejected: bool) -> lis
 
 
 def subject_independent(
-    records: Sequence[Mapping[str, Any]],
-    folds: int = 10,
-    *,
-    seed: int = 0,
-    include_rejected: bool = False,
+    records: Sequence[Mapping[str, Any]], *, config: SplitsConfig
 ) -> list[dict[str, Any]]:
-    """SI folds: each a dict of clip ids and subjects per part. Needs ≥ 3 subjects."""
-    usable = _usable(records, include_rejected)
+    """SI folds (`config.folds`, shuffled by `config.seed`): each a dict of clip ids and
+    subjects per part. Needs ≥ 3 subjects."""
+    folds, seed = config.folds, config.seed
+    usable = _usable(records, config.include_rejected)
     subjects = sorted({r["subject"] for r in usable})
     if len(subjects) < 3:
         raise InputError(
@@ -74,17 +72,16 @@ def subject_independent(
 
 
 def subject_dependent(
-    records: Sequence[Mapping[str, Any]],
-    fractions: tuple[float, float, float] = (0.70, 0.15, 0.15),
-    *,
-    include_rejected: bool = False,
+    records: Sequence[Mapping[str, Any]], *, config: SplitsConfig
 ) -> dict[str, Any]:
-    """SD split: per subject, (clip_id, start, end) frame segments for train, val and test."""
+    """SD split: per subject, (clip_id, start, end) frame segments for train, val and test
+    (`config.sd_fractions` of its frames)."""
+    fractions = config.sd_fractions
     if len(fractions) != 3 or not np.isclose(sum(fractions), 1.0) or min(fractions) < 0:
         raise InputError(
             f"split fractions must be three non-negative numbers summing to 1, got {fractions}"
         )
-    usable = _usable(records, include_rejected)
+    usable = _usable(records, config.include_rejected)
     per_subject: dict[str, dict[str, list[list[Any]]]] = {}
     for subject in sorted({r["subject"] for r in usable}):
         clips = [r for r in usable if r["subject"] == subject]
@@ -114,14 +111,12 @@ def write_splits(
     for old in folder.glob("si_fold_*.json"):
         old.unlink()  # a rebuild with fewer subjects must not keep stale folds
     try:
-        folds = subject_independent(
-            records, c.folds, seed=c.seed, include_rejected=c.include_rejected
-        )
+        folds = subject_independent(records, config=c)
         for fold in folds:
             path = folder / f"si_fold_{fold['fold']:02d}.json"
             write_bytes_atomic(path, json.dumps(fold, indent=1).encode())
     except InputError as exc:
         notes.append(f"no subject-independent splits: {exc}")
-    sd = subject_dependent(records, c.sd_fractions, include_rejected=c.include_rejected)
+    sd = subject_dependent(records, config=c)
     write_bytes_atomic(folder / "sd.json", json.dumps(sd, indent=1).encode())
     return notes

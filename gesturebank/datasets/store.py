@@ -409,7 +409,7 @@ def is_built(out: Path, take_id: str, config_digest: str) -> bool:
     )
 
 
-def records(out: Path, take_ids: Sequence[str] | None = None) -> list[TakeRecord]:
+def take_records(out: Path, take_ids: Sequence[str] | None = None) -> list[TakeRecord]:
     """Every readable take record (only `take_ids` when given), sorted by take id."""
     folder = Path(out) / TAKES_DIR
     names = sorted(p.stem for p in folder.glob("*.json")) if take_ids is None else take_ids

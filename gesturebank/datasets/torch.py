@@ -31,7 +31,7 @@ from torch.utils.data import Dataset as TorchDataset
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
 from gesturebank.datasets.store import Dataset
 from gesturebank.errors import InputError
-from gesturebank.extract.audio import apply_znorm
+from gesturebank.extract.audio_features import apply_znorm
 
 log = logging.getLogger(__name__)
 
@@ -102,11 +102,8 @@ def _missing_fold(dataset: Dataset, fold: int) -> InputError:
     folds = sorted(int(p.stem.removeprefix("si_fold_")) for p in folder.glob("si_fold_*.json"))
     if folds:
         return InputError(f"{folder}: no fold {fold}; the dataset has folds {folds[0]}–{folds[-1]}")
-    c = dataset.info.config.splits
     try:  # the rule that decided not to write them, asked again
-        subject_independent(
-            dataset.rows(), c.folds, seed=c.seed, include_rejected=c.include_rejected
-        )
+        subject_independent(dataset.rows(), config=dataset.info.config.splits)
     except InputError as exc:
         return InputError(f"{dataset.path}: {exc}; train with --variant sd")
     return InputError(f"{folder}: no subject-independent folds (rewrite them: gesturebank qc)")
@@ -218,7 +215,7 @@ class WindowDataset(TorchDataset[Batch]):
     covered. Segments shorter than L are padded (module docstring).
     """
 
-    def __init__(self, segments: Sequence[Segment], seq_len: int = 300, stride: int = 1) -> None:
+    def __init__(self, segments: Sequence[Segment], seq_len: int, stride: int) -> None:
         if not segments:
             raise InputError("no segments to build a window dataset from")
         if seq_len < 1 or stride < 1:

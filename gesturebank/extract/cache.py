@@ -27,9 +27,9 @@ import numpy as np
 from platformdirs import user_cache_dir
 
 from gesturebank.errors import InputError
-from gesturebank.extract.detectors import MultiPose2D
 from gesturebank.extract.shots import Shots
 from gesturebank.fileio import atomic_open
+from gesturebank.poses import MultiPose2D
 
 log = logging.getLogger(__name__)
 

@@ -15,8 +15,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from gesturebank.config import TrackingConfig
-from gesturebank.extract.detectors import MultiPose2D
-from gesturebank.poses import Pose2D
+from gesturebank.poses import MultiPose2D, Pose2D
 
 _FAR = 1e12  # cost of a gated-out pair
 _CUT_EPS_S = 1e-6  # a frame this close before a cut time already belongs to the new shot
@@ -45,20 +44,16 @@ def _centroid(kp: np.ndarray) -> np.ndarray:
     return np.nanmean(kp[:, :2], axis=0)
 
 
-def link(
-    multi: MultiPose2D,
-    gate: float = TrackingConfig().gate,
-    *,
-    max_lost_s: float = TrackingConfig().max_lost_s,
-    predict_s: float = TrackingConfig().predict_s,
-) -> np.ndarray:
+def link(multi: MultiPose2D, *, config: TrackingConfig) -> np.ndarray:
     """Track id of every slot, `(T, P)` int64, -1 where the slot is empty.
 
-    gate: largest match distance as a fraction of the image diagonal for consecutive frames; a
-    track lost for `lost` seconds accepts `gate × (1 + lost / 1 s)` (people move while unseen).
+    config (the `tracking` section): `gate` is the largest match distance as a fraction of the
+    image diagonal for consecutive frames; a track lost for `lost` seconds accepts
+    `gate × (1 + lost / 1 s)` (people move while unseen).
     Tracks unseen for more than `max_lost_s` end. Over gaps up to `predict_s` the last pose is
     shifted by the track's centroid velocity (helps people crossing each other).
     """
+    gate, max_lost_s, predict_s = config.gate, config.max_lost_s, config.predict_s
     w, h = multi.image_size
     gate_px = gate * float(np.hypot(w, h))
     present = multi.present

@@ -22,26 +22,25 @@ import numpy as np
 
 from gesturebank.config import Config
 from gesturebank.errors import DetectionError, GesturebankError, InputError
+from gesturebank.extract.audio_io import Audio, read_audio
 from gesturebank.extract.cache import DetectionCache, cache_key, video_digest
 from gesturebank.extract.detectors import (
     DETECTORS,
     Detector,
     Frame,
     MultiPersonDetector,
-    MultiPose2D,
 )
 from gesturebank.extract.shots import ShotDetector, Shots
 from gesturebank.extract.tracking import Tracked, main_speaker
 from gesturebank.extract.video import (
-    Audio,
     VideoInfo,
     first_frame_time,
     frames_at,
     iter_frames,
     probe,
-    read_audio,
 )
 from gesturebank.extract.video import select_indices as _select
+from gesturebank.poses import MultiPose2D
 
 log = logging.getLogger(__name__)
 
@@ -51,8 +50,8 @@ PREVIEW_HEIGHT = 240  # px
 
 
 @dataclass(frozen=True)
-class TakeInfo:
-    """What happened to one video.
+class ExtractionInfo:
+    """What happened to one video (a multi-camera take has one per camera).
 
     n_frames: frames analysed; person_fraction: frames where anybody was found; main_fraction:
     frames where the main speaker was; cache_hit: None when the detector is not cached;
@@ -78,7 +77,7 @@ class Extraction:
     shots: Shots
     tracked: Tracked
     audio: Audio | None
-    info: TakeInfo
+    info: ExtractionInfo
     preview: tuple[tuple[float, np.ndarray], ...] = ()
 
 
@@ -241,7 +240,7 @@ def _audio(path: Path, sample_rate: int) -> tuple[Audio | None, str | None]:
     """A `<stem>.wav` beside the video replaces its track (DESIGN.md "What a take is")."""
     wav = path.with_suffix(".wav")
     source = wav if wav.is_file() and wav != path else path
-    audio = read_audio(source, sample_rate)
+    audio = read_audio(source, sample_rate=sample_rate)
     if audio is not None and source == wav:
         # A separate recording is taken to start with the video's first frame.
         audio = audio._replace(start_offset_s=0.0, start_s=first_frame_time(path) or 0.0)
@@ -280,7 +279,7 @@ def extract_take(
     if tracked.report.main_switches:
         log.warning("%s: %d identity switches", path, len(tracked.report.main_switches))
     present = np.isfinite(tracked.pose.keypoints[..., 0]).any(axis=1)
-    take = TakeInfo(
+    summary = ExtractionInfo(
         video=info,
         detector=name,
         n_frames=len(multi),
@@ -290,4 +289,4 @@ def extract_take(
         audio_source=source,
         detect_seconds=detect_s,
     )
-    return Extraction(multi, shots, tracked, audio, take, tuple(preview))
+    return Extraction(multi, shots, tracked, audio, summary, tuple(preview))

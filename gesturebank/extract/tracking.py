@@ -44,7 +44,6 @@ import numpy as np
 
 from gesturebank.config import TrackingConfig
 from gesturebank.errors import DetectionError
-from gesturebank.extract.detectors import MultiPose2D
 from gesturebank.extract.identity import (
     Switch,
     find_switches,
@@ -60,13 +59,14 @@ from gesturebank.extract.speech import (
     speech_envelope,
     speech_following,
 )
-from gesturebank.poses import Pose2D
+from gesturebank.poses import MultiPose2D, Pose2D
 from gesturebank.skeletons import COCO17, get_skeleton
 
 if TYPE_CHECKING:  # only for annotations: tracking needs no video decoder
-    from gesturebank.extract.video import Audio
+    from gesturebank.extract.audio_io import Audio
 
-UPPER_BODY = tuple(j for j in COCO17.joints if "knee" not in j and "ankle" not in j)
+# What a waist-up shot shows (no knees, no ankles): a candidate's size, centre and confidence.
+WAIST_UP = tuple(j for j in COCO17.joints if "knee" not in j and "ankle" not in j)
 TERMS = ("size", "centrality", "confidence", "persistence", "speech")
 
 MIN_SHARE = 0.25  # seen in less of the span: a passer-by, not a candidate
@@ -201,7 +201,7 @@ class _Scene:
         self.ts = multi.timestamps
         self.end_t = float(self.ts[-1] + frame_step(self.ts)) if len(self.ts) else 0.0
         coco = get_skeleton(multi.skeleton).convert(multi.keypoints, COCO17)
-        ub = coco[..., [COCO17.index[j] for j in UPPER_BODY], :]  # (T, P, U, 3)
+        ub = coco[..., [COCO17.index[j] for j in WAIST_UP], :]  # (T, P, U, 3)
         xy = ub[..., :2]
         with warnings.catch_warnings():  # empty slots: all-NaN slices are expected
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -354,12 +354,7 @@ def _identities(multi: MultiPose2D, config: TrackingConfig, shot: np.ndarray) ->
         raw = np.full(present.shape, -1, np.int64)
         for s in np.unique(shot):
             frames = np.flatnonzero(shot == s)
-            linked = link(
-                multi.take(frames),
-                config.gate,
-                max_lost_s=config.max_lost_s,
-                predict_s=config.predict_s,
-            )
+            linked = link(multi.take(frames), config=config)
             raw[frames] = np.where(linked >= 0, linked, -1)
     return split_at_cuts(ids=raw, shot=shot)
 

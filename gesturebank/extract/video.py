@@ -1,4 +1,4 @@
-"""Video and audio decoding with PyAV: frames with their real timestamps, audio as 16 kHz mono.
+"""Video decoding with PyAV: frames with their real timestamps (the audio track: `audio_io`).
 
 Timestamps are the presentation timestamps of the stream (pts × time_base, seconds), never
 index / fps: phone videos often have a variable frame rate. Frames are streamed one at a time.
@@ -12,7 +12,6 @@ import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
 
 import av
 import numpy as np
@@ -45,34 +44,18 @@ class VideoInfo:
     audio_codec: str | None = None
 
 
-class Audio(NamedTuple):
-    """A decoded audio track.
-
-    signal:         (N,) float32 mono in [-1, 1].
-    sample_rate:    Hz.
-    start_offset_s: time of sample 0 minus the time of the first video frame of the file,
-                    seconds (0 when the file has no video).
-    start_s:        time of sample 0 on the clock of the video's timestamps (Pose2D.timestamps),
-                    so sample n plays at start_s + n / sample_rate whatever frames were selected.
-    """
-
-    signal: np.ndarray
-    sample_rate: int
-    start_offset_s: float
-    start_s: float = 0.0
-
-
-def _open(path: PathLike) -> av.container.InputContainer:
+def open_media(path: PathLike) -> av.container.InputContainer:
+    """The file opened for reading; a missing or unreadable one is an InputError naming it."""
     name = os.fspath(path)
     if not Path(name).is_file():
         raise InputError(f"{name}: no such file")
     try:
         return av.open(name, mode="r")
     except (av.FFmpegError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(f"{name}: not a readable media file ({_reason(exc)})") from None
+        raise InputError(f"{name}: not a readable media file ({av_reason(exc)})") from None
 
 
-def _reason(exc: BaseException) -> str:
+def av_reason(exc: BaseException) -> str:
     """FFmpeg's own words without the file name (the message names the file once)."""
     text = getattr(exc, "strerror", None) or str(exc)
     return " ".join(str(text).split()) or type(exc).__name__
@@ -102,7 +85,7 @@ def _normalise_rotation(degrees: float) -> int:
 def probe(path: PathLike) -> VideoInfo:
     """Read headers (and the first frame, for the rotation) of a video file."""
     name = os.fspath(path)
-    with _open(path) as container:
+    with open_media(path) as container:
         stream = _video_stream(container, name)
         audio = container.streams.audio[0] if container.streams.audio else None
         fps = float(stream.average_rate or stream.guessed_rate or 0.0)
@@ -182,7 +165,7 @@ def iter_frames(
     """
     config = config or VideoConfig()
     name = os.fspath(path)
-    with _open(path) as container:
+    with open_media(path) as container:
         stream = _video_stream(container, name)
         _set_threads(stream, threads)
         if config.start_s > 0 and stream.time_base is not None:
@@ -210,7 +193,7 @@ def iter_frames(
                     continue  # skipped frames are never converted to RGB (the costly part)
                 yield t, _to_rgb(frame)
         except av.FFmpegError as exc:
-            raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
+            raise InputError(f"{name}: video is corrupt or truncated ({av_reason(exc)})") from None
         _check_complete(stream, last_t, name)
 
 
@@ -263,7 +246,7 @@ def frames_at(path: PathLike, times: Sequence[float]) -> list[tuple[float, np.nd
     """
     name = os.fspath(path)
     found: list[tuple[float, np.ndarray]] = []
-    with _open(path) as container:
+    with open_media(path) as container:
         stream = _video_stream(container, name)
         tb = stream.time_base
         if tb is None:
@@ -282,7 +265,7 @@ def frames_at(path: PathLike, times: Sequence[float]) -> list[tuple[float, np.nd
                 if best is not None and best.pts is not None and best.time_base is not None:
                     found.append((float(best.pts * best.time_base), _to_rgb(best)))
         except av.FFmpegError as exc:
-            raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
+            raise InputError(f"{name}: video is corrupt or truncated ({av_reason(exc)})") from None
     return found
 
 
@@ -294,7 +277,7 @@ def frame_timestamps(path: PathLike) -> np.ndarray:
     """
     name = os.fspath(path)
     times: list[float] = []
-    with _open(path) as container:
+    with open_media(path) as container:
         stream = _video_stream(container, name)
         tb = stream.time_base
         if tb is None:
@@ -304,13 +287,13 @@ def frame_timestamps(path: PathLike) -> np.ndarray:
                 if packet.pts is not None and packet.size > 0:
                     times.append(float(packet.pts * tb))
         except av.FFmpegError as exc:
-            raise InputError(f"{name}: video is corrupt or truncated ({_reason(exc)})") from None
+            raise InputError(f"{name}: video is corrupt or truncated ({av_reason(exc)})") from None
     return np.unique(np.asarray(times, dtype=np.float64))
 
 
 def first_frame_time(path: PathLike) -> float | None:
     """Timestamp (s) of the first decodable video frame, None if there is none."""
-    with _open(path) as container:
+    with open_media(path) as container:
         return _first_video_time(container)
 
 
@@ -324,39 +307,3 @@ def _first_video_time(container: av.container.InputContainer) -> float | None:
     except av.FFmpegError:
         return None
     return None
-
-
-def read_audio(path: PathLike, sample_rate: int = 16000) -> Audio | None:
-    """The first audio track as mono float32 at `sample_rate`, or None if the file has none.
-
-    Channels are averaged; the rate is converted by FFmpeg's swresample (windowed-sinc filter,
-    i.e. band-limited with anti-aliasing). The whole track is returned (audio is small: 1 h at
-    16 kHz is 230 MB).
-    """
-    name = os.fspath(path)
-    with _open(path) as container:
-        if not container.streams.audio:
-            return None
-        video_t0 = _first_video_time(container)
-    with _open(path) as container:
-        stream = container.streams.audio[0]
-        resampler = av.AudioResampler(format="fltp", rate=sample_rate)
-        chunks: list[np.ndarray] = []
-        audio_t0: float | None = None
-        try:
-            for frame in container.decode(stream):
-                if audio_t0 is None and frame.pts is not None and frame.time_base is not None:
-                    audio_t0 = float(frame.pts * frame.time_base)
-                chunks.extend(_mono(out) for out in resampler.resample(frame))
-            chunks.extend(_mono(out) for out in resampler.resample(None))
-        except av.FFmpegError as exc:
-            raise InputError(f"{name}: audio is corrupt or truncated ({_reason(exc)})") from None
-    signal = np.concatenate(chunks) if chunks else np.zeros(0, np.float32)
-    start = audio_t0 or 0.0
-    offset = start - (video_t0 if video_t0 is not None else 0.0)
-    return Audio(signal.astype(np.float32, copy=False), sample_rate, offset, start)
-
-
-def _mono(frame: av.AudioFrame) -> np.ndarray:
-    """(n,) mean of the channels of a planar float frame."""
-    return frame.to_ndarray().mean(axis=0, dtype=np.float32)

@@ -12,18 +12,24 @@ import numpy as np
 
 from gesturebank.config import Config
 from gesturebank.errors import InputError
-from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.lift import TakeViews
+from gesturebank.poses import Pose3D
 from gesturebank.skeletons import COCO17, get_skeleton
 
 
 class BlazePoseWorldLifter:
+    """Has no options: the detector made the 3D (its section is `detector`)."""
+
     name = "blazepose-world"
 
-    def __init__(self, config: Config | None = None) -> None:
-        self.config = config or Config()
+    @classmethod
+    def from_config(cls, config: Config) -> BlazePoseWorldLifter:
+        """The registry's factory (gesturebank.lift): no section of `config` is used."""
+        return cls()
 
-    def lift(self, pose2d: Pose2D) -> Pose3D:
-        """Pose2D with `world` landmarks (from the mediapipe detector) → Pose3D (T, 17, 3), m."""
+    def lift(self, views: TakeViews) -> Pose3D:
+        """One view with `world` landmarks (from a BlazePose detector) → Pose3D (T, 17, 3), m."""
+        pose2d = views.single(self.name)
         if pose2d.world is None:
             raise InputError(
                 f"lifter {self.name!r} needs the 3D world landmarks of the mediapipe detector; "

@@ -31,7 +31,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from gesturebank.config import Config, FittedConfig
+from gesturebank.config import Config, FittedConfig, GeometricConfig
+from gesturebank.errors import InputError
+from gesturebank.lift import TakeViews
 from gesturebank.lift.geometric import GeometricLifter, chain_confidence
 from gesturebank.lift.multiview.cameras import Camera
 from gesturebank.lift.skeleton_fit import (
@@ -84,28 +86,36 @@ class FittedLifter:
     name = "fitted"
 
     def __init__(
-        self,
-        config: Config | None = None,
-        *,
-        options: FittedConfig | None = None,
-        camera: Camera | None = None,
+        self, *, fitted: FittedConfig | None = None, geometric: GeometricConfig | None = None
     ) -> None:
-        """Options from `options`, else the `fitted` section of `config`; `camera`: the
-        calibrated camera of the video (intrinsics and distortion), else `fov_deg`."""
-        self.config = config or Config()
-        self.options = options or self.config.fitted
-        self.camera = camera
+        """fitted: the lifter's section; geometric: the prior's when the detector gave no world
+        landmarks (None: their defaults)."""
+        self.options = fitted or FittedConfig()
+        self.geometric = geometric or GeometricConfig()
 
-    def lift(self, pose2d: Pose2D) -> Pose3D:
-        """Pose2D of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring)."""
-        return self.lift_with_report(pose2d)[0]
+    @classmethod
+    def from_config(cls, config: Config) -> FittedLifter:
+        """The registry's factory (gesturebank.lift): the `fitted` and `geometric` sections."""
+        return cls(fitted=config.fitted, geometric=config.geometric)
 
-    def lift_with_report(self, pose2d: Pose2D) -> tuple[Pose3D, FittedReport]:
+    def lift(self, views: TakeViews) -> Pose3D:
+        """One view of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring). With
+        `views.cameras` (that one camera), its intrinsics and distortion; else `fov_deg`."""
+        return self.lift_with_report(views)[0]
+
+    def lift_with_report(self, views: TakeViews) -> tuple[Pose3D, FittedReport]:
+        pose2d = views.single(self.name)
+        if views.cameras is not None and len(views.cameras) != 1:
+            raise InputError(
+                f"lifter {self.name!r}: one view but {len(views.cameras)} cameras "
+                f"({views.cameras.names}); give the view's own camera"
+            )
+        calibrated = None if views.cameras is None else views.cameras[0]
         cfg = self.options
         coco = pose2d.to_coco17()
         kp = coco.keypoints[:, :N_JOINTS].astype(np.float64)
         T = len(kp)
-        focal, center, observed = self._camera(kp[..., :2], pose2d.image_size)
+        focal, center, observed = self._camera(kp[..., :2], pose2d.image_size, calibrated)
         conf = np.nan_to_num(kp[..., 2], nan=1.0)  # a keypoint without a score is trusted
         seen = np.isfinite(observed).all(axis=-1)
         weight = np.where(seen & (conf >= cfg.min_confidence), np.sqrt(conf), 0.0)
@@ -184,12 +194,12 @@ class FittedLifter:
         return pose, report
 
     def _camera(
-        self, xy: np.ndarray, image_size: tuple[int, int]
+        self, xy: np.ndarray, image_size: tuple[int, int], camera: Camera | None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Focal (2,), principal point (2,) and the keypoints (T, 13, 2) as ideal pinhole pixels."""
-        if self.camera is not None:
-            K = self.camera.K
-            return np.diag(K)[:2].copy(), K[:2, 2].copy(), self.camera.undistort_points(xy)
+        if camera is not None:
+            K = camera.K
+            return np.diag(K)[:2].copy(), K[:2, 2].copy(), camera.undistort_points(xy)
         f = 0.5 * max(image_size) / np.tan(np.deg2rad(self.options.fov_deg) / 2)
         return np.array([f, f]), np.asarray(image_size, np.float64) / 2, xy
 
@@ -197,8 +207,9 @@ class FittedLifter:
         """Prior joints (T, 17, 3) in camera axes, metres: BlazePose world, else geometric."""
         if pose2d.world is not None:
             return pose2d.to_coco17().world.astype(np.float64), "blazepose-world"  # type: ignore[union-attr]
-        metric = self.config.geometric.model_copy(update={"units": "m"})
-        geo = GeometricLifter(self.config, options=metric).lift(pose2d).joints.astype(np.float64)
+        metric = self.geometric.model_copy(update={"units": "m"})
+        geo = GeometricLifter(geometric=metric).lift(TakeViews.of(pose2d)).joints
+        geo = geo.astype(np.float64)
         return geo * np.array([1.0, -1.0, -1.0]), "geometric"  # image-ortho → camera axes
 
     @staticmethod

@@ -58,7 +58,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gesturebank.config import Config, GeometricConfig
-from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.lift import TakeViews
+from gesturebank.poses import Pose3D
 from gesturebank.skeletons import COCO17
 
 _I = COCO17.index
@@ -312,19 +313,22 @@ def chain_confidence(confidence: np.ndarray) -> np.ndarray:
 class GeometricLifter:
     name = "geometric"
 
-    def __init__(
-        self, config: Config | None = None, *, options: GeometricConfig | None = None
-    ) -> None:
-        """Options from `options`, else the `geometric` section of `config`."""
-        self.config = config or Config()
-        self.options = options or self.config.geometric
+    def __init__(self, *, geometric: GeometricConfig | None = None) -> None:
+        """geometric: the lifter's section (None: its defaults)."""
+        self.options = geometric or GeometricConfig()
 
-    def lift(self, pose2d: Pose2D) -> Pose3D:
-        """Pose2D of any skeleton → Pose3D (T, 17, 3), frame "image-ortho" (module docstring)."""
-        return self.lift_with_report(pose2d)[0]
+    @classmethod
+    def from_config(cls, config: Config) -> GeometricLifter:
+        """The registry's factory (gesturebank.lift): the `geometric` section."""
+        return cls(geometric=config.geometric)
 
-    def lift_with_report(self, pose2d: Pose2D) -> tuple[Pose3D, GeometricReport]:
+    def lift(self, views: TakeViews) -> Pose3D:
+        """One view of any skeleton → Pose3D (T, 17, 3), frame "image-ortho" (module docstring)."""
+        return self.lift_with_report(views)[0]
+
+    def lift_with_report(self, views: TakeViews) -> tuple[Pose3D, GeometricReport]:
         """As `lift`, plus what was flagged (flagged joints also get a lower confidence)."""
+        pose2d = views.single(self.name)
         cfg = self.options
         kp = pose2d.to_coco17().keypoints.astype(np.float64)
         # A keypoint without a score counts as fully confident; a too-unsure one as missing.

@@ -822,7 +822,7 @@ def write_dashboard(out: Path) -> Path:
     index only rewritten when it changed); pages of takes no longer in the dataset go."""
     out = Path(out)
     info = store.read_dataset_json(out)
-    records = store.records(out)
+    records = store.take_records(out)
     pages = out / QC_DIR / PAGES_DIR
     pages.mkdir(parents=True, exist_ok=True)
     code = hashlib.sha256((Path(__file__).read_text() + _STYLE + _SCRIPT).encode()).hexdigest()

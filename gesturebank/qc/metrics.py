@@ -28,16 +28,20 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from gesturebank.config import QCConfig
+from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.datasets.clip import Clip
-from gesturebank.filters import resample_to_clock
+from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
 from gesturebank.skeletons import COCO17, to_coco17
 
 F64 = NDArray[np.float64]
+# Gaps in the raw angles bridged before the jerk is measured: the processing's default, not the
+# build's setting, so the same clip gets the same metric whatever config `qc` runs with.
+_MAX_GAP_S = ProcessingConfig().max_gap_s
 
-# Keypoints a take cannot do without: the 11 Pepper angles are computed from these (COCO-17 names).
-UPPER_BODY = (
+# Keypoints whose spikes and freezes the QC looks for (COCO-17 names): those the arm and hip
+# angles are computed from, and the nose.
+MOTION_KEYPOINTS = (
     "nose",
     "left_shoulder",
     "right_shoulder",
@@ -66,7 +70,7 @@ _I = COCO17.index
 # Jerkiness
 
 
-def jerkiness(angles: np.ndarray, rate_hz: float) -> F64:
+def jerkiness_per_joint(angles: np.ndarray, rate_hz: float) -> F64:
     """Angular jerkiness per joint `(D,)`, rad² s⁻⁵, of `angles (N, D)` sampled at `rate_hz`.
 
     Jerk, Eq. 3.21: J_j = 1 / (2 f (N − 3)) Σ_i (Δ³θ_ij f³)², with the third forward difference
@@ -90,9 +94,7 @@ def jerkiness(angles: np.ndarray, rate_hz: float) -> F64:
         return np.where(n > 0, 0.5 * f**5 * total.sum(axis=0) / n, np.nan)
 
 
-def uniform(
-    values: np.ndarray, timestamps: np.ndarray, rate_hz: float, max_gap_s: float = 0.25
-) -> F64:
+def uniform(values: np.ndarray, timestamps: np.ndarray, rate_hz: float, *, max_gap_s: float) -> F64:
     """`values (T, D)` at irregular `timestamps (T,)` linearly resampled to `rate_hz`: `(N, D)`.
 
     Gaps longer than `max_gap_s` stay NaN (see `filters.interpolate_at`).
@@ -187,7 +189,7 @@ def frozen_fraction(points: np.ndarray, *, tol: float = 1e-6) -> float:
     return float(np.mean(step[valid] <= tol * max(size, 1e-12)))
 
 
-def spike_sizes(points: np.ndarray, joints: Sequence[str] = UPPER_BODY) -> F64:
+def spike_sizes(points: np.ndarray, joints: Sequence[str] = MOTION_KEYPOINTS) -> F64:
     """How far each keypoint of `points (T, 17, D)` leaves the line between its neighbours in
     time, in shoulder widths: |p_t − (p_(t−1) + p_(t+1)) / 2| / width, `(T − 2, J)`; only where
     the excursion is larger than the step between the neighbours (it jumps out and back)."""
@@ -328,9 +330,10 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     hz = qc.analysis_rate_hz
     raw_u = np.empty((0, len(JOINTS)))
     if len(clip.raw_angles) >= 2:
-        raw_u = uniform(clip.raw_angles, clip.timestamps, hz)
-    j_raw = jerkiness(raw_u, hz) if len(raw_u) else np.full(len(JOINTS), nan)
-    j_proc = jerkiness(clip.angles, rate)
+        # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
+        raw_u = uniform(unwrap_angles(clip.raw_angles), clip.timestamps, hz, max_gap_s=_MAX_GAP_S)
+    j_raw = jerkiness_per_joint(raw_u, hz) if len(raw_u) else np.full(len(JOINTS), nan)
+    j_proc = jerkiness_per_joint(clip.angles, rate)
     m["jerk_raw"] = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
     m["jerk"] = float(np.nansum(j_proc)) if np.isfinite(j_proc).any() else nan
     for name, jr, jp in zip(JOINTS, j_raw, j_proc, strict=True):
@@ -352,7 +355,7 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     cv = bone_cv(joints)
     m["bone_cv_max"] = float(np.nanmax(cv)) if np.isfinite(cv).any() else nan
     m["swap_events"] = float(max(swap_events(seen_xy), swap_events(joints)))
-    upper = [_I[j] for j in UPPER_BODY]
+    upper = [_I[j] for j in MOTION_KEYPOINTS]
     m["frozen_fraction"] = max(
         frozen_fraction(seen_xy[:, upper]), frozen_fraction(joints[:, upper])
     )

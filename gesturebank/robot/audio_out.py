@@ -20,10 +20,10 @@ class DeviceAudio:
     """Plays an audio file on this computer's default output (as the dissertation did)."""
 
     def __init__(self, path: PathLike, sample_rate: int = 48000) -> None:
-        from gesturebank.extract.video import read_audio
+        from gesturebank.extract.audio_io import read_audio
 
         name = os.fspath(path)
-        track = read_audio(path, sample_rate)
+        track = read_audio(path, sample_rate=sample_rate)
         if track is None:
             raise RobotError(f"{name}: no audio track to play")
         self.signal, self.rate = track.signal, track.sample_rate

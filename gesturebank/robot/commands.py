@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gesturebank.config import AudioConfig, PlaybackConfig
+from gesturebank.config import AudioConfig, PlaybackConfig, RobotConfig
 from gesturebank.errors import RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.audio_out import DeviceAudio
@@ -36,7 +36,7 @@ def replay_command(
     *,
     clip: str | None = None,
     compare: PathLike | None = None,
-    profile: str = pepper.DEFAULT_PROFILE,
+    profile: str | None = None,
     clamp: bool = False,
 ) -> PlaybackResult | Path:
     """`gesturebank replay ANGLES.csv --backend naoqi|sim|record [--url|--out] [--audio]`.
@@ -47,7 +47,7 @@ def replay_command(
     An interrupted sim replay writes no video.
     """
     cfg = config or PlaybackConfig()
-    robot = pepper.load_profile(profile)
+    robot = pepper.load_profile(profile or RobotConfig().profile)
     timeline = from_clip(angles_csv, clip) if clip else read_csv(angles_csv)
     name = f"{os.fspath(angles_csv)} clip {clip}" if clip else os.fspath(angles_csv)
     check_timeline(timeline, name=name, profile=robot, config=cfg, clamp=clamp)

@@ -93,9 +93,9 @@ def poses_at(times: np.ndarray, angles: np.ndarray, frame_times: np.ndarray) -> 
 def _audio(path: PathLike | None, duration: float) -> np.ndarray | None:
     if path is None:
         return None
-    from gesturebank.extract.video import read_audio
+    from gesturebank.extract.audio_io import read_audio
 
-    track = read_audio(path, AUDIO_RATE)
+    track = read_audio(path, sample_rate=AUDIO_RATE)
     if track is None:
         raise InputError(f"{os.fspath(path)}: no audio track to mux into the video")
     return track.signal[: round(duration * AUDIO_RATE)]

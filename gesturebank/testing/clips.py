@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.config import Config
+from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
@@ -61,7 +61,6 @@ def clip_from_angles(
     *,
     clip_id: str = "synthetic__c000",
     audio: np.ndarray | None = None,
-    rate_hz: float = 100.0,
     config: Config | None = None,
 ) -> Clip:
     """A clip whose speaker moves as `angles (T, 11)` rad at `timestamps (T,)` s (from 0): the
@@ -77,7 +76,7 @@ def clip_from_angles(
     joints[:, 13:15] = joints[:, 11:13] - [0, 0, 0.4]
     joints[:, 15:17] = joints[:, 11:13] - [0, 0, 0.8]
     joints[~np.isfinite(np.asarray(angles)).all(axis=1)] = np.nan
-    times = np.arange(0.0, ts[-1] + 1e-9, 1.0 / rate_hz)
+    times = np.arange(0.0, ts[-1] + 1e-9, 1.0 / c.processing.rate_hz)
     raw = pepper_angles(joints)
     processed = process_angles(
         raw=raw, timestamps=ts, clock=times, processing=c.processing, profile=profile
@@ -100,12 +99,12 @@ def clip_from_targets(
     *,
     clip_id: str,
     profile: pepper.RobotProfile,
-    rate_hz: float = 100.0,
+    rate_hz: float | None = None,
 ) -> Clip:
     """A clip whose 100 Hz angles are exactly `angles01 (N, 11)` (NaN = unknown) with features
     `audio (N, F)`: for trainers, whose targets must be known exactly. Its poses are the angles'
     ideal forward kinematics at the same 100 Hz frames."""
-    ts = np.arange(len(angles01)) / rate_hz
+    ts = np.arange(len(angles01)) / (rate_hz or ProcessingConfig().rate_hz)
     angles = pepper.denormalise(np.asarray(angles01, np.float64), profile)
     joints = pepper.fk_coco17(np.nan_to_num(angles), model="ideal").astype(np.float32)
     joints[:, 13:] = np.nan  # no legs

@@ -29,7 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from gesturebank.config import ProcessingConfig
+from gesturebank.config import ProcessingConfig, RobotConfig
 from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.process import process_angles
 from gesturebank.robot import pepper
@@ -256,14 +256,17 @@ def _mirror_angles(angles: np.ndarray) -> np.ndarray:
 def rederive(
     clip: Clip,
     processing: ProcessingConfig | None = None,
-    profile: pepper.RobotProfile | str = "pepper-1.7",
+    profile: pepper.RobotProfile | str | None = None,
     *,
     from_pose: bool = True,
 ) -> Clip:
     """Recompute `raw_angles` from `pose3d.joints` (unless `from_pose` is False; masked where the
     clip's keypoints were unseen, as the builder does) and the 100 Hz angles from those with the
     builder's `process_angles`."""
-    prof = pepper.load_profile(profile) if isinstance(profile, str) else profile
+    if isinstance(profile, pepper.RobotProfile):
+        prof = profile
+    else:  # a name, or None: the `robot` section's default
+        prof = pepper.load_profile(profile or RobotConfig().profile)
     raw = np.array(clip.raw_angles, dtype=np.float32)
     if from_pose:
         raw = pepper_angles(clip.pose3d)

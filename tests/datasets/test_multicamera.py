@@ -10,6 +10,7 @@ from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.takes import discover_takes, find_calibration
 from gesturebank.extract.pipeline import extract_take
+from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.qc.repair import repair_pose2d, repair_pose3d
@@ -72,7 +73,7 @@ def test_pose2sim_demo_builds_as_a_multi_camera_take(samples: Path, tmp_path: Pa
         ]
         for v in ordered
     ]
-    lifted = MultiviewLifter(config, cameras=cams).lift(poses)
+    lifted = MultiviewLifter.from_config(config).lift(TakeViews.of(poses, cams))
     expected, _ = repair_pose3d(lifted, config=config.repair)
     frames = np.searchsorted(expected.timestamps, clip.timestamps + clip.start_s - 1e-9)
     np.testing.assert_allclose(clip.pose3d.joints, expected.joints[frames], atol=1e-5)

@@ -31,7 +31,7 @@ def manifest(n_subjects: int, takes_per_subject: int = 2, frames: int = 1000) ->
 
 
 def test_si_folds_match_table_4_4() -> None:
-    folds = subject_independent(manifest(19), 10)
+    folds = subject_independent(manifest(19), config=SplitsConfig(folds=10))
     assert len(folds) == 10
     subjects = {f"s{s:02d}" for s in range(19)}
     sizes = Counter(tuple(len(f["subjects"][p]) for p in ("train", "val", "test")) for f in folds)
@@ -49,11 +49,15 @@ def test_si_folds_match_table_4_4() -> None:
 
 
 def test_si_is_seeded_and_needs_three_subjects() -> None:
-    assert subject_independent(manifest(7), seed=3) == subject_independent(manifest(7), seed=3)
-    assert subject_independent(manifest(7), seed=3) != subject_independent(manifest(7), seed=4)
-    assert len(subject_independent(manifest(4), 10)) == 4  # k never exceeds the subject count
+    def seeded(seed: int) -> list[dict[str, object]]:
+        return subject_independent(manifest(7), config=SplitsConfig(seed=seed))
+
+    assert seeded(3) == seeded(3)
+    assert seeded(3) != seeded(4)
+    ten = SplitsConfig(folds=10)
+    assert len(subject_independent(manifest(4), config=ten)) == 4  # k never exceeds the subjects
     with pytest.raises(InputError, match="at least 3 subjects"):
-        subject_independent(manifest(2))
+        subject_independent(manifest(2), config=SplitsConfig())
 
 
 def test_rejected_excluded_unless_asked_failed_never() -> None:
@@ -61,16 +65,17 @@ def test_rejected_excluded_unless_asked_failed_never() -> None:
     status = {"s00_t0__c000": "rejected", "s00_t0__c002": "failed"}
     for r in m:
         r["qc_status"] = status.get(r["clip_id"], r["qc_status"])
-    every = {t for f in subject_independent(m, include_rejected=False) for t in f["test"]}
+    every = {t for f in subject_independent(m, config=SplitsConfig()) for t in f["test"]}
     assert "s00_t0__c000" not in every and "s00_t0__c002" not in every
     assert "s00_t1__c000" in every
-    every = {t for f in subject_independent(m, include_rejected=True) for t in f["test"]}
+    with_rejected = SplitsConfig(include_rejected=True)
+    every = {t for f in subject_independent(m, config=with_rejected) for t in f["test"]}
     assert "s00_t0__c000" in every and "s00_t0__c002" not in every
 
 
 def test_sd_cuts_each_subject_by_time() -> None:
     m = manifest(3, takes_per_subject=3, frames=333)
-    sd = subject_dependent(m)
+    sd = subject_dependent(m, config=SplitsConfig())
     for subject, parts in sd["subjects"].items():
         clips = [r for r in m if r["subject"] == subject and r["kind"] == "clip"]
         total = sum(r["n_frames"] for r in clips)

@@ -93,7 +93,7 @@ def test_manifest_has_a_row_per_clip_and_per_span(tmp_path: Path) -> None:
     store.write_take(tmp_path, record("a", a, spans=[span], traits={"age": "30"}), a)
     failed = store.TakeRecord("c", "s2", "c.mp4", "d1", failed="c.mp4: corrupt", seconds=7.0)
     store.write_take(tmp_path, failed)
-    table = store.write_manifest(tmp_path, store.records(tmp_path))
+    table = store.write_manifest(tmp_path, store.take_records(tmp_path))
     rows = table.to_pylist()
     assert [(r["clip_id"], r["kind"], r["qc_status"]) for r in rows] == [
         ("a__c000", "clip", "accepted"),

@@ -12,10 +12,10 @@ import pytest
 
 from gesturebank.config import DetectorConfig, VideoConfig
 from gesturebank.errors import DetectionError
-from gesturebank.extract.detectors import DETECTORS, Frame, MultiPose2D
+from gesturebank.extract.detectors import DETECTORS, Frame
 from gesturebank.extract.detectors import blazepose as bp
 from gesturebank.extract.video import iter_frames
-from gesturebank.poses import Pose2D
+from gesturebank.poses import MultiPose2D, Pose2D
 
 UPPER = [*range(17), 23, 24]  # face, shoulders, elbows, wrists, hips
 SINGLE = ("cam01", "cam02", "cam03", "cam04")

@@ -12,11 +12,12 @@ import pytest
 
 from gesturebank.config import DetectorConfig, TrackingConfig
 from gesturebank.errors import DetectionError
-from gesturebank.extract.detectors import DETECTORS, MultiPose2D
+from gesturebank.extract.audio_io import Audio, read_audio
+from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.identity import find_switches, link, shot_index, split_at_cuts
 from gesturebank.extract.tracking import TERMS, TrackReport, main_speaker
-from gesturebank.extract.video import Audio, iter_frames, read_audio
-from gesturebank.poses import Pose2D
+from gesturebank.extract.video import iter_frames
+from gesturebank.poses import MultiPose2D, Pose2D
 from gesturebank.skeletons import BLAZEPOSE33, COCO17
 
 SIZE_S2D = (1768, 994)
@@ -91,7 +92,7 @@ def test_people_crossing_keep_their_identity(same_shape: bool) -> None:
         [person(xs[t], 450), person(xs[::-1][t] + 3, 450, arms_up=not same_shape)] for t in range(n)
     ]
     multi = scene(frames, shuffle=3)
-    ids = link(multi, gate=0.25)
+    ids = link(multi, config=TrackingConfig())
     a = track_of(multi, ids, lambda x, t: abs(x - xs[t]) < 1)
     b = track_of(multi, ids, lambda x, t: abs(x - xs[::-1][t] - 3) < 1)
     assert len(set(a)) == 1 and len(set(b)) == 1 and a[0] != b[0]
@@ -108,7 +109,7 @@ def test_person_leaving_and_another_entering() -> None:
             people.append(person(100, 450, height=200))  # someone new, 2.7 s later
         frames.append(people)
     multi = scene(frames, shuffle=1)
-    ids = link(multi, gate=0.25)
+    ids = link(multi, config=TrackingConfig())
     stay = track_of(multi, ids, lambda x, t: abs(x - 300) < 1)
     assert len(set(stay)) == 1
     assert len(np.unique(ids[ids >= 0])) == 3
@@ -119,20 +120,20 @@ def test_jump_beyond_gate_starts_a_new_identity_and_is_reported() -> None:
     # One detection per frame, as a single-person detector gives: it jumps to someone else.
     frames = [[person(200, 450)] for _ in range(10)] + [[person(800, 450)] for _ in range(10)]
     multi = scene(frames)
-    ids = link(multi, gate=0.25)  # 600 px > 292 px
+    ids = link(multi, config=TrackingConfig())  # 600 px > 292 px
     assert len(set(ids[:10, 0])) == 1 and len(set(ids[10:, 0])) == 1 and ids[0, 0] != ids[10, 0]
     switches = find_switches(multi.timestamps, ids)
     assert len(switches) == 1
     assert switches[0].timestamp == pytest.approx(10 / FPS)
     assert (switches[0].old_id, switches[0].new_id) == (ids[0, 0], ids[10, 0])
     # A generous gate keeps one identity.
-    assert len(set(link(multi, gate=0.6)[:, 0])) == 1
+    assert len(set(link(multi, config=TrackingConfig(gate=0.6))[:, 0])) == 1
 
 
 def test_small_moves_within_the_gate_keep_the_identity() -> None:
     rng = np.random.default_rng(0)
     frames = [[person(500 + 20 * np.sin(t / 5), 450 + rng.normal(0, 3))] for t in range(60)]
-    assert len(set(link(scene(frames))[:, 0])) == 1
+    assert len(set(link(scene(frames), config=TrackingConfig())[:, 0])) == 1
 
 
 def test_main_speaker_is_large_central_and_present() -> None:
@@ -474,7 +475,7 @@ def test_blazepose_on_the_two_person_demo_keeps_the_man(samples: Path) -> None:
     video = samples / "talking" / "outdoor" / "sports2d_arctic.mp4"
     detector = DETECTORS.create("blazepose", DetectorConfig(max_people=2))
     multi = detector.detect_people(iter_frames(video))
-    tracked = main_speaker(multi, audio=read_audio(video))
+    tracked = main_speaker(multi, audio=read_audio(video, sample_rate=16000))
     report = tracked.report
     kp = tracked.pose.keypoints
     first = report.main_ids[60]

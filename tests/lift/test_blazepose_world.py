@@ -8,7 +8,7 @@ import pytest
 from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.extract.pipeline import extract_take
-from gesturebank.lift import LIFTERS
+from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.poses import Pose2D
 from gesturebank.skeletons import COCO17
 
@@ -19,7 +19,7 @@ J = COCO17.index
 def cam01_3d(samples: Path):
     video = samples / "pose2sim/Demo_SinglePerson/videos/cam01.mp4"
     pose2d = extract_take(video, Config()).tracked.pose
-    return pose2d, LIFTERS.create("blazepose-world").lift(pose2d)
+    return pose2d, LIFTERS.create("blazepose-world", Config()).lift(TakeViews.of(pose2d))
 
 
 def test_metric_right_handed_and_plausible(cam01_3d) -> None:
@@ -51,4 +51,4 @@ def test_confidence_is_the_visibility_and_missing_stays_nan(cam01_3d) -> None:
 def test_needs_world_landmarks() -> None:
     pose = Pose2D(np.zeros((2, 17, 3)), np.arange(2.0), "coco17", (10, 10))
     with pytest.raises(InputError, match="world landmarks"):
-        LIFTERS.create("blazepose-world").lift(pose)
+        LIFTERS.create("blazepose-world", Config()).lift(TakeViews.of(pose))

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from gesturebank.config import BoardConfig
 from gesturebank.errors import CalibrationError
-from gesturebank.lift.multiview.calibrate import BoardConfig, calibrate_intrinsics
+from gesturebank.lift.multiview.calibrate import calibrate_intrinsics
 
 DEMO = "pose2sim/Demo_SinglePerson/calibration"
 
@@ -171,4 +172,16 @@ def test_calibrate_command_writes_the_toml_multiview_reads(samples: Path, tmp_pa
     )
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "found in 0 of 7" in r.stderr
+    assert not bad.exists()
+
+    # The board is the [board] section: --set reaches it, a bad value is one line, exit 2.
+    r = subprocess.run(
+        [*cmd[:-1], str(bad), "--set", "board.kind=charuco", "--set", "board.marker_size=0.1"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "board: " in r.stderr and "marker_size" in r.stderr
     assert not bad.exists()

@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from gesturebank.config import Config, FittedConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.extract.pipeline import extract_take
-from gesturebank.lift import LIFTERS
+from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.fitted import FittedLifter
 from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
@@ -84,6 +84,11 @@ def camera() -> Camera:
     return Camera("synthetic", SIZE, K, np.zeros(5), np.eye(3), np.zeros(3))
 
 
+def view(pose: Pose2D, cam: Camera | None = None) -> TakeViews:
+    """One view, calibrated by `cam` when given."""
+    return TakeViews.of(pose, None if cam is None else CameraGroup([cam]))
+
+
 def fixed_lengths() -> FittedConfig:
     return FittedConfig(length_weight=None, smoothness=0.0)
 
@@ -121,8 +126,8 @@ def test_exact_recovery_under_perspective() -> None:
     for cam in (camera(), None):
         fov = np.rad2deg(2 * np.arctan(max(SIZE) / 2 / FOCAL))
         opts = fixed_lengths().model_copy(update={"fov_deg": fov})
-        lifted, report = FittedLifter(options=opts, camera=cam).lift_with_report(
-            pose2d(joints, times, prior)
+        lifted, report = FittedLifter(fitted=opts).lift_with_report(
+            view(pose2d(joints, times, prior), cam)
         )
         err = np.linalg.norm(lifted.joints[:, :N_JOINTS] - joints, axis=-1)
         print(f"\nmax error {1000 * err.max():.1f} mm, max reprojection "
@@ -145,7 +150,7 @@ def test_the_image_corrects_a_noisy_prior() -> None:
     bones = noise.apply(truth.reshape(-1, 3)).reshape(truth.shape)
     bones[:, 3:7] *= 0.85  # upper arms and forearms
     prior = skeleton_joints(np.zeros((60, 3)), bones)
-    lifted, report = FittedLifter(camera=camera()).lift_with_report(pose2d(joints, times, prior))
+    lifted, report = FittedLifter().lift_with_report(view(pose2d(joints, times, prior), camera()))
     fitted = bone_vectors(lifted.joints.astype(np.float64))
 
     def angle(a: np.ndarray) -> float:
@@ -164,7 +169,8 @@ def test_a_prior_pointing_the_wrong_way_is_flagged() -> None:
     joints, times = scene(T=20)
     prior = joints.copy()
     prior[:, 9] = 2 * joints[:, 7] - joints[:, 9]  # the left forearm the other way round
-    _, report = FittedLifter(options=fixed_lengths()).lift_with_report(pose2d(joints, times, prior))
+    lifter = FittedLifter(fitted=fixed_lengths())
+    _, report = lifter.lift_with_report(view(pose2d(joints, times, prior)))
     assert report.disagree[:, COCO17.index["left_wrist"]].all()
     assert not report.disagree[:, COCO17.index["right_wrist"]].any()
 
@@ -175,21 +181,22 @@ def test_invariant_to_the_prior_s_translation_and_equivariant_to_a_turn(seed: in
     about the camera's centre is lifted turned (within the fit's tolerance)."""
     rng = np.random.default_rng(seed)
     joints, times = scene(T=20, seed=seed)
-    lifter = FittedLifter(options=fixed_lengths(), camera=camera())
+    lifter = FittedLifter(fitted=fixed_lengths())
     prior = blazepose_like(joints)
-    base = lifter.lift(pose2d(joints, times, prior)).joints
-    moved = lifter.lift(pose2d(joints, times, prior + rng.normal(0, 1, 3))).joints
+    base = lifter.lift(view(pose2d(joints, times, prior), camera())).joints
+    moved = lifter.lift(view(pose2d(joints, times, prior + rng.normal(0, 1, 3)), camera())).joints
     np.testing.assert_allclose(moved, base, atol=1e-4)
     turn = Rotation.from_rotvec(rng.normal(0, 0.05, 3))
     turned = turn.apply(joints.reshape(-1, 3)).reshape(joints.shape)
-    out = lifter.lift(pose2d(turned, times, blazepose_like(turned))).joints[:, :N_JOINTS]
+    lifted = lifter.lift(view(pose2d(turned, times, blazepose_like(turned)), camera()))
+    out = lifted.joints[:, :N_JOINTS]
     expected = turn.apply(base[:, :N_JOINTS].reshape(-1, 3)).reshape(out.shape)
     assert np.abs(out - expected).max() < 0.005
 
 
 def test_without_world_landmarks_the_geometric_prior_is_used() -> None:
     joints, times = scene(T=15)
-    lifted, report = FittedLifter().lift_with_report(pose2d(joints, times, None))
+    lifted, report = FittedLifter().lift_with_report(view(pose2d(joints, times, None)))
     assert report.prior == "geometric" and lifted.frame == "camera"
     assert np.isfinite(lifted.joints[:, :N_JOINTS]).all()
     assert np.nanmedian(report.reprojection_px) < 5.0
@@ -203,14 +210,14 @@ def test_beats_blazepose_world_on_a_real_demo_camera(samples: Path) -> None:
     full_rate = Config.model_validate({"video": {"max_fps": None}})  # as the demo tests: cached
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
     poses = [extract_take(v, full_rate, with_audio=False).tracked.pose for v in videos]
-    reference = pepper_angles(MultiviewLifter(cameras=cams).lift(poses))
+    reference = pepper_angles(MultiviewLifter().lift(TakeViews.of(poses, cams)))
 
     def error(angles: np.ndarray) -> float:
         d = np.abs(angles - reference)
         return float(np.rad2deg(np.nanmean(np.minimum(d, 2 * np.pi - d))))
 
-    fitted = error(pepper_angles(FittedLifter(camera=cams[2]).lift(poses[2])))
-    learned = error(pepper_angles(LIFTERS.create("blazepose-world", Config()).lift(poses[2])))
+    fitted = error(pepper_angles(FittedLifter().lift(view(poses[2], cams[2]))))
+    learned = error(pepper_angles(LIFTERS.create("blazepose-world", Config()).lift(view(poses[2]))))
     print(f"\ncam03: fitted {fitted:.1f} deg, blazepose-world {learned:.1f} deg")
     assert fitted < learned
 

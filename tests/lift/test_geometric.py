@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gesturebank.config import RetargetConfig
+from gesturebank.lift import TakeViews
 from gesturebank.lift.geometric import GeometricConfig, GeometricLifter
 from gesturebank.poses import Pose2D
 from gesturebank.robot import pepper, retarget
@@ -31,7 +32,7 @@ N_REST, N_GESTURE = 60, 300
 
 def lifter(**options: object) -> GeometricLifter:
     """A lifter with these GeometricConfig options."""
-    return GeometricLifter(options=GeometricConfig(**options))  # type: ignore[arg-type]
+    return GeometricLifter(geometric=GeometricConfig(**options))  # type: ignore[arg-type]
 
 
 def wrap(x: np.ndarray) -> np.ndarray:
@@ -128,7 +129,7 @@ def test_recovers_arm_angles_orthographic():
     """Orthographic camera and every assumption true: the model is exact, so the only error left
     is retargeting's own round-trip error (< 0.5° on the ideal FK) plus float32 pixels."""
     angles, points = scene()
-    pose, report = lifter().lift_with_report(detect(points))
+    pose, report = lifter().lift_with_report(TakeViews.of(detect(points)))
     assert report.counts()["flagged"] == 0
     err = deg_err(pepper_angles(pose), angles)[N_REST:]
     cols = [J[a] for a in [*ARM_ANGLES, "HipRoll"]]
@@ -140,7 +141,9 @@ def test_pinhole_camera_error_is_bounded():
     """A pinhole camera 3 m away breaks A1 (the hands, up to 0.33 m nearer, look 12 % larger):
     the error is no longer zero but stays moderate on average (measured ≤ 8° mean per angle)."""
     angles, points = scene()
-    err = deg_err(pepper_angles(lifter().lift(detect(points, distance=3.0))), angles)[N_REST:]
+    err = deg_err(pepper_angles(lifter().lift(TakeViews.of(detect(points, distance=3.0)))), angles)[
+        N_REST:
+    ]
     for name in ARM_ANGLES:
         assert np.nanmean(err[:, J[name]]) < 10.0, name
     assert np.nanmedian(err[:, [J[a] for a in ARM_ANGLES]]) < 5.0
@@ -152,7 +155,7 @@ def test_output_frame_is_right_handed_x_right_y_up_z_to_camera():
     a[0, J["LShoulderPitch"]], a[0, J["LShoulderRoll"]] = 0.3, 0.1  # left arm well in front
     a[0, J["LElbowRoll"]] = -0.5
     pose = lifter().lift(
-        detect(np.concatenate([points[:N_REST], pepper.fk_coco17(a, model="ideal")]))
+        TakeViews.of(detect(np.concatenate([points[:N_REST], pepper.fk_coco17(a, model="ideal")])))
     )
     j = pose.joints[-1]
     assert j[K["left_shoulder"], 0] > j[K["right_shoulder"], 0]  # person's left = image right
@@ -195,7 +198,7 @@ def test_depth_is_foreshortening_formula(length, tilts):
     (tilt 0); every depth must then be sqrt(ℓ² − ℓ_m²), towards the camera, in image heights."""
     tilts = np.array([0.0, *tilts])
     pose2d = _one_arm_take(length, tilts)
-    pose = lifter(length_percentile=100.0).lift(pose2d)
+    pose = lifter(length_percentile=100.0).lift(TakeViews.of(pose2d))
     kp = pose2d.keypoints.astype(np.float64)
     upper = np.abs(kp[:, K["left_elbow"], 1] - kp[:, K["left_shoulder"], 1])
     fore = np.abs(kp[:, K["left_wrist"], 1] - kp[:, K["left_elbow"], 1])
@@ -223,7 +226,7 @@ def test_invariant_to_image_translation_and_uniform_scale(dx, dy, k16):
     kp[..., :2] = (kp[..., :2] + (dx, dy)) * k
     size = (SIZE[0] * k16 // 16, SIZE[1] * k16 // 16)
     moved = Pose2D(kp, pose2d.timestamps, "coco17", size)
-    base, got = lifter().lift(pose2d), lifter().lift(moved)
+    base, got = lifter().lift(TakeViews.of(pose2d)), lifter().lift(TakeViews.of(moved))
     np.testing.assert_allclose(got.joints, base.joints, atol=1e-3, equal_nan=True)
     np.testing.assert_allclose(got.confidence, base.confidence, equal_nan=True)
 
@@ -237,7 +240,7 @@ def test_metres_from_assumed_shoulder_width(k):
     kp = pose2d.keypoints.copy()
     kp[..., :2] *= k
     pose = lifter(units="m", shoulder_width_m=0.4).lift(
-        Pose2D(kp, pose2d.timestamps, "coco17", SIZE)
+        TakeViews.of(Pose2D(kp, pose2d.timestamps, "coco17", SIZE))
     )
     width = np.linalg.norm(pose.joint("left_shoulder") - pose.joint("right_shoulder"), axis=-1)
     assert pose.units == "m"
@@ -273,7 +276,7 @@ def _behind_and_front_take() -> tuple[Pose2D, np.ndarray, np.ndarray]:
 def test_arm_behind_the_torso_is_flagged():
     pose2d, is_behind, is_front = _behind_and_front_take()
     assert (pose2d.confidence[is_behind, K["left_wrist"]] == HIDDEN).all()  # the scene is right
-    pose, report = lifter().lift_with_report(pose2d)
+    pose, report = lifter().lift_with_report(TakeViews.of(pose2d))
     le, lw = K["left_elbow"], K["left_wrist"]
     np.testing.assert_array_equal(report.behind[:, le], is_behind)
     np.testing.assert_array_equal(report.behind[:, lw], is_behind)
@@ -299,7 +302,9 @@ def test_bone_longer_than_its_length_is_flagged():
     kp[glitch, lw, :2] = (
         kp[glitch, le, :2] + 1.4 * full * fore / np.linalg.norm(fore, axis=1)[:, None]
     )
-    pose, report = lifter().lift_with_report(Pose2D(kp, pose2d.timestamps, "coco17", SIZE))
+    pose, report = lifter().lift_with_report(
+        TakeViews.of(Pose2D(kp, pose2d.timestamps, "coco17", SIZE))
+    )
     np.testing.assert_array_equal(report.too_long[:, lw], glitch)
     assert not report.too_long[:, [le, K["right_wrist"], K["nose"]]].any()
     np.testing.assert_array_equal(report.flagged_frames, glitch)
@@ -319,8 +324,8 @@ def test_running_max_under_estimates_early_frames():
     tilt = 0.6
     pose2d = _one_arm_take(150.0, np.array([tilt, 0.0, 0.0, 0.0, 0.0]))
     want = 150.0 * np.sin(tilt) / SIZE[1]
-    robust = lifter().lift(pose2d).joints[0, K["left_elbow"], 2]
-    causal = lifter(robust_lengths=False).lift(pose2d).joints[0, K["left_elbow"], 2]
+    robust = lifter().lift(TakeViews.of(pose2d)).joints[0, K["left_elbow"], 2]
+    causal = lifter(robust_lengths=False).lift(TakeViews.of(pose2d)).joints[0, K["left_elbow"], 2]
     assert robust == pytest.approx(want, rel=1e-3)
     assert causal == pytest.approx(0.0, abs=1e-6)
 
@@ -328,9 +333,11 @@ def test_running_max_under_estimates_early_frames():
 def test_without_sign_priors_only_decidable_depths_are_kept():
     _, points = scene()
     pose2d = detect(points)
-    ref = lifter().lift(pose2d)
+    ref = lifter().lift(TakeViews.of(pose2d))
     le, lw, nose = K["left_elbow"], K["left_wrist"], K["nose"]
-    pose, report = lifter(arms_in_front=False, head_in_front=False).lift_with_report(pose2d)
+    pose, report = lifter(arms_in_front=False, head_in_front=False).lift_with_report(
+        TakeViews.of(pose2d)
+    )
     # The torso is untouched; in-plane elbows (rest frames) keep their depth, tilted ones are NaN.
     np.testing.assert_array_equal(pose.joints[:, K["left_hip"]], ref.joints[:, K["left_hip"]])
     length = FOCAL * 0.1812 / SIZE[1]
@@ -346,8 +353,8 @@ def test_without_sign_priors_only_decidable_depths_are_kept():
 def test_wrist_without_prior_is_kept_only_when_in_front_decides():
     _, points = scene()
     pose2d = detect(points)
-    ref = lifter().lift(pose2d)
-    pose, report = lifter(wrist_beyond_elbow=False).lift_with_report(pose2d)
+    ref = lifter().lift(TakeViews.of(pose2d))
+    pose, report = lifter(wrist_beyond_elbow=False).lift_with_report(TakeViews.of(pose2d))
     lw, le = K["left_wrist"], K["left_elbow"]
     ze, dz = ref.joints[:, le, 2], ref.joints[:, lw, 2] - ref.joints[:, le, 2]
     length = FOCAL * 0.15 / SIZE[1]
@@ -382,8 +389,10 @@ def test_turned_torso_needs_the_torso_switch():
     angles = np.concatenate([rest, gestures[ok]])
     pose2d = detect(np.concatenate([pepper.fk_coco17(rest, model="ideal"), turned[ok]]))
     cols = [J[a] for a in ARM_ANGLES]
-    err_on = deg_err(pepper_angles(lifter().lift(pose2d)), angles)[N_REST:, cols]
-    err_off = deg_err(pepper_angles(lifter(torso_facing_camera=False).lift(pose2d)), angles)
+    err_on = deg_err(pepper_angles(lifter().lift(TakeViews.of(pose2d))), angles)[N_REST:, cols]
+    err_off = deg_err(
+        pepper_angles(lifter(torso_facing_camera=False).lift(TakeViews.of(pose2d))), angles
+    )
     assert err_off[N_REST:, cols].max() < 0.5
     assert err_on.mean() > 5.0  # the switch matters
 
@@ -395,11 +404,11 @@ def test_turned_torso_needs_the_torso_switch():
 def test_any_skeleton_gives_the_same_lift():
     _, points = scene()
     pose2d = detect(points)
-    ref = lifter().lift(pose2d)
+    ref = lifter().lift(TakeViews.of(pose2d))
     for name in ("body25", "halpe26", "blazepose33"):
         other = get_skeleton(name)
         kp = COCO17.convert(pose2d.keypoints, other)
-        got = lifter().lift(Pose2D(kp, pose2d.timestamps, name, SIZE))
+        got = lifter().lift(TakeViews.of(Pose2D(kp, pose2d.timestamps, name, SIZE)))
         np.testing.assert_array_equal(got.joints, ref.joints)
         assert got.meta["source_skeleton"] == name
 
@@ -412,7 +421,7 @@ def test_missing_keypoints_give_nan_never_zero():
     kp[6, K["left_wrist"]] = np.nan
     kp[7, K["left_shoulder"]] = np.nan
     kp[8, K["right_elbow"], 2] = 0.01  # below min_confidence: treated as missing
-    pose = lifter().lift(Pose2D(kp, pose2d.timestamps, "coco17", SIZE))
+    pose = lifter().lift(TakeViews.of(Pose2D(kp, pose2d.timestamps, "coco17", SIZE)))
     assert np.isnan(pose.joints[5]).all() and np.isnan(pose.confidence[5]).all()
     lost = np.isnan(pose.joints[6]).any(axis=-1)
     assert lost[K["left_wrist"]] and lost.sum() == 5  # the wrist and the legs
@@ -430,6 +439,8 @@ def test_missing_keypoints_give_nan_never_zero():
 
 def test_nothing_detected_is_all_nan():
     kp = np.full((4, 17, 3), np.nan)
-    pose, report = lifter().lift_with_report(Pose2D(kp, np.arange(4.0), "coco17", SIZE))
+    pose, report = lifter().lift_with_report(
+        TakeViews.of(Pose2D(kp, np.arange(4.0), "coco17", SIZE))
+    )
     assert np.isnan(pose.joints).all() and np.isnan(pose.confidence).all()
     assert report.counts()["flagged"] == 0

@@ -13,6 +13,7 @@ from gesturebank.config import Config, MultiviewConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.extract.pipeline import extract_take
+from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras, match_videos
 from gesturebank.poses import Pose2D
@@ -64,9 +65,11 @@ def raw_reprojection(
 
 def test_demo_reprojection_error(demo: tuple[list[Pose2D], CameraGroup]) -> None:
     poses, cams = demo
-    pose3d, report = MultiviewLifter(MultiviewConfig()).lift_with_report(poses, cams)
-    all_views, _ = MultiviewLifter(MultiviewConfig(max_error_px=1e6, reject_error_px=None)
-                                   ).lift_with_report(poses, cams)  # fmt: skip
+    pose3d, report = MultiviewLifter(multiview=MultiviewConfig()).lift_with_report(
+        TakeViews.of(poses, cams)
+    )
+    everything = MultiviewConfig(max_error_px=1e6, reject_error_px=None)
+    all_views, _ = MultiviewLifter(multiview=everything).lift_with_report(TakeViews.of(poses, cams))
     err = raw_reprojection(pose3d.joints, report.triangulation.used, poses, cams, report.labels)
     used_all = np.isfinite(all_views.joints).all(-1)[None] & np.stack(
         [(p.to_coco17().confidence >= 0.3) for p in poses]
@@ -95,7 +98,7 @@ def test_demo_reprojection_error(demo: tuple[list[Pose2D], CameraGroup]) -> None
 
 def test_demo_pose_is_a_person_in_metres(demo: tuple[list[Pose2D], CameraGroup]) -> None:
     poses, cams = demo
-    pose3d = MultiviewLifter(cameras=cams).lift(poses)
+    pose3d = MultiviewLifter().lift(TakeViews.of(poses, cams))
     assert pose3d.units == "m" and pose3d.frame == "world" and len(pose3d) == 100
     np.testing.assert_array_equal(pose3d.timestamps, poses[0].timestamps)
     shoulders = np.linalg.norm(
@@ -124,11 +127,10 @@ def test_demo_unsynchronised_camera_is_realigned(demo: tuple[list[Pose2D], Camer
         poses[3].skeleton,
         poses[3].image_size,
     )
-    views = [poses[0], poses[1], poses[2], late]
-    naive = MultiviewLifter(MultiviewConfig(), cameras=cams).lift_with_report(views)[1]
-    synced = MultiviewLifter(MultiviewConfig(sync="motion"), cameras=cams).lift_with_report(views)[
-        1
-    ]
+    views = TakeViews.of([poses[0], poses[1], poses[2], late], cams)
+    naive = MultiviewLifter(multiview=MultiviewConfig()).lift_with_report(views)[1]
+    motion = MultiviewConfig(sync="motion")
+    synced = MultiviewLifter(multiview=motion).lift_with_report(views)[1]
     found = synced.offsets_s[3] * 60
     print(f"\ncam04 offset found {found:+.2f} frames (true {-drop}); median error "
           f"{np.nanmedian(naive.triangulation.error):.1f} px unsynced → "
@@ -145,8 +147,8 @@ def test_toml_calibration_gives_the_same_pose(
     path = tmp_path / "calibration.toml"
     cams.save(path)
     assert find_calibration(tmp_path) == path
-    a = MultiviewLifter(cameras=cams).lift(poses).joints
-    b = MultiviewLifter(cameras=CameraGroup.load(path)).lift(poses).joints
+    a = MultiviewLifter().lift(TakeViews.of(poses, cams)).joints
+    b = MultiviewLifter().lift(TakeViews.of(poses, CameraGroup.load(path))).joints
     np.testing.assert_allclose(a, b, atol=1e-5)
 
 
@@ -170,10 +172,11 @@ def test_take_folder_helpers(samples: Path, tmp_path: Path) -> None:
 def test_bad_lifter_inputs(demo: tuple[list[Pose2D], CameraGroup]) -> None:
     poses, cams = demo
     with pytest.raises(InputError, match="two or more views"):
-        MultiviewLifter(cameras=cams).lift(poses[0])
+        MultiviewLifter().lift(TakeViews.of(poses[0], cams))
     with pytest.raises(InputError, match="3 views but 4 cameras"):
-        MultiviewLifter(cameras=cams).lift(poses[:3])
+        MultiviewLifter().lift(TakeViews.of(poses[:3], cams))
     with pytest.raises(CalibrationError, match="no cameras"):
-        MultiviewLifter().lift(poses)
+        MultiviewLifter().lift(TakeViews.of(poses))
     with pytest.raises(InputError, match="offsets_s"):
-        MultiviewLifter(MultiviewConfig(offsets_s=[0.0, 0.1]), cameras=cams).lift(poses)
+        two = MultiviewConfig(offsets_s=[0.0, 0.1])
+        MultiviewLifter(multiview=two).lift(TakeViews.of(poses, cams))

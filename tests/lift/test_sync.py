@@ -12,8 +12,8 @@ import pytest
 
 from gesturebank.config import Config
 from gesturebank.errors import InputError
+from gesturebank.extract.audio_io import Audio, read_audio
 from gesturebank.extract.pipeline import extract_take
-from gesturebank.extract.video import Audio, read_audio
 from gesturebank.lift.multiview.sync import (
     align,
     audio_offset,
@@ -33,7 +33,7 @@ def write_late_copy(src: Path, dst: Path, drop_frames: int) -> None:
     """A copy of `src` as a camera would have filmed it had it started `drop_frames` video
     frames later: video from that frame on, audio from the same instant, both re-encoded
     (H.264 at quarter size, AAC 16 kHz mono), timestamps starting at 0."""
-    audio = read_audio(src, SR)
+    audio = read_audio(src, sample_rate=SR)
     assert audio is not None and audio.start_offset_s == 0.0
     with av.open(str(src)) as inp, av.open(str(dst), "w") as out:
         vin = inp.streams.video[0]
@@ -62,7 +62,7 @@ def test_audio_realigns_a_late_camera(samples: Path, tmp_path: Path, drop_frames
     src = samples / TALKING
     late = tmp_path / "late.mp4"
     write_late_copy(src, late, drop_frames)
-    a_ref, a_late = read_audio(src, SR), read_audio(late, SR)
+    a_ref, a_late = read_audio(src, sample_rate=SR), read_audio(late, sample_rate=SR)
     assert a_ref is not None and a_late is not None
     lag = audio_offset(a_ref, a_late, max_lag_s=1.0)
     expected = -drop_frames / FPS  # the late camera's clock is behind by that much
@@ -78,7 +78,7 @@ def test_audio_realigns_a_late_camera(samples: Path, tmp_path: Path, drop_frames
 
 @pytest.mark.parametrize("shift", [1234, -777, 0])
 def test_shifted_speech_samples_realign_exactly(samples: Path, shift: int) -> None:
-    speech = read_audio(samples / "speech/arctic_a0007.wav", SR)
+    speech = read_audio(samples / "speech/arctic_a0007.wav", sample_rate=SR)
     assert speech is not None
     x = speech.signal
     # `other` hears the same sound `shift` samples later (earlier if negative).
@@ -90,7 +90,7 @@ def test_shifted_speech_samples_realign_exactly(samples: Path, shift: int) -> No
 
 def test_audio_start_offsets_are_accounted_for(samples: Path) -> None:
     """The same track, but the container says audio starts 0.25 s after the first frame."""
-    speech = read_audio(samples / "speech/arctic_a0007.wav", SR)
+    speech = read_audio(samples / "speech/arctic_a0007.wav", sample_rate=SR)
     assert speech is not None
     late = Audio(speech.signal, SR, 0.25)
     assert audio_offset(speech, late).seconds == pytest.approx(0.25, abs=1 / SR)
@@ -158,7 +158,7 @@ def test_motion_realigns_another_late_view(demo_poses: list[Pose2D], drop_frames
 def test_auto_prefers_audio_and_falls_back_to_motion(
     samples: Path, demo_poses: list[Pose2D]
 ) -> None:
-    speech = read_audio(samples / TALKING, SR)
+    speech = read_audio(samples / TALKING, sample_rate=SR)
     assert speech is not None
     poses = [demo_poses[0], demo_poses[1], demo_poses[2]]
     shifted = Audio(speech.signal, SR, 0.05)

@@ -7,12 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gesturebank.config import MultiviewConfig
 from gesturebank.errors import InputError
 from gesturebank.lift.multiview import triangulate as tri_mod
 from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.refine import refine
 from gesturebank.lift.multiview.robust import Views, fix_swaps, make_consistent, relabel, untangle
-from gesturebank.lift.multiview.triangulate import dlt, triangulate
+from gesturebank.lift.multiview.triangulate import Triangulation, dlt, triangulate
 from gesturebank.skeletons import COCO17
 
 
@@ -34,6 +35,20 @@ SKELETON = np.array(
         [0.12, 0.0, 0.08], [-0.12, 0.0, 0.08],  # ankles
     ]
 )  # fmt: skip
+
+
+def solve(
+    pixels: np.ndarray, confidence: np.ndarray, cameras: CameraGroup, **options: float
+) -> Triangulation:
+    """`triangulate` with the `multiview` section's defaults, `options` changed."""
+    cfg = MultiviewConfig()
+    defaults = {
+        "min_confidence": cfg.min_confidence,
+        "max_error_px": cfg.max_error_px,
+        "min_cameras": cfg.min_cameras,
+        "max_combinations": cfg.max_combinations,
+    }
+    return triangulate(pixels, confidence, cameras, **(defaults | options))  # type: ignore[arg-type]
 
 
 def look_at(center: np.ndarray, target: np.ndarray, name: str, f: float = 1400.0) -> Camera:
@@ -72,7 +87,7 @@ def test_noiseless_views_are_recovered_exactly() -> None:
     cams = ring(4)
     X = motion(10, rng)
     px = cams.project(X)
-    res = triangulate(px, np.ones(px.shape[:-1]), cams)
+    res = solve(px, np.ones(px.shape[:-1]), cams)
     np.testing.assert_allclose(res.points, X, atol=1e-6)
     assert np.nanmax(res.error) < 1e-4
     assert res.used.all()
@@ -85,7 +100,7 @@ def test_noise_and_a_corrupted_camera_is_excluded() -> None:
     px = cams.project(X) + rng.normal(0, 1.0, (6, 30, 17, 2))  # 1 px detector noise
     px[3] += np.array([45.0, -30.0])  # camera 3 is badly off (e.g. a wrong person)
     conf = rng.uniform(0.6, 1.0, px.shape[:-1])
-    res = triangulate(px, conf, cams, max_error_px=8.0)
+    res = solve(px, conf, cams, max_error_px=8.0)
     err3d = np.linalg.norm(res.points - X, axis=-1)
     # 1 px at 4 m with f = 1400 is ~3 mm; five good views average it down further.
     assert np.median(err3d) < 0.005 and err3d.max() < 0.02
@@ -93,7 +108,7 @@ def test_noise_and_a_corrupted_camera_is_excluded() -> None:
     assert res.used[[0, 1, 2, 4, 5]].mean() > 0.95
     assert np.median(res.error) < 2.0
     # Without exclusion the same data is far worse: the test above can fail.
-    naive = triangulate(px, conf, cams, max_error_px=1e9)
+    naive = solve(px, conf, cams, max_error_px=1e9)
     assert np.median(np.linalg.norm(naive.points - X, axis=-1)) > 3 * np.median(err3d)
 
 
@@ -104,14 +119,14 @@ def test_low_confidence_and_missing_views_are_ignored() -> None:
     conf = np.ones(px.shape[:-1])
     px[0, :, 0] = np.nan  # nose never seen by camera 0
     conf[1, :, 0] = 0.1  # … and barely by camera 1
-    res = triangulate(px, conf, cams, min_confidence=0.3)
+    res = solve(px, conf, cams, min_confidence=0.3)
     assert np.isnan(res.points[:, 0]).all() and np.isnan(res.error[:, 0]).all()
     assert not res.used[:, :, 0].any()
     np.testing.assert_allclose(res.points[:, 1:], X[:, 1:], atol=1e-6)
     # A garbage observation with low confidence does not pull the estimate.
     px[2, :, 5] += 300.0
     conf[2, :, 5] = 0.05
-    res = triangulate(px, conf, cams, min_confidence=0.3)
+    res = solve(px, conf, cams, min_confidence=0.3)
     np.testing.assert_allclose(res.points[:, 5], X[:, 5], atol=1e-6)
 
 
@@ -120,7 +135,7 @@ def test_min_cameras_is_respected() -> None:
     cams = ring(5)
     X = motion(8, rng)
     px = cams.project(X) + rng.normal(0, 25.0, (5, 8, 17, 2))  # hopeless noise: never under 1 px
-    res = triangulate(px, np.ones(px.shape[:-1]), cams, max_error_px=1.0, min_cameras=3)
+    res = solve(px, np.ones(px.shape[:-1]), cams, max_error_px=1.0, min_cameras=3)
     assert res.n_cameras.min() >= 3
 
 
@@ -144,7 +159,7 @@ def test_many_cameras_search_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None
 
     monkeypatch.setattr(tri_mod, "dlt", counting_dlt)
     cap = 20
-    res = triangulate(px, np.ones(px.shape[:-1]), cams, max_error_px=5.0, max_combinations=cap)
+    res = solve(px, np.ones(px.shape[:-1]), cams, max_error_px=5.0, max_combinations=cap)
     n_points = 10 * 17
     # Exhaustive levels stop at the cap; each greedy level costs one solve per point.
     assert sum(solved) <= n_points * (1 + cap + 12)
@@ -186,7 +201,7 @@ def test_projection_triangulation_round_trip(scene: tuple[CameraGroup, np.ndarra
     if not _well_separated(cams):
         return
     px = cams.project(pts)
-    res = triangulate(px, np.ones(px.shape[:-1]), cams)
+    res = solve(px, np.ones(px.shape[:-1]), cams)
     np.testing.assert_allclose(res.points, pts, atol=1e-5)
     np.testing.assert_allclose(cams.project(res.points), px, atol=1e-3)
 
@@ -208,9 +223,9 @@ def test_dlt_weights_scale_free(scene: tuple[CameraGroup, np.ndarray], scale: fl
 def test_bad_shapes() -> None:
     cams = ring(3)
     with pytest.raises(InputError, match="need pixels"):
-        triangulate(np.zeros((2, 5, 2)), np.zeros((2, 5)), cams)
+        solve(np.zeros((2, 5, 2)), np.zeros((2, 5)), cams)
     with pytest.raises(InputError, match="min_cameras"):
-        triangulate(np.zeros((3, 5, 2)), np.zeros((3, 5)), cams, min_cameras=1)
+        solve(np.zeros((3, 5, 2)), np.zeros((3, 5)), cams, min_cameras=1)
 
 
 def test_confidence_weights_the_views() -> None:
@@ -222,8 +237,8 @@ def test_confidence_weights_the_views() -> None:
     equal = np.ones(px.shape[:-1])
     low = equal.copy()
     low[2] = 0.35
-    err_equal = np.linalg.norm(triangulate(px, equal, cams).points - X, axis=-1)
-    err_low = np.linalg.norm(triangulate(px, low, cams).points - X, axis=-1)
+    err_equal = np.linalg.norm(solve(px, equal, cams).points - X, axis=-1)
+    err_low = np.linalg.norm(solve(px, low, cams).points - X, axis=-1)
     assert np.all(err_low < 0.7 * err_equal)
 
 
@@ -272,7 +287,7 @@ def test_gross_outliers_are_solved_again_and_refinement_holds_the_bones() -> Non
     wrong[:, lw] += np.array([0.0, 0.0, 0.25])  # 25 cm off: both views move along it
     px[:2, ::5, lw] = cams.project(wrong)[:2, ::5, lw]
     views = _views(cams, px)
-    tri = triangulate(px, np.ones(px.shape[:-1]), cams, max_error_px=12.0)
+    tri = solve(px, np.ones(px.shape[:-1]), cams, max_error_px=12.0)
     off = np.linalg.norm(tri.points[::5, lw] - X[::5, lw], axis=-1)
     assert np.median(off) > 0.05  # the DLT with exclusion is fooled
     points, _error, used, _mirrored, counts = make_consistent(

@@ -204,7 +204,7 @@ def test_the_corrupted_clips_are_rejected(dataset: Path) -> None:
 def test_index_lists_every_take_by_usable_seconds(dataset: Path) -> None:
     index = (dataset / "qc" / "index.html").read_text(encoding="utf-8")
     rows = _table_rows(index, "takes")
-    records = {r.take_id: r for r in store.records(dataset)}
+    records = {r.take_id: r for r in store.take_records(dataset)}
     assert sorted(row[0] for row in rows) == sorted(records)
     usable = [float(row[4]) for row in rows]
     assert usable == sorted(usable, reverse=True)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from gesturebank.config import QCConfig
+from gesturebank.filters import unwrap_angles
 from gesturebank.qc import metrics as M
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
@@ -21,14 +22,14 @@ def test_jerk_of_a_cubic_is_known() -> None:
     # θ = c t³: Δ³θ = 6c / f³ every step, so Eq. 3.21 gives J = ½ f⁵ (6c / f³)² = 18 c² / f.
     f, c = 50.0, 0.7
     t = np.arange(200) / f
-    j = M.jerkiness(c * t[:, None] ** 3, f)
+    j = M.jerkiness_per_joint(c * t[:, None] ** 3, f)
     assert j[0] == pytest.approx(18 * c**2 / f, rel=1e-9)
 
 
 @pytest.mark.parametrize("poly", [lambda t: 0 * t + 1.3, lambda t: 2 * t - 1, lambda t: t**2])
 def test_jerk_of_constant_linear_quadratic_is_zero(poly) -> None:
     t = np.arange(100) / 30.0
-    assert M.jerkiness(poly(t)[:, None], 30.0)[0] == pytest.approx(0.0, abs=1e-6)
+    assert M.jerkiness_per_joint(poly(t)[:, None], 30.0)[0] == pytest.approx(0.0, abs=1e-6)
 
 
 def test_jerk_matches_eq_3_21_literally() -> None:
@@ -40,7 +41,7 @@ def test_jerk_matches_eq_3_21_literally() -> None:
         d3 = (theta[i + 3] - 3 * theta[i + 2] + 3 * theta[i + 1] - theta[i]) * f**3
         expect += d3**2
     expect /= 2 * f * (n - 3)
-    np.testing.assert_allclose(M.jerkiness(theta, f), expect, rtol=1e-12)
+    np.testing.assert_allclose(M.jerkiness_per_joint(theta, f), expect, rtol=1e-12)
 
 
 def test_jerk_skips_windows_touching_nan() -> None:
@@ -48,15 +49,15 @@ def test_jerk_skips_windows_touching_nan() -> None:
     t = np.arange(60) / f
     theta = c * t[:, None] ** 3
     theta[20] = np.nan
-    assert M.jerkiness(theta, f)[0] == pytest.approx(18 * c**2 / f)
-    assert np.isnan(M.jerkiness(np.full((10, 1), np.nan), f)[0])
+    assert M.jerkiness_per_joint(theta, f)[0] == pytest.approx(18 * c**2 / f)
+    assert np.isnan(M.jerkiness_per_joint(np.full((10, 1), np.nan), f)[0])
 
 
 def test_uniform_resampling_makes_frame_rates_comparable() -> None:
     # A cubic filmed at 60 fps, resampled to 30 Hz, has the 30 Hz value 18 c² / 30.
     t60 = np.arange(120) / 60.0
     theta = (0.5 * t60**3)[:, None]
-    j = M.jerkiness(M.uniform(theta, t60, 30.0), 30.0)[0]
+    j = M.jerkiness_per_joint(M.uniform(theta, t60, 30.0, max_gap_s=0.25), 30.0)[0]
     assert j == pytest.approx(18 * 0.25 / 30.0, rel=1e-6)
 
 
@@ -143,6 +144,19 @@ def test_high_frequency_share() -> None:
     mixed = np.hstack([slow, fast])  # equal power in each column → half above 7 Hz
     assert M.high_freq_fraction(mixed, 30.0, 7.0) == pytest.approx(0.5, abs=0.01)
     assert np.isnan(M.high_freq_fraction(slow, 12.0, 7.0))  # the clock cannot show 7 Hz
+
+
+def test_a_step_across_pi_is_no_jitter() -> None:
+    """An ElbowYaw swinging at 2 Hz just short of ±π (beyond the robot's range) crosses it for a
+    few frames each swing: wrapped, those are 2π steps (12 % of the power above 7 Hz);
+    unwrapped, the swing is a sine. Unknown samples stay unknown."""
+    t = np.arange(300) / 30.0
+    swing = np.angle(np.exp(1j * (np.pi - 0.25 + 0.3 * np.sin(2 * np.pi * 2.0 * t))))[:, None]
+    assert M.high_freq_fraction(swing, 30.0, 7.0) > 0.1
+    assert M.high_freq_fraction(unwrap_angles(swing), 30.0, 7.0) < 1e-6
+    swing[10] = np.nan
+    unwrapped = unwrap_angles(swing)
+    assert np.isnan(unwrapped[10, 0]) and np.nanmax(np.abs(np.diff(unwrapped[:, 0]))) < 0.2
 
 
 def test_motion_range() -> None:

@@ -19,7 +19,7 @@ from gesturebank.robot.backends.naoqi import NaoqiBackend
 from gesturebank.robot.commands import replay_command
 from gesturebank.robot.playback import play
 from gesturebank.robot.timeline import Timeline, write_csv
-from tests.robot.naoqi_server import PEPPER_JOINTS, NaoqiServer
+from gesturebank.testing.naoqi_server import PEPPER_JOINTS, NaoqiServer
 from tests.robot.test_playback import ARMS_UP, LOWER, NEUTRAL, UPPER, VELOCITY, wild_timeline
 
 START = dict(zip(pepper.JOINTS, ARMS_UP.tolist(), strict=True))

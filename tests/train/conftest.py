@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import gesturebank.datasets as gds
-from gesturebank.config import TrainConfig
+from gesturebank.config import SplitsConfig, TrainConfig
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
 from gesturebank.testing.speech_motion import write_speech_motion_dataset
 
@@ -53,7 +53,7 @@ def real_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
     # QC may reject these clips; the test is about training on real data, not its quality,
     # so the SI folds are rewritten to include rejected clips.
     records = gds.open(out).rows()
-    for fold in subject_independent(records, include_rejected=True):
+    for fold in subject_independent(records, config=SplitsConfig(include_rejected=True)):
         path = out / SPLITS_DIR / f"si_fold_{fold['fold']:02d}.json"
         path.write_text(json.dumps(fold, indent=1))
     return out

@@ -97,7 +97,7 @@ def test_windows_stay_inside_segments_with_stride() -> None:
 
 def test_short_segments_are_padded_and_masked() -> None:
     short = _segment(6)
-    data = WindowDataset([short], seq_len=10)
+    data = WindowDataset([short], seq_len=10, stride=1)
     assert len(data) == 1
     x, _y, m = data[0]
     assert x.shape == (10, 3) and bool(m[:6].all()) and not bool(m[6:].any())

@@ -44,8 +44,8 @@ def test_cca_of_a_constant_is_zero(rng: np.random.Generator) -> None:
 
 def test_local_cca_of_independent_noise_is_near_zero(rng: np.random.Generator) -> None:
     x, y = rng.normal(size=3000), rng.normal(size=3000)
-    assert M.local_cca(x, y, 300) < 0.1  # |r| of 300 independent pairs ~ 0.05
-    assert M.local_cca(x, 2 * x + 1, 300) == pytest.approx(1.0)
+    assert M.local_cca(x, y, 300, stride=1) < 0.1  # |r| of 300 independent pairs ~ 0.05
+    assert M.local_cca(x, 2 * x + 1, 300, stride=1) == pytest.approx(1.0)
 
 
 def test_local_cca_is_the_mean_of_window_ccas(rng: np.random.Generator) -> None:
@@ -53,26 +53,28 @@ def test_local_cca_is_the_mean_of_window_ccas(rng: np.random.Generator) -> None:
     y = x[:, :2] + rng.normal(size=(60, 2))
     n = 20
     direct = [M.cca(x[i : i + n], y[i : i + n]) for i in range(60 - n + 1)]  # Eq. 3.18
-    values = M.local_cca_values(x, y, n, chunk=7)
+    values = M.local_cca_values(x, y, n, stride=1, chunk=7)
     assert len(values) == 60 - n + 1
     np.testing.assert_allclose(values, direct, atol=1e-9)
-    assert M.local_cca(x, y, n) == pytest.approx(np.mean(direct), abs=1e-9)
+    assert M.local_cca(x, y, n, stride=1) == pytest.approx(np.mean(direct), abs=1e-9)
     assert M.local_cca_values(x, y, n, stride=5).shape == (9,)
 
 
 def test_local_cca_of_a_short_sequence_uses_one_window(rng: np.random.Generator) -> None:
     x, y = rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
-    assert M.local_cca(x, y, 300) == pytest.approx(M.cca(x, y), abs=1e-9)
+    assert M.local_cca(x, y, 300, stride=1) == pytest.approx(M.cca(x, y), abs=1e-9)
 
 
 def test_lcca_measures_against_the_truth(rng: np.random.Generator) -> None:
     audio = rng.normal(size=(400, 5))
     true = audio[:, :3] @ rng.normal(size=(3, 11)) + 0.1 * rng.normal(size=(400, 11))
-    assert M.lcca_theta(true, true, 100) == pytest.approx(1.0)  # Eq. 3.19
-    assert M.delta_lcca(audio, true, true, 100) == 0.0  # Eq. 3.20
+    assert M.lcca_theta(true, true, 100, stride=1) == pytest.approx(1.0)  # Eq. 3.19
+    assert M.delta_lcca(audio, true, true, 100, stride=1) == 0.0  # Eq. 3.20
     noise = rng.normal(size=(400, 11))
-    expected = abs(M.local_cca(audio, true, 100) - M.local_cca(audio, noise, 100))
-    assert M.delta_lcca(audio, true, noise, 100) == pytest.approx(expected)
+    expected = abs(
+        M.local_cca(audio, true, 100, stride=1) - M.local_cca(audio, noise, 100, stride=1)
+    )
+    assert M.delta_lcca(audio, true, noise, 100, stride=1) == pytest.approx(expected)
 
 
 def test_fcca_of_the_ground_truth_equals_its_cca(rng: np.random.Generator) -> None:

@@ -27,10 +27,10 @@ import numpy as np
 
 from gesturebank.config import DetectorConfig
 from gesturebank.errors import DetectionError
-from gesturebank.extract.detectors import Frame, MultiPose2D
+from gesturebank.extract.detectors import Frame
 from gesturebank.extract.detectors.mediapipe import INSTALL, _quiet_startup
 from gesturebank.filters import OneEuro
-from gesturebank.poses import Pose2D
+from gesturebank.poses import MultiPose2D, Pose2D
 from gesturebank.skeletons import BLAZEPOSE33
 
 RUNTIME_INSTALL = "pip install ai-edge-litert==2.3.0"
@@ -41,7 +41,7 @@ DETECTOR_SIZE = 224  # pose_detection_cpu: ImageToTensor output_tensor_width/hei
 LANDMARK_SIZE = 256  # pose_landmark_by_roi_cpu: ImageToTensor output_tensor_width/height
 N_POINTS = 39  # 33 landmarks + 2 auxiliary (ROI) points + 4 unused
 N_LANDMARKS = 33
-UPPER_BODY = 25  # nose to hips
+WAIST_UP = slice(0, 25)  # nose to hips: what a waist-up shot shows
 LEGS = slice(23, 33)  # hips to feet
 AUX = (33, 34)  # tensors_to_pose_landmarks_and_segmentation: ranges { begin: 33 end: 35 }
 ROI_SCALE = 1.25  # pose_detection_to_roi / pose_landmarks_to_roi: scale_x, scale_y
@@ -378,7 +378,7 @@ def person_size(points: np.ndarray) -> float:
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
     """Median distance of the upper-body landmarks of two sets `(39, ≥2)` px, in units of the
     smaller person's size."""
-    d = np.linalg.norm(a[:UPPER_BODY, :2] - b[:UPPER_BODY, :2], axis=1)
+    d = np.linalg.norm(a[WAIST_UP, :2] - b[WAIST_UP, :2], axis=1)
     return float(np.median(d)) / max(min(person_size(a), person_size(b)), 1.0)
 
 
@@ -400,7 +400,7 @@ def on_legs(a: np.ndarray, b: np.ndarray) -> bool:
     """
     legs = b[LEGS, :2]
     lo, hi = legs.min(axis=0), legs.max(axis=0)
-    upper = a[:UPPER_BODY, :2]
+    upper = a[WAIST_UP, :2]
     return bool(np.mean(np.all((upper >= lo) & (upper <= hi), axis=1)) > 0.5)
 
 

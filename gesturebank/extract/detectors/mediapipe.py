@@ -23,8 +23,8 @@ import numpy as np
 
 from gesturebank.config import DetectorConfig
 from gesturebank.errors import ConfigError, DetectionError
-from gesturebank.extract.detectors import Frame, MultiPose2D
-from gesturebank.poses import Pose2D
+from gesturebank.extract.detectors import Frame
+from gesturebank.poses import MultiPose2D, Pose2D
 from gesturebank.skeletons import BLAZEPOSE33
 
 log = logging.getLogger(__name__)

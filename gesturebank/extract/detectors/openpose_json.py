@@ -20,8 +20,8 @@ import numpy as np
 
 from gesturebank.config import DetectorConfig, TrackingConfig
 from gesturebank.errors import ConfigError, InputError
-from gesturebank.extract.detectors import Frame, MultiPose2D
-from gesturebank.poses import Pose2D
+from gesturebank.extract.detectors import Frame
+from gesturebank.poses import MultiPose2D, Pose2D
 from gesturebank.skeletons import COCO17, HALPE26, OPENPOSE_BODY25, OPENPOSE_COCO18
 
 log = logging.getLogger(__name__)

@@ -4,7 +4,7 @@ cameras.py    Camera / CameraGroup (OpenCV model), TOML (Pose2Sim/anipose) and Q
 calibrate.py  intrinsics from checkerboard / ChArUco photos
 triangulate.py confidence-weighted DLT with bounded camera exclusion
 sync.py       camera offsets from audio or keypoint motion; resampling onto one clock
-lifter.py     the `multiview` lifter (list of Pose2D + CameraGroup → Pose3D)
+lifter.py     the `multiview` lifter (TakeViews: a Pose2D per camera + CameraGroup → Pose3D)
 
 Importing this package does not import mediapipe; the modules import only numpy, scipy, cv2.
 """

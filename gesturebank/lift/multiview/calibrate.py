@@ -15,13 +15,11 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 import cv2
 import numpy as np
-from pydantic import Field, model_validator
 
-from gesturebank.config import Section
+from gesturebank.config import BoardConfig
 from gesturebank.errors import CalibrationError
 from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 
@@ -29,55 +27,6 @@ log = logging.getLogger(__name__)
 
 PathLike = str | os.PathLike[str]
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff")
-
-
-class BoardConfig(Section):
-    """The printed calibration board."""
-
-    kind: Literal["checkerboard", "charuco"] = Field(
-        "checkerboard", description="'checkerboard' (plain squares) or 'charuco' (with markers)."
-    )
-    inner_corners: tuple[int, int] = Field(
-        (4, 7),
-        description="Checkerboard only: inner corners along x and y (squares − 1 each way). "
-        "Pose2Sim's demo board is 4 x 7.",
-    )
-    squares: tuple[int, int] = Field(
-        (7, 5), description="ChArUco only: number of squares along x and y."
-    )
-    square_size: float = Field(
-        0.06, gt=0, description="Side of one square, metres (sets the unit of extrinsics)."
-    )
-    marker_size: float = Field(
-        0.045, gt=0, description="ChArUco only: side of one ArUco marker, metres."
-    )
-    dictionary: str = Field(
-        "DICT_4X4_50", description="ChArUco only: ArUco dictionary name from cv2.aruco."
-    )
-    legacy_pattern: bool = Field(
-        False, description="ChArUco only: boards made with OpenCV < 4.6 (even row count)."
-    )
-    min_corners: int = Field(
-        6, ge=4, description="ChArUco only: fewest corners for a photo to count as a view."
-    )
-
-    @model_validator(mode="after")
-    def _sizes(self) -> BoardConfig:
-        if min(self.inner_corners) < 2 or min(self.squares) < 2:
-            raise ValueError("a board needs at least 2 corners/squares in each direction")
-        if self.kind == "charuco":
-            if self.marker_size >= self.square_size:
-                raise ValueError("marker_size must be smaller than square_size")
-            if not hasattr(cv2.aruco, self.dictionary):
-                raise ValueError(f"unknown ArUco dictionary {self.dictionary!r}")
-        return self
-
-    def describe(self) -> str:
-        if self.kind == "checkerboard":
-            x, y = self.inner_corners
-            return f"{x}x{y} inner-corner checkerboard"
-        x, y = self.squares
-        return f"{x}x{y}-square ChArUco board ({self.dictionary})"
 
 
 @dataclass(frozen=True)

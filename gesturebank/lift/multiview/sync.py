@@ -21,7 +21,7 @@ import numpy as np
 from scipy import signal as sps
 
 from gesturebank.errors import InputError
-from gesturebank.extract.video import Audio
+from gesturebank.extract.audio_io import Audio
 from gesturebank.poses import Pose2D
 
 log = logging.getLogger(__name__)

@@ -21,14 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gesturebank.config import MultiviewConfig
 from gesturebank.errors import InputError
 from gesturebank.lift.multiview.cameras import CameraGroup
 
 log = logging.getLogger(__name__)
 
 _BATCH = 100_000  # most (subset, point) pairs solved in one vectorised call
-_DEFAULTS = MultiviewConfig()  # the defaults below are the config's own fields
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,10 +137,10 @@ def triangulate(
     confidence: np.ndarray,
     cameras: CameraGroup,
     *,
-    min_confidence: float = _DEFAULTS.min_confidence,
-    max_error_px: float = _DEFAULTS.max_error_px,
-    min_cameras: int = _DEFAULTS.min_cameras,
-    max_combinations: int = _DEFAULTS.max_combinations,
+    min_confidence: float,
+    max_error_px: float,
+    min_cameras: int,
+    max_combinations: int,
 ) -> Triangulation:
     """Triangulate points seen by calibrated cameras, excluding cameras that disagree.
 
@@ -152,7 +150,7 @@ def triangulate(
     max_error_px: mean reprojection error above which cameras are excluded.
     min_cameras: fewest cameras a point is triangulated from (≥ 2).
     max_combinations: most camera subsets tried per point in the exhaustive search.
-    Defaults: the `[multiview]` config fields of the same names.
+    (The `multiview` config fields of the same names.)
     """
     px = np.asarray(pixels, np.float64)
     conf = np.asarray(confidence, np.float64)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gesturebank.config import PlaybackConfig
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot.backends import Command
 from gesturebank.robot.pepper import JOINTS
@@ -38,14 +39,10 @@ class NaoqiBackend:
     name = "naoqi"
     realtime = True
 
-    def __init__(
-        self,
-        url: str,
-        *,
-        timeout_s: float = 2.0,
-        wake_up: bool = True,
-        rest_at_end: bool = False,
-    ) -> None:
+    def __init__(self, url: str, *, config: PlaybackConfig | None = None) -> None:
+        """config: the `playback` section (timeout_s, wake_up, rest_at_end); None: defaults."""
+        cfg = config or PlaybackConfig()
+        timeout_s, wake_up, rest_at_end = cfg.timeout_s, cfg.wake_up, cfg.rest_at_end
         try:
             import qi
         except ImportError as exc:
@@ -156,8 +153,4 @@ def create(
 ) -> NaoqiBackend:
     if not url:
         raise InputError("--backend naoqi needs --url tcp://HOST:9559")
-    if config is None:
-        return NaoqiBackend(url)
-    return NaoqiBackend(
-        url, timeout_s=config.timeout_s, wake_up=config.wake_up, rest_at_end=config.rest_at_end
-    )
+    return NaoqiBackend(url, config=config)

@@ -1,6 +1,6 @@
 """Tiny torch models exported to ONNX in the model-folder layout `gesturebank train` writes.
 
-A plain helper module for the tests and `benchmarks/live.py`: random weights (seeded), exported
+For the tests and `benchmarks/live.py`: random weights (seeded), exported
 with torch's TorchScript ONNX exporter, stats from real features when given.
 """
 

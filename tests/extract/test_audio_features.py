@@ -1,4 +1,4 @@
-"""Tests of gesturebank.extract.audio: reference equality on real speech, formulas, live path."""
+"""Tests of extract.audio_features: reference equality on real speech, formulas, live path."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from scipy.io import wavfile
 
 from gesturebank.config import AudioConfig
 from gesturebank.errors import InputError
-from gesturebank.extract.audio import (
+from gesturebank.extract.audio_features import (
     apply_znorm,
     delta,
     feature_dim,

@@ -1,4 +1,5 @@
-"""A stand-in NAOqi for tests: a real standalone qi session serving a recording ALMotion.
+"""A stand-in NAOqi for the tests and `benchmarks/playback.py`: a real standalone qi session
+serving a recording ALMotion.
 
 Run as a script (a subprocess with a bounded lifetime, so a test can kill it like a robot that
 drops off the network):
