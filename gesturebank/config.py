@@ -435,6 +435,15 @@ class MultiviewConfig(Section):
         description="Same for a joint this far (shoulder widths) from the running median of "
         "its own track over 7 frames.",
     )
+    back_view_cos: float | None = Field(
+        -0.3,
+        ge=-1,
+        le=1,
+        description="A camera sees the person's back where the cosine between the torso's "
+        "forward direction and the direction to the camera is below this (-0.3: over 107° off "
+        "the chest); its nose and eyes (the detector's guesses there) are then ignored wherever "
+        "enough cameras facing the person saw them. None keeps every face keypoint.",
+    )
     refine: bool = Field(
         False,
         description="After the robust DLT, fit the whole take at once (soft-L1 reprojection, "

@@ -15,27 +15,33 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.errors import CalibrationError, InputError
-from gesturebank.extract.video import Audio
+from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.refine import Refinement, refine, reprojection
 from gesturebank.lift.multiview.robust import (
+    TORSO,
     Cleaning,
     Views,
+    facing,
     fix_swaps,
     make_consistent,
     relabel,
+    unseen_face,
     untangle,
 )
 from gesturebank.lift.multiview.sync import align, estimate_offsets
 from gesturebank.lift.multiview.triangulate import Triangulation, triangulate
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.skeletons import COCO17
+
+if TYPE_CHECKING:
+    from gesturebank.extract.audio_io import Audio
 
 log = logging.getLogger(__name__)
 
@@ -88,57 +94,43 @@ class MultiviewReport:
         }
 
 
-def _config(config: MultiviewConfig | Config | None) -> MultiviewConfig:
-    if config is None:
-        return MultiviewConfig()
-    return config if isinstance(config, MultiviewConfig) else config.multiview
-
-
 class MultiviewLifter:
-    """Triangulating lifter. `config` is a MultiviewConfig or the main Config (its `multiview`
-    section is used); `cameras` may also be given per call."""
+    """Triangulating lifter; its section is `multiview` (None: the defaults)."""
 
     name = "multiview"
 
-    def __init__(self, config: Any = None, *, cameras: CameraGroup | None = None) -> None:
-        self.config = _config(config)
-        self.cameras = cameras
+    def __init__(self, *, multiview: MultiviewConfig | None = None) -> None:
+        self.options = multiview or MultiviewConfig()
 
-    def lift(
-        self,
-        poses: Sequence[Pose2D] | Pose2D,
-        cameras: CameraGroup | None = None,
-        *,
-        audios: Sequence[Audio | None] | None = None,
-    ) -> Pose3D:
-        """One Pose2D per camera (same order as `cameras`) → Pose3D (T, 17, 3), metres, world
-        frame, on the reference camera's timestamps."""
-        return self.lift_with_report(poses, cameras, audios=audios)[0]
+    @classmethod
+    def from_config(cls, config: Config) -> MultiviewLifter:
+        """The registry's factory (gesturebank.lift): the `multiview` section."""
+        return cls(multiview=config.multiview)
 
-    def lift_with_report(
-        self,
-        poses: Sequence[Pose2D] | Pose2D,
-        cameras: CameraGroup | None = None,
-        *,
-        audios: Sequence[Audio | None] | None = None,
-    ) -> tuple[Pose3D, MultiviewReport]:
-        cfg = self.config
-        cams = cameras or self.cameras
+    def lift(self, views: TakeViews) -> Pose3D:
+        """One Pose2D per camera of `views.cameras` (same order), with the cameras' audio
+        tracks when sync is by audio → Pose3D (T, 17, 3), metres, world frame, on the
+        reference camera's timestamps."""
+        return self.lift_with_report(views)[0]
+
+    def lift_with_report(self, views: TakeViews) -> tuple[Pose3D, MultiviewReport]:
+        cfg = self.options
+        cams = views.cameras
         if cams is None:
             raise CalibrationError("multiview lifter: no cameras given (a calibration file)")
-        views = [poses] if isinstance(poses, Pose2D) else list(poses)
-        if len(views) < 2:
-            raise InputError(f"multiview lifter: needs two or more views, got {len(views)}")
-        if len(views) != len(cams):
+        poses = list(views.poses)
+        if len(poses) < 2:
+            raise InputError(f"multiview lifter: needs two or more views, got {len(poses)}")
+        if len(poses) != len(cams):
             raise InputError(
-                f"multiview lifter: {len(views)} views but {len(cams)} cameras ({cams.names})"
+                f"multiview lifter: {len(poses)} views but {len(cams)} cameras ({cams.names})"
             )
-        if not 0 <= cfg.reference_camera < len(views):
+        if not 0 <= cfg.reference_camera < len(poses):
             raise InputError(
                 f"multiview lifter: reference_camera {cfg.reference_camera} out of "
-                f"range for {len(views)} cameras"
+                f"range for {len(poses)} cameras"
             )
-        for pose, cam in zip(views, cams, strict=True):
+        for pose, cam in zip(poses, cams, strict=True):
             if tuple(pose.image_size) != cam.size:
                 log.warning(
                     "camera %s: video is %dx%d, calibration %dx%d",
@@ -146,13 +138,14 @@ class MultiviewLifter:
                     *pose.image_size,
                     *cam.size,
                 )
-        coco = [v.to_coco17() for v in views]
+        coco = [v.to_coco17() for v in poses]
         # Sync on the detector's own keypoints: more of them make a steadier motion curve.
-        offsets, methods = self._offsets(views, audios)
+        offsets, methods = self._offsets(poses, views.audios)
         times = coco[cfg.reference_camera].timestamps
         kp = align(coco, offsets, times)  # (C, T, 17, 3)
+        kp = _drop_unseen_face(kp, cams, cfg)
         obs = Views.of(kp, cams, min_confidence=cfg.min_confidence)
-        swapped = fix_swaps(obs, max_error_px=cfg.max_error_px)
+        swapped = fix_swaps(obs, max_error_px=cfg.max_error_px, max_width_dev=cfg.max_bone_dev)
         kp, obs = relabel(kp, swapped), obs.relabel(swapped)
         labels = relabel(np.broadcast_to(np.arange(kp.shape[2]), kp.shape[:3]), swapped)
         tri = triangulate(
@@ -222,7 +215,7 @@ class MultiviewLifter:
     def _offsets(
         self, views: list[Pose2D], audios: Sequence[Audio | None] | None
     ) -> tuple[np.ndarray, list[str]]:
-        cfg = self.config
+        cfg = self.options
         if cfg.offsets_s is not None:
             if len(cfg.offsets_s) != len(views):
                 raise InputError(
@@ -239,6 +232,30 @@ class MultiviewLifter:
             max_lag_s=cfg.max_offset_s,
         )
         return offsets, methods
+
+
+def _drop_unseen_face(kp: np.ndarray, cams: CameraGroup, cfg: MultiviewConfig) -> np.ndarray:
+    """`kp (C, T, 17, 3)` with confidence 0 for the nose and eyes of cameras that see the
+    person's back (`robust.unseen_face`), judged on a first triangulation of the torso."""
+    if cfg.back_view_cos is None:
+        return kp
+    tri = triangulate(
+        kp[:, :, TORSO, :2],
+        kp[:, :, TORSO, 2],
+        cams,
+        min_confidence=cfg.min_confidence,
+        max_error_px=cfg.max_error_px,
+        min_cameras=cfg.min_cameras,
+        max_combinations=cfg.max_combinations,
+    )
+    back = facing(tri.points, np.stack([c.center for c in cams])) < cfg.back_view_cos
+    drop = unseen_face(
+        kp[..., 2], back, min_confidence=cfg.min_confidence, min_cameras=cfg.min_cameras
+    )
+    log.debug("face keypoints of a back view ignored: %d", int(drop.sum()))
+    out = kp.copy()
+    out[..., 2][drop] = 0.0
+    return out
 
 
 def _nanmedian(values: np.ndarray) -> float:

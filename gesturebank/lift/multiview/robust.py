@@ -3,10 +3,15 @@ lengths or motion disagree with the rest of the take.
 
 Reprojection error alone cannot see every wrong joint: when two cameras agree on a mislabelled
 elbow (a left/right swap in one view, whose epipolar line runs through both elbows), the point
-reprojects well but lies far from the arm. So, after the DLT with camera exclusion:
+reprojects well but lies far from the arm. So, around the DLT with camera exclusion:
 
+0. Back views: a camera that sees the person's back (the torso's forward direction, from a
+   first triangulation of the torso, points away from it) gives no nose or eyes — the detector
+   guesses them there — wherever enough cameras facing the person saw them (`unseen_face`).
 1. Swaps (Pose2Sim's retry): where a left/right pair reprojects badly, each camera's labels of
    the pair are exchanged in turn; the exchange that halves the pair's all-camera error is kept.
+   For the shoulders and hips also where their distance is off the take's median and the
+   exchange brings it back (two cameras can agree on a swap: it reprojects well).
 2. Consistency, joint by joint from the torso outwards (`PARENT`): a joint is suspect where its
    bone to its parent is off the take's median length by more than `max_bone_dev`, or where it
    leaves the running median of its own track by more than `max_jump` shoulder widths.
@@ -52,6 +57,8 @@ PARENTS: dict[str, tuple[str, ...]] = {
     "right_ankle": ("right_knee",),
 }
 _TRACK_WINDOW = 7  # frames of the running median a joint's track is compared with
+# Left/right pairs a constant distance apart (bones across the body), named by their left side.
+RIGID = ("left_shoulder", "left_hip")
 
 
 def mirror(joint: str) -> str | None:
@@ -116,23 +123,38 @@ class Cleaning:
     rejected: int = 0
 
 
-def _pair_error(views: Views, jl: int, jr: int) -> np.ndarray:
-    """(T,) all-camera mean reprojection error of joints jl and jr, summed; inf if unsolved."""
+def _pair_fit(views: Views, jl: int, jr: int) -> tuple[np.ndarray, np.ndarray]:
+    """(T,) all-camera mean reprojection error of joints jl and jr, summed (inf if unsolved),
+    and (T,) the distance between their two points (NaN if unsolved)."""
     total = np.zeros(views.normalised.shape[1])
+    points = []
     for j in (jl, jr):
         obs, w = views.normalised[:, :, j], views.weights[:, :, j]
-        points = dlt(obs, views.extrinsics, w)
-        err = reprojection_errors(points, obs, views.extrinsics, views.focals)
+        p = dlt(obs, views.extrinsics, w)
+        err = reprojection_errors(p, obs, views.extrinsics, views.focals)
         used = w > 0
         mean = np.where(used, np.nan_to_num(err, nan=0.0), 0.0).sum(0) / np.maximum(used.sum(0), 1)
-        total += np.where(np.isfinite(points).all(-1) & (used.sum(0) >= 2), mean, np.inf)
-    return total
+        total += np.where(np.isfinite(p).all(-1) & (used.sum(0) >= 2), mean, np.inf)
+        points.append(p)
+    return total, np.linalg.norm(points[0] - points[1], axis=-1)
 
 
-def fix_swaps(views: Views, *, max_error_px: float) -> np.ndarray:
-    """(C, T, J) bool: where camera c's labels of a left/right pair are exchanged, because that
-    halves the pair's reprojection error and the pair reprojects worse than `max_error_px`
-    (Pose2Sim's retry). Cameras are tried in turn; an exchange once kept stays."""
+def _width_dev(width: np.ndarray, median: float) -> np.ndarray:
+    """(T,) relative deviation of a left-right distance from the take's median; inf unknown."""
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(width), np.abs(width / median - 1), np.inf)
+
+
+def fix_swaps(
+    views: Views, *, max_error_px: float, max_width_dev: float | None = None
+) -> np.ndarray:
+    """(C, T, J) bool: where camera c's labels of a left/right pair are exchanged (Pose2Sim's
+    retry), because that halves the pair's reprojection error where the pair reprojects worse
+    than `max_error_px` — or, for the shoulders and hips (`RIGID`, a constant distance apart),
+    because it brings their distance back to the take's median where it was off by more than
+    `max_width_dev` (a swap two cameras agree on: their epipolar lines run through both points,
+    so the error stays small, but the points land at a wrong depth). Cameras are tried in turn;
+    an exchange once kept stays."""
     obs, w = views.normalised.copy(), views.weights.copy()
     current = Views(obs, w, views.extrinsics, views.focals)
     swapped = np.zeros(w.shape, bool)
@@ -141,23 +163,33 @@ def fix_swaps(views: Views, *, max_error_px: float) -> np.ndarray:
         if not name.startswith("left_") or other is None:
             continue
         jr = _I[other]
-        base = _pair_error(current, jl, jr)
+        base, width = _pair_fit(current, jl, jr)
+        rigid = max_width_dev is not None and name in RIGID
+        finite = width[np.isfinite(width) & (base <= max_error_px)]
+        median = float(np.median(finite)) if finite.size else float("nan")
+        check_width = rigid and np.isfinite(median)
         for c in range(len(obs)):
-            both = (base > 2 * max_error_px) & (w[c, :, jl] > 0) & (w[c, :, jr] > 0)
+            bad = base > 2 * max_error_px
+            if check_width:
+                bad |= _width_dev(width, median) > max_width_dev
+            both = bad & (w[c, :, jl] > 0) & (w[c, :, jr] > 0)
             if not both.any():
                 continue
             trial = Views(obs.copy(), w.copy(), views.extrinsics, views.focals)
             for a, b in ((jl, jr), (jr, jl)):
                 trial.normalised[c, :, a], trial.weights[c, :, a] = obs[c, :, b], w[c, :, b]
-            err = _pair_error(trial, jl, jr)
+            err, trial_width = _pair_fit(trial, jl, jr)
             take = both & (err < 0.5 * base)
+            if check_width:
+                closer = _width_dev(trial_width, median) < 0.5 * _width_dev(width, median)
+                take |= both & closer & (err <= 2 * max_error_px)  # and it still fits the images
             for k in (jl, jr):
                 obs[c, take, k], w[c, take, k] = (
                     trial.normalised[c, take, k],
                     trial.weights[c, take, k],
                 )
                 swapped[c, take, k] ^= True
-            base = np.where(take, err, base)
+            base, width = np.where(take, err, base), np.where(take, trial_width, width)
     return swapped
 
 
@@ -343,3 +375,40 @@ def make_consistent(
         "consistency: %d suspects, %d solved again, %d rejected", suspects, resolved, rejected
     )
     return points, error, used, mirrored, Cleaning(0, suspects, resolved, rejected)
+
+
+# The face keypoints BlazePose guesses when it sees the back of the head (the ears stay: they
+# are seen from behind too, and they alone give the head's yaw).
+FACE = [_I[j] for j in ("nose", "left_eye", "right_eye")]
+TORSO = [_I[j] for j in _TORSO]  # the order `facing` takes
+
+
+def facing(torso: np.ndarray, centers: np.ndarray) -> np.ndarray:
+    """(C, T) cosine between the torso's forward direction and the direction to each camera:
+    1 = the camera sees the chest, −1 = the back. NaN where the torso is unknown.
+
+    torso (T, 4, 3): left shoulder, right shoulder, left hip, right hip (world);
+    centers (C, 3): the cameras' optical centres (world).
+    """
+    ls, rs, lh, rh = (torso[:, k] for k in range(4))
+    left = (ls + lh) / 2 - (rs + rh) / 2
+    up = (ls + rs) / 2 - (lh + rh) / 2
+    forward = np.cross(left, up)  # left × up points forward in a right-handed world
+    to_cam = centers[:, None] - torso.mean(axis=1)[None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.einsum("ti,cti->ct", forward, to_cam) / (
+            np.linalg.norm(forward, axis=-1)[None] * np.linalg.norm(to_cam, axis=-1)
+        )
+
+
+def unseen_face(
+    confidence: np.ndarray, back: np.ndarray, *, min_confidence: float, min_cameras: int
+) -> np.ndarray:
+    """(C, T, J) bool: the nose and eye observations to ignore — those of cameras that see the
+    person's back (`back (C, T)`), where at least `min_cameras` cameras facing the person saw
+    the same point (else the guess is all there is, and it stays). confidence (C, T, J)."""
+    seen = np.nan_to_num(confidence[:, :, FACE]) >= min_confidence
+    front = (seen & ~back[..., None]).sum(axis=0) >= min_cameras  # (T, F)
+    drop = np.zeros(confidence.shape, bool)
+    drop[:, :, FACE] = seen & back[..., None] & front[None]
+    return drop
