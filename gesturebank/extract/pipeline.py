@@ -208,6 +208,8 @@ def detect_people(
     if config.build.cache_detections and getattr(det, "cacheable", True):
         params = {s: getattr(config, s).model_dump(mode="json") for s in ("detector", "video")}
         params["shots"] = config.shots.model_dump(mode="json")
+        # a detector's `version` changes when its code gives other output for the same video
+        params["version"] = getattr(det, "version", 0)
         key = cache_key(video_digest(path), det.name, params)
         cached = store.load(key)
         log.info("%s: detection cache %s", path, "miss" if cached is None else "hit")

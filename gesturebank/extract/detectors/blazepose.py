@@ -58,6 +58,12 @@ TILE_ASPECT = 1.2
 # whose crop holds a second one), two people 0.21 and more. ROI overlap cannot tell: the ROIs
 # of two people standing side by side overlap by IoU 0.59 (Demo_MultiPerson cam03).
 SAME_PERSON_DISTANCE = 0.15
+# Two tracks whose torsos (shoulders, hips) lie farther apart than this (median, same units)
+# are two people even when their upper bodies count as one: a man leaning across a woman gets
+# his face fitted onto hers (Demo_MultiPerson cam03 at 0.9-1.4 s: upper bodies 0.07-0.18,
+# torsos 0.21-0.32). Pairs that are one person (cam03, cam04, 60 fps): torsos 0.00-0.08.
+TORSO = [11, 12, 23, 24]  # shoulders, hips
+TORSOS_APART = 0.2
 
 
 def sigmoid(x: np.ndarray) -> np.ndarray:
@@ -387,6 +393,12 @@ def same_person(a: np.ndarray, b: np.ndarray) -> bool:
     return _distance(a, b) < SAME_PERSON_DISTANCE
 
 
+def torsos_apart(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether the torsos of two landmark sets `(39, ≥2)` px are two people's (TORSOS_APART)."""
+    d = np.linalg.norm(a[TORSO, :2] - b[TORSO, :2], axis=1)
+    return float(np.median(d)) / max(min(person_size(a), person_size(b)), 1.0) > TORSOS_APART
+
+
 def _jumped(before: np.ndarray, after: np.ndarray) -> bool:
     """Whether a track's landmarks moved from one frame to the next as far as two people are
     apart."""
@@ -448,6 +460,7 @@ class BlazePoseDetector:
     `detect` for the person seen the most."""
 
     name = "blazepose"
+    version = 2  # in the detection cache key: bump when a video gives other output (2: torsos)
     skeleton = BLAZEPOSE33.name
 
     def __init__(
@@ -574,10 +587,14 @@ class _Tracker:
     def _unique(self, found: list[tuple[_Track, Landmarks]]) -> list[tuple[_Track, Landmarks]]:
         """When two tracks now follow one person, keep the older unless it jumped there: the
         landmark model drifts to the more upright of two overlapping people, and the track that
-        did has lost its own person."""
+        did has lost its own person. Tracks whose torsos stay apart are kept both: only a part
+        of one (the face) moved onto the other. (A new detection must be apart as a whole.)"""
         kept: list[tuple[_Track, Landmarks]] = []
         for track, lm in sorted(found, key=lambda f: (_jumped(f[0].points, f[1].points), f[0].id)):
-            if not any(same_person(lm.points, k.points) for _, k in kept):
+            if not any(
+                same_person(lm.points, k.points) and not torsos_apart(lm.points, k.points)
+                for _, k in kept
+            ):
                 kept.append((track, lm))
         return kept
 
