@@ -626,6 +626,53 @@ def calibrate(
     out.print(f"calibration: {out_file}", highlight=False, soft_wrap=True)
 
 
+ExportFormat = Literal["bvh", "trc", "csv", "naoqi"]
+
+
+@app.command()
+def export(
+    src: Annotated[
+        Path,
+        typer.Argument(
+            help="A dataset folder (every accepted clip), one clip's .npz in a dataset, or an "
+            "angles CSV (as synthesize writes it)."
+        ),
+    ],
+    fmt: Annotated[
+        ExportFormat,
+        typer.Option(
+            "--format",
+            help="bvh: Pepper's upper body (and, for a clip, the person as NAME_person.bvh); "
+            "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: angles with units "
+            "in the header; naoqi: ALMotion.angleInterpolation arguments (.json) and a script.",
+        ),
+    ],
+    out_path: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            help="File to write (a folder for a dataset); default: NAME and the format's "
+            "suffix (.bvh, .trc, .angles.csv, .naoqi.json) here, or the folder DATASET-FORMAT.",
+        ),
+    ] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Write clips or angles in other tools' formats (Blender, the GENEA visualiser, OpenSim,
+    Pose2Sim, Choregraphe, NAOqi scripts).
+
+    The robot's angles are exported clamped and speed-limited as `replay` plays them; bvh and
+    trc joints are in metres (BVH offsets in centimetres), upright (y up).
+    """
+    from gesturebank.export.commands import export_command
+
+    with user_errors():
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        written = export_command(src=src, fmt=fmt, out=out_path, config=config)
+    for path in written:
+        out.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
 def main() -> None:
     app()
 

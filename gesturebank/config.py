@@ -896,6 +896,26 @@ class SplitsConfig(Section):
         return self
 
 
+MocapUnits = Literal["auto", "m", "cm", "mm", "in"]
+
+
+class MocapConfig(Section):
+    """Motion-capture takes (`<stem>.bvh` with a `<stem>.wav`): how their joints are read."""
+
+    units: MocapUnits = Field(
+        "auto",
+        description="Unit of the BVH offsets and positions. 'auto' picks m, cm or mm, whichever "
+        "makes the skeleton's span (the longest joint-to-joint path, about a person's height) "
+        "closest to 1.7 m; set it for inches or for a skeleton that is not person-sized.",
+    )
+    names: dict[str, str] = Field(
+        default_factory=dict,
+        description="BVH joint name → point (left_shoulder … right_ankle, head; or nose, "
+        "left_eye … right_ear where the skeleton has them), tried before the built-in table of "
+        "gesturebank/data/mocap-names.toml, for skeletons it lacks.",
+    )
+
+
 Executor = Literal["local", "ray"]
 
 
@@ -955,6 +975,7 @@ class Config(Section):
     splits: SplitsConfig = Field(default_factory=SplitsConfig)
     train: TrainConfig = Field(default_factory=TrainConfig)
     playback: PlaybackConfig = Field(default_factory=PlaybackConfig)
+    mocap: MocapConfig = Field(default_factory=MocapConfig)
     build: BuildConfig = Field(default_factory=BuildConfig)
 
     def to_json_dict(self) -> dict[str, Any]:

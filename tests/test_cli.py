@@ -39,6 +39,7 @@ COMMANDS = [
     "replay",
     "live",
     "calibrate",
+    "export",
 ]
 
 

@@ -27,7 +27,7 @@ from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
-from gesturebank.extract.video import Audio
+from gesturebank.extract.audio_io import Audio
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
@@ -85,6 +85,13 @@ def check_names(config: Config) -> None:
     pepper.load_profile(config.robot.profile)
 
 
+def lifter_name(take: Take, config: Config) -> str:
+    """The lifter of `take`: `lifter.name`, except that a multi-camera take is triangulated."""
+    if take.mocap:
+        return MOCAP
+    return "multiview" if take.multi_camera else config.lifter.name
+
+
 def measure_digest(config: Config) -> str:
     """What the stored metrics were measured with (qc.metrics.measure_settings)."""
     from gesturebank.qc.metrics import measure_settings
@@ -131,10 +138,10 @@ def usable_frames(valid: np.ndarray) -> np.ndarray:
 
 def _single_view(take: Take, config: Config) -> _View:
     from gesturebank.extract.pipeline import extract_take
-    from gesturebank.lift import LIFTERS
+    from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.qc.repair import repair_pose2d, validity
 
-    if config.lifter.name == "multiview":
+    if config.lifter.name == "multiview":  # known before the slow extraction starts
         raise InputError(
             f"{take.video}: the multiview lifter needs a multi-camera take (a folder with a "
             "calibration file and two or more videos)"
@@ -143,7 +150,7 @@ def _single_view(take: Take, config: Config) -> _View:
     if ext.audio is None:
         raise InputError(f"{take.video}: no audio track and no {take.video.stem}.wav beside it")
     pose, report = repair_pose2d(ext.tracked.pose, config=config.repair)
-    lifter = LIFTERS.create(config.lifter.name, config)
+    lifter = LIFTERS.create(lifter_name(take, config), config)
     valid = _coco17_mask(
         validity(pose, visible_confidence=config.repair.visible_confidence), pose.skeleton
     )
@@ -159,9 +166,9 @@ def _single_view(take: Take, config: Config) -> _View:
         n_people=ext.multi.present.sum(axis=1),
         change=ext.shots.change,
         audio=ext.audio,
-        lift=lambda a, b: lifter.lift(pose.frames(a, b)),
+        lift=lambda a, b: lifter.lift(TakeViews.of(pose.frames(a, b))),
         detector=ext.info.detector,
-        lifter=config.lifter.name,
+        lifter=lifter_name(take, config),
         video_fps=ext.info.video.fps,
         detect_s=ext.info.detect_seconds,
         tracking=_tracking_json(ext.tracked.report),
@@ -174,8 +181,9 @@ def _multi_view(take: Take, config: Config) -> _View:
     lifter. The reference camera's 2D pose, clock, shots and speaker stand for the take. The
     audio is a .wav beside the videos, else the camera track with the most energy, moved onto
     the reference clock by the camera offsets the lifter used."""
+    from gesturebank.extract.audio_io import read_audio
     from gesturebank.extract.pipeline import extract_take
-    from gesturebank.extract.video import read_audio
+    from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
     from gesturebank.qc.repair import repair_pose2d, repair_pose3d
@@ -187,11 +195,13 @@ def _multi_view(take: Take, config: Config) -> _View:
     repaired = [repair_pose2d(e.tracked.pose, config=config.repair) for e in exts]
     poses = [pose for pose, _ in repaired]
     audios = [e.audio for e in exts]
-    pose3d, report = MultiviewLifter(config, cameras=cameras).lift_with_report(poses, audios=audios)
+    lifter = LIFTERS.create(lifter_name(take, config), config)
+    assert isinstance(lifter, MultiviewLifter)  # the audio choice below needs its camera offsets
+    pose3d, report = lifter.lift_with_report(TakeViews(tuple(poses), cameras, tuple(audios)))
     pose3d, report3d = repair_pose3d(pose3d, config=config.repair)
     ref = config.multiview.reference_camera
     if take.audio is not None:
-        audio = read_audio(take.audio, config.audio.sample_rate)
+        audio = read_audio(take.audio, sample_rate=config.audio.sample_rate)
         if audio is None:
             raise InputError(f"{take.audio}: no audio in this file")
         audio = audio._replace(start_s=float(poses[ref].timestamps[0]))  # recorded with the video
@@ -218,11 +228,76 @@ def _multi_view(take: Take, config: Config) -> _View:
         audio=audio,
         lift=lambda a, b: pose3d.frames(a, b),
         detector=e.info.detector,
-        lifter="multiview",
+        lifter=lifter_name(take, config),
         video_fps=e.info.video.fps,
         detect_s=sum(x.info.detect_seconds for x in exts),
         tracking=_tracking_json(e.tracked.report),
         preview=e.preview,
+    )
+
+
+MOCAP = "mocap"  # the "lifter" and "detector" of a motion-capture take: its 3D is measured
+MOCAP_PX_PER_M = 400.0  # the front view drawn for a mocap take (QC, dashboard), pixels per metre
+
+
+def _front_view(pose3d: Pose3D) -> Pose2D:
+    """A mocap take seen by an orthographic camera in front of the speaker (their mean facing
+    direction), image y down; the frame fits the body. The 2D checks (facing away, sideways,
+    swaps) then judge the motion as they judge a video's."""
+    from gesturebank.mocap.pose import body_axes
+
+    _, left, up = body_axes(pose3d.joints)
+    xy = np.stack([pose3d.joints @ left, -(pose3d.joints @ up)], axis=-1) * MOCAP_PX_PER_M
+    low = np.nanmin(xy, axis=(0, 1))
+    margin = 0.25 * MOCAP_PX_PER_M
+    xy = xy - low + margin
+    size = np.nanmax(xy, axis=(0, 1)) + margin
+    keypoints = np.concatenate([xy, pose3d.confidence[..., None]], axis=-1)
+    return Pose2D(keypoints, pose3d.timestamps, COCO17.name, (int(size[0]), int(size[1])))
+
+
+def _mocap_view(take: Take, config: Config) -> _View:
+    """A motion-capture take: the BVH's forward kinematics is the 3D pose (no detector, no
+    lifter), one speaker, one shot; its audio starts with the first frame."""
+    import time
+
+    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.mocap.bvh import read_bvh
+    from gesturebank.mocap.pose import motion_pose
+
+    start = time.perf_counter()
+    if take.audio is None:
+        raise InputError(
+            f"{take.video}: no {take.video.stem}.wav beside it and no audio column in "
+            "subjects.csv for this take"
+        )
+    pose3d, joints = motion_pose(read_bvh(take.video), config=config.mocap, source=str(take.video))
+    audio = read_audio(take.audio, sample_rate=config.audio.sample_rate)
+    if audio is None:
+        raise InputError(f"{take.audio}: no audio in this file")
+    pose2d = _front_view(pose3d)
+    t = len(pose3d)
+    return _View(
+        pose2d=pose2d,
+        valid=np.isfinite(pose3d.joints).all(axis=-1),
+        repaired=np.zeros((t, len(COCO17)), dtype=bool),
+        repairs={},
+        cuts=np.zeros(0),
+        speaker=np.zeros(t, dtype=np.int64),
+        n_people=np.ones(t, dtype=np.int64),
+        change=np.full(t, np.nan),  # no image: the still-picture check does not apply
+        audio=audio._replace(start_s=0.0),
+        lift=lambda a, b: pose3d.frames(a, b),
+        detector=MOCAP,
+        lifter=MOCAP,
+        video_fps=1.0 / float(np.median(np.diff(pose3d.timestamps))) if t > 1 else 0.0,
+        detect_s=time.perf_counter() - start,
+        tracking={
+            "source": "bvh",
+            "joints": joints,
+            "metres_per_unit": pose3d.meta["metres_per_unit"],
+        },
+        preview=(),
     )
 
 
@@ -231,7 +306,7 @@ def audio_clock(
 ) -> tuple[int, int, np.ndarray]:
     """Audio frames whose window centre lies within the pose's time span.
 
-    Frame i covers [start + i·hop, start + i·hop + win) (extract.audio), so its centre is at
+    Frame i covers [start + i·hop, start + i·hop + win) (audio_features), so its centre is at
     start + i·hop + win/2. Returns (i0, i1, times (i1 − i0 + 1,)) — the common span of audio and
     video on the audio frame clock; InputError when they do not overlap.
     """
@@ -262,7 +337,7 @@ def _clip(
     a_cfg = config.audio
     i0, i1, times = audio_clock(ts, view.audio.start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
     pose3d = view.lift(a, b)
-    if view.lifter != "multiview":  # a lifter's own glitches (the multi-view one was repaired)
+    if view.lifter not in ("multiview", MOCAP):  # a lifter's own glitches (multiview: repaired)
         pose3d, _ = repair_pose3d(pose3d, config=config.repair)
     valid = view.valid[a:b] & ~still_spiking(
         pose3d.joints, view.valid[a:b], config.repair.max_spike
@@ -310,11 +385,14 @@ def _preview_jpeg(frames: tuple[tuple[float, np.ndarray], ...]) -> bytes | None:
 def build_take(take: Take, source: str, config: Config) -> BuiltTake:
     """Every clip of one take, its record (clips, dropped spans, QC metrics and absolute
     verdicts) and its preview; raises a GesturebankError when the take cannot be built."""
-    from gesturebank.extract.audio import features
+    from gesturebank.extract.audio_features import features
     from gesturebank.qc.checks import absolute_reasons
     from gesturebank.qc.metrics import clip_metrics
 
-    view = _multi_view(take, config) if take.multi_camera else _single_view(take, config)
+    if take.mocap:
+        view = _mocap_view(take, config)
+    else:
+        view = _multi_view(take, config) if take.multi_camera else _single_view(take, config)
     profile = pepper.load_profile(config.robot.profile)
     feats = features(view.audio.signal, view.audio.sample_rate, config.audio)
     audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate
@@ -426,4 +504,5 @@ CONTENT_SECTIONS = (
     "retarget",
     "processing",
     "audio",
+    "mocap",
 )

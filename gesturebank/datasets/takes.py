@@ -4,7 +4,8 @@ DESIGN.md "What a take is": every video file under VIDEOS_DIR (recursive) is a s
 its id is its relative path with separators made safe and accents transliterated. A folder
 holding a calibration file (`calibration.toml` or a Qualisys `*.qca.txt`, itself or in
 `calibration/`) and two or more videos (itself or in `videos/`) is one multi-camera take instead,
-lifted by the multi-view lifter.
+lifted by the multi-view lifter. A `.bvh` file is a motion-capture take; its audio is the
+`.wav` beside it, or the file named in an `audio` column of subjects.csv.
 The subject comes from `subjects.csv` at the root (columns take,subject[,traits…]), else
 `build.subject_pattern`, else the parent folder; rows that cannot be used as written are
 warned about, naming the file and row. The dataset folder is not searched when inside.
@@ -18,7 +19,7 @@ import logging
 import os
 import re
 import unicodedata
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gesturebank.config import BuildConfig
@@ -27,6 +28,8 @@ from gesturebank.errors import CalibrationError, ConfigError, InputError
 log = logging.getLogger(__name__)
 
 SUBJECTS_CSV = "subjects.csv"
+MOCAP_EXTENSIONS = (".bvh",)  # motion-capture takes: their 3D comes from the file
+AUDIO_COLUMN = "audio"  # subjects.csv: a mocap take's audio, relative to the root
 CALIBRATION_NAMES = ("calibration.toml", "*.qca.txt")
 
 
@@ -43,6 +46,11 @@ class Take:
     @property
     def multi_camera(self) -> bool:
         return self.calibration is not None
+
+    @property
+    def mocap(self) -> bool:
+        """A motion-capture take (`video` is its BVH file)."""
+        return self.video.suffix.lower() in MOCAP_EXTENSIONS
 
 
 def _spelled(part: str) -> str:
@@ -263,6 +271,13 @@ def discover_takes(
         if path not in in_camera_take:
             wav = path.with_suffix(".wav")
             add(path, path.relative_to(root), audio=wav if wav.is_file() else None)
+    for path in sorted(p for p in _files(root, skip) if p.suffix.lower() in MOCAP_EXTENSIONS):
+        wav = path.with_suffix(".wav")
+        add(path, path.relative_to(root), audio=wav if wav.is_file() else None)
+        listed = takes[-1].traits.get(AUDIO_COLUMN)
+        if listed:  # the audio named in subjects.csv, not a trait of the subject
+            traits = {k: v for k, v in takes[-1].traits.items() if k != AUDIO_COLUMN}
+            takes[-1] = replace(takes[-1], audio=root / listed, traits=traits)
     for folder, (calibration, members) in cameras.items():
         wavs = sorted(folder.glob("*.wav")) + sorted((folder / "videos").glob("*.wav"))
         rel = folder.relative_to(root) if folder != root else Path(root.resolve().name)

@@ -1,0 +1,190 @@
+"""`gesturebank export SRC --format bvh|trc|csv|naoqi [--out F]`: the glue.
+
+SRC is a dataset folder (every accepted clip, one file set per clip into the folder `--out`),
+one clip's `.npz` inside a dataset, or an angles CSV as `synthesize` writes it (angles only:
+bvh, csv and naoqi). The 3D joints are turned upright first (their mean hips → shoulders
+direction is up, their mean facing direction forward), so viewers show the person standing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from gesturebank.config import Config
+from gesturebank.errors import InputError
+from gesturebank.skeletons import COCO17
+
+Format = Literal["bvh", "trc", "csv", "naoqi"]
+SUFFIX = {"bvh": ".bvh", "trc": ".trc", "csv": ".angles.csv", "naoqi": ".naoqi.json"}
+PERSON_SUFFIX = "_person.bvh"
+
+
+@dataclass(frozen=True)
+class _Source:
+    """What one export is made of: a name, angles on their clock, maybe the 3D joints."""
+
+    name: str
+    times: np.ndarray  # (N,) s from the start
+    angles: np.ndarray  # (N, 11) rad, NaN where unknown
+    held: np.ndarray  # (N, 11) rad, finite (unknown angles hold the last known one)
+    profile: str
+    joints: np.ndarray | None = None  # (T, 17, 3) metres
+    joint_times: np.ndarray | None = None  # (T,) s
+
+
+def upright(joints: np.ndarray, *, layout: Literal["bvh", "opensim"]) -> np.ndarray:
+    """`joints (T, 17, 3)` turned so that the body stands up: "bvh" → x left, y up, z forward;
+    "opensim" → x forward, y up, z right (a rotation: right-handed stays right-handed)."""
+    from gesturebank.mocap.pose import body_axes
+
+    fwd, left, up = body_axes(joints)
+    axes = np.stack([left, up, fwd]) if layout == "bvh" else np.stack([fwd, up, -left])
+    centre = np.nanmedian(joints[:, [COCO17.index["left_hip"], COCO17.index["right_hip"]]], (0, 1))
+    if not np.all(np.isfinite(centre)):
+        centre = np.zeros(3)
+    return (np.asarray(joints, np.float64) - centre) @ axes.T
+
+
+def uniform(times: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """`values (T, …)` at `times (T,)` resampled linearly on a regular clock at the median rate:
+    (times (N,), values (N, …), rate Hz). NaN stays NaN where it is interpolated from."""
+    t = np.asarray(times, dtype=np.float64)
+    if len(t) < 2:
+        return t - t[0], np.asarray(values, np.float64), 100.0
+    period = float(np.median(np.diff(t)))
+    clock = t[0] + period * np.arange(int(np.floor((t[-1] - t[0]) / period + 1e-6)) + 1)
+    flat = np.asarray(values, np.float64).reshape(len(t), -1)
+    out = np.stack([np.interp(clock, t, flat[:, k]) for k in range(flat.shape[1])], axis=1)
+    return clock - clock[0], out.reshape(len(clock), *np.shape(values)[1:]), 1.0 / period
+
+
+def _held(angles: np.ndarray) -> np.ndarray:
+    """NaN angles hold the last known value (the first known one before it; neutral if none)."""
+    from gesturebank.robot.pepper import neutral_pose
+
+    a = np.array(angles, dtype=np.float64)
+    for j in range(a.shape[1]):
+        col = a[:, j]
+        known = np.isfinite(col)
+        if not known.any():
+            col[:] = neutral_pose()[j]
+            continue
+        last = np.maximum.accumulate(np.where(known, np.arange(len(col)), -1))
+        col[:] = np.where(last >= 0, col[np.maximum(last, 0)], col[np.flatnonzero(known)[0]])
+    return a
+
+
+def _clip_sources(src: Path) -> list[_Source]:
+    from gesturebank import datasets
+
+    if src.is_dir():
+        data = datasets.open(src)
+        ids = data.clip_ids("accepted")
+        if not ids:
+            raise InputError(f"{src}: no accepted clip to export")
+    else:
+        root = src.parents[2] if len(src.parents) > 2 else src.parent
+        data = datasets.open(root)
+        ids = [src.stem]
+    profile = data.info.robot_profile
+    out = []
+    for clip_id in ids:
+        clip = data.load(clip_id)
+        out.append(
+            _Source(
+                clip_id,
+                clip.times,
+                clip.angles,
+                _held(clip.angles),
+                profile,
+                np.asarray(clip.pose3d.joints, np.float64),
+                clip.pose3d.timestamps,
+            )
+        )
+    return out
+
+
+def _sources(src: Path, config: Config) -> list[_Source]:
+    if src.is_dir() or src.suffix == ".npz":
+        if not (src.exists()):
+            raise InputError(f"{src}: no such file or folder")
+        return _clip_sources(src)
+    if src.suffix.lower() == ".csv":
+        from gesturebank.robot.timeline import read_csv
+
+        line = read_csv(src)
+        times = line.times - line.times[0]
+        return [_Source(src.stem, times, line.angles, _held(line.angles), config.robot.profile)]
+    raise InputError(f"{src}: expected a dataset folder, a clip .npz or an angles .csv")
+
+
+def _write(source: _Source, fmt: Format, out: Path, config: Config) -> list[Path]:
+    from gesturebank.mocap.bvh import write_bvh
+    from gesturebank.robot import pepper, safety
+    from gesturebank.robot.timeline import Timeline
+
+    if fmt == "csv":
+        from gesturebank.export.angles_csv import write_angles_csv
+
+        return [
+            write_angles_csv(out, times=source.times, angles=source.angles, profile=source.profile)
+        ]
+    if fmt == "trc":
+        from gesturebank.export.trc import write_trc
+
+        if source.joints is None or source.joint_times is None:
+            raise InputError(f"{source.name}: an angles CSV has no 3D joints; trc needs a clip")
+        _, joints, rate = uniform(source.joint_times, upright(source.joints, layout="opensim"))
+        return [write_trc(out, markers=joints, names=COCO17.joints, rate_hz=rate)]
+    profile = pepper.load_profile(source.profile)
+    safe = safety.safe_angles(
+        Timeline.of(source.times, source.held),
+        safety.speed_profile(profile, config.playback.max_speed_fraction),
+    )
+    if fmt == "naoqi":
+        from gesturebank.export.naoqi import write_naoqi
+
+        return list(
+            write_naoqi(
+                out,
+                times=source.times,
+                angles=safe,
+                lead_s=config.playback.start_s,
+                profile=source.profile,
+            )
+        )
+    from gesturebank.export.pepper_bvh import pepper_motion
+    from gesturebank.export.person_bvh import person_motion
+
+    _, angles, rate = uniform(source.times, safe)
+    motion = pepper_motion(
+        angles=angles, frame_time=1.0 / rate, kinematics=config.retarget.kinematics
+    )
+    paths = [write_bvh(out, motion)]
+    if source.joints is not None and source.joint_times is not None:
+        _, joints, jrate = uniform(source.joint_times, upright(source.joints, layout="bvh"))
+        person = out.with_name(out.name.removesuffix(".bvh") + PERSON_SUFFIX)
+        paths.append(write_bvh(person, person_motion(joints=joints, frame_time=1.0 / jrate)))
+    return paths
+
+
+def export_command(*, src: Path, fmt: Format, out: Path | None, config: Config) -> list[Path]:
+    """Export `src` as `fmt` into `out` (a file for one clip or CSV; a folder for a dataset;
+    default: `<name><suffix>` in the working directory, or `<dataset>-<fmt>/`). Returns the
+    files written."""
+    sources = _sources(src, config)
+    if src.is_dir():
+        folder = out if out is not None else Path(f"{src.resolve().name}-{fmt}")
+        targets = [folder / f"{s.name}{SUFFIX[fmt]}" for s in sources]
+    else:
+        targets = [out if out is not None else Path(f"{sources[0].name}{SUFFIX[fmt]}")]
+    if any(t.resolve() == src.resolve() for t in targets):
+        raise InputError(f"{src}: --out would overwrite the input; name another file")
+    written: list[Path] = []
+    for source, target in zip(sources, targets, strict=True):
+        written += _write(source, fmt, target, config)
+    return written
