@@ -2,10 +2,19 @@
 
 For every test segment the model's normalised output is turned into angles as in synthesis
 (ν⁻¹, then the Butterworth post-smoothing of §4.4.1, then clamping to the limits) and compared
-with the ground truth. Two baselines are scored the same way in every evaluation:
+with the ground truth. Four baselines are scored the same way in every evaluation:
 - "mean pose": the static mean of the training targets (no motion at all);
 - "shifted truth": the ground truth itself, `shift_baseline_s` late (real motion, wrong timing);
-  it is undefined for the first frames and after unknown ones, which its scores leave out.
+  it is undefined for the first frames and after unknown ones, which its scores leave out;
+- "natural motion": the held-out ground truth itself (the ceiling: errors 0, FGD 0; its jerk,
+  acceleration and beat consistency are what natural motion scores);
+- "shuffled clip": the natural motion of another clip, chosen at random (`eval.shuffle_seed`),
+  cut to length (unknown where the donor is shorter): real motion unrelated to the speech.
+
+The field's measures (GENEA 2022, BEAT) sit beside the seeds': GENEA's average acceleration and
+jerk (rad/s², rad/s³), Hellinger distances of the speed and acceleration histograms, FGD (when a
+feature autoencoder is given, `train.fgd`) and beat consistency (when audio onsets are given,
+`train.beats`); without those inputs the two keys are absent, not None.
 
 Per subject: L, RMSE and APE pool all frames where truth and prediction are known; the sequence
 measures run over the contiguous stretches where both whole poses are known: CCA, FCCA and local
@@ -24,15 +33,19 @@ from typing import Any
 import numpy as np
 from rich.table import Table
 
-from gesturebank.config import TrainConfig
+from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.datasets.torch import Segment
 from gesturebank.filters import butter_lowpass
 from gesturebank.robot import pepper
+from gesturebank.train import beats as B
 from gesturebank.train import metrics as M
+from gesturebank.train.fgd import FeatureModel, chunks
 
 MIN_RUN = 4  # frames: the shortest stretch jerkiness is defined on
 MEAN_POSE = "mean pose"
 SHIFTED = "shifted truth"
+NATURAL = "natural motion"
+SHUFFLED = "shuffled clip"
 
 Column = tuple[str, str, float, str]  # key, header, scale, format
 # The columns of Table 5.1, and a second table with the other seeds' measures.
@@ -49,6 +62,16 @@ SEED_MEASURES: tuple[Column, ...] = (
     ("ape_deg", "APE (°)", 1.0, "{:.2f}"),
     ("hellinger_speed", "H speed", 1.0, "{:.3f}"),
 )
+# GENEA 2022 and BEAT: the numbers the field compares.
+FIELD_MEASURES: tuple[Column, ...] = (
+    ("avg_accel", "Acc (rad/s²)", 1.0, "{:.2f}"),
+    ("avg_jerk", "Jerk (rad/s³)", 1.0, "{:.1f}"),
+    ("hellinger_speed", "H vel", 1.0, "{:.3f}"),
+    ("hellinger_accel", "H acc", 1.0, "{:.3f}"),
+    ("cca", "CCA", 1.0, "{:.3f}"),
+    ("fgd", "FGD", 1.0, "{:.3f}"),
+    ("beat_consistency", "BC", 1.0, "{:.3f}"),
+)
 
 
 def postprocess(
@@ -56,7 +79,9 @@ def postprocess(
 ) -> np.ndarray:
     """Model output `(N, 11)` in [0, 1] → angles `(N, 11)` rad: ν⁻¹, low-pass (§4.4.1), clamp."""
     angles = pepper.denormalise(pred01, profile)  # ν⁻¹ of Eq. 3.14
-    smooth = butter_lowpass(angles, rate_hz, config.smoothing_cutoff_hz, config.smoothing_order)
+    smooth = butter_lowpass(
+        angles, rate_hz, cutoff_hz=config.smoothing_cutoff_hz, order=config.smoothing_order
+    )
     return pepper.clamp(smooth, profile)
 
 
@@ -84,7 +109,35 @@ def _runs(ok: np.ndarray, min_len: int = MIN_RUN) -> list[tuple[int, int]]:
 # "not_computable" (a CCA of fewer frames than dimensions is 1.0 whatever the data).
 ERROR_KEYS = ("loss_l", "rmse_rad", "rmse_deg", "ape_rad", "ape_deg")
 CCA_KEYS = ("lcca_theta", "lcca_audio_true", "lcca_audio_pred", "delta_lcca", "cca", "fcca")
-MOTION_KEYS = ("jerk_pred", "jerk_true", "delta_jerk", "hellinger_speed")
+MOTION_KEYS = (
+    "jerk_pred",
+    "jerk_true",
+    "delta_jerk",
+    "hellinger_speed",
+    "avg_accel",
+    "avg_jerk",
+    "hellinger_accel",
+)
+
+
+def shuffled_clip(
+    segments: Sequence[Segment], donors: Sequence[Segment], *, seed: int
+) -> list[np.ndarray]:
+    """For each segment the angles `(n, 11)` of a random donor from another clip (another piece
+    of the same clip when no other clip is there; NaN when neither is), cut to the segment's
+    length and NaN past the donor's end."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for s in segments:
+        others = [d for d in donors if d.clip_id != s.clip_id] or [
+            d for d in donors if d.clip_id == s.clip_id and d.start != s.start
+        ]
+        motion = np.full((len(s), s.angles.shape[1]), np.nan, dtype=np.float32)
+        if others:
+            donor = others[int(rng.integers(len(others)))].angles[: len(s)]
+            motion[: len(donor)] = donor
+        out.append(motion)
+    return out
 
 
 def subject_metrics(
@@ -93,19 +146,25 @@ def subject_metrics(
     profile: pepper.RobotProfile,
     rate_hz: float,
     config: TrainConfig,
+    *,
+    fgd: FeatureModel | None = None,
+    onsets: Sequence[np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Every measure for one subject: segments' ground truth vs `predictions` `(n_k, 11)` rad.
 
     A measure without enough data is None and `not_computable` maps its group to the reason:
     the errors need a frame where both are known, the CCA measures a stretch of known poses at
-    least as long as the LCCA window, jerkiness and speeds a stretch of `MIN_RUN` frames.
+    least as long as the LCCA window, jerkiness and speeds a stretch of `MIN_RUN` frames, FGD
+    two chunks of `eval.fgd_chunk_s`, beat consistency an audio onset inside a stretch.
+    `onsets` are each segment's audio onset frames (`segment_onsets`).
     """
+    field_keys = (*(("fgd",) if fgd else ()), *(("beat_consistency",) if onsets else ()))
     pred = np.concatenate(predictions).astype(np.float64)
     true = np.concatenate([s.angles for s in segments]).astype(np.float64)
     true[~np.isfinite(pred)] = np.nan  # score only frames where both are known
     known = np.isfinite(true)
     out: dict[str, Any] = {"frames": int(known.any(axis=1).sum()), "not_computable": {}}
-    out |= dict.fromkeys((*ERROR_KEYS, *CCA_KEYS, *MOTION_KEYS))
+    out |= dict.fromkeys((*ERROR_KEYS, *CCA_KEYS, *MOTION_KEYS, *field_keys))
     out["rmse_per_joint_rad"] = out["rmse_per_joint_deg"] = dict.fromkeys(pepper.JOINTS)
     if out["frames"] == 0:
         out["not_computable"]["every measure"] = (
@@ -126,13 +185,15 @@ def subject_metrics(
     out["rmse_per_joint_deg"] = _joints(np.degrees(per_joint))
 
     window = max(2, round(config.lcca_window_s * rate_hz))
-    t_runs, p_runs, a_runs = [], [], []
-    for s, p in zip(segments, predictions, strict=True):
+    t_runs, p_runs, a_runs, o_runs = [], [], [], []
+    for k, (s, p) in enumerate(zip(segments, predictions, strict=True)):
         both = np.isfinite(s.angles).all(axis=1) & np.isfinite(p).all(axis=1)
         for a, b in _runs(both):
             t_runs.append(s.angles[a:b].astype(np.float64))
             p_runs.append(np.asarray(p[a:b], dtype=np.float64))
             a_runs.append(s.audio[a:b].astype(np.float64))
+            if onsets:
+                o_runs.append(onsets[k][(onsets[k] >= a) & (onsets[k] < b)] - a)
     long_ = [i for i, t in enumerate(t_runs) if len(t) >= window]
     if long_:
         out |= _cca_measures(
@@ -164,9 +225,85 @@ def subject_metrics(
             "delta_jerk": dj_mean,
             "hellinger_speed": M.hellinger(h_true, h_pred),  # seed 001, Eq. 2
         }
+        out |= _genea_measures(t_runs, p_runs, rate_hz, config)
     else:
         out["not_computable"]["jerk, speeds"] = f"no stretch of {MIN_RUN} whole known poses"
+    if fgd is not None:
+        out |= _fgd_measure(out["not_computable"], t_runs, p_runs, fgd, rate_hz, config)
+    if onsets:
+        scores = [
+            B.beat_scores(
+                audio_beats_s=o / rate_hz,
+                motion_beats_s=B.motion_beats(
+                    p, rate_hz=rate_hz, order_s=config.eval.beat_min_order_s
+                )
+                / rate_hz,
+                sigma_s=config.eval.beat_sigma_s,
+            )
+            for o, p in zip(o_runs, p_runs, strict=True)
+        ]
+        pooled = np.concatenate(scores) if scores else np.zeros(0)
+        if pooled.size:
+            out["beat_consistency"] = float(np.mean(pooled))  # BEAT, over every audio beat
+        else:
+            out["not_computable"]["beat consistency"] = "no audio onset inside a known stretch"
     return out
+
+
+def _genea_measures(
+    t_runs: list[np.ndarray], p_runs: list[np.ndarray], rate_hz: float, config: TrainConfig
+) -> dict[str, float]:
+    """GENEA 2022's average acceleration and jerk of the prediction, and the Hellinger distance
+    of the acceleration histograms, over stretches of ≥ `MIN_RUN` frames."""
+
+    def norms(runs: list[np.ndarray], order: int) -> np.ndarray:
+        return np.concatenate([M.derivative_norms(x, rate_hz=rate_hz, order=order) for x in runs])
+
+    e = config.eval
+    h_true, h_pred = (
+        M.speed_histogram(norms(runs, 2), e.accel_bin, e.accel_max) for runs in (t_runs, p_runs)
+    )
+    return {
+        "avg_accel": float(np.mean(norms(p_runs, 2))),
+        "avg_jerk": float(np.mean(norms(p_runs, 3))),
+        "hellinger_accel": M.hellinger(h_true, h_pred),
+    }
+
+
+def _fgd_measure(
+    reasons: dict[str, str],
+    t_runs: list[np.ndarray],
+    p_runs: list[np.ndarray],
+    fgd: FeatureModel,
+    rate_hz: float,
+    config: TrainConfig,
+) -> dict[str, float]:
+    """FGD of the prediction's chunks against the truth's, or a reason in `reasons`."""
+    real = chunks(t_runs, rate_hz=rate_hz, config=config.eval)
+    gen = chunks(p_runs, rate_hz=rate_hz, config=config.eval)
+    if min(len(real), len(gen)) < 2:
+        reasons["FGD"] = (
+            f"fewer than 2 chunks of {config.eval.fgd_chunk_s:g} s of whole known poses"
+        )
+        return {}
+    return {"fgd": fgd.fgd(real=real, generated=gen)}
+
+
+def segment_onsets(
+    features: Sequence[np.ndarray], *, audio: AudioConfig, rate_hz: float, config: TrainConfig
+) -> list[np.ndarray]:
+    """Audio onset frames of each segment from its un-normalised features `(n, F)`."""
+    e = config.eval
+    return [
+        B.onsets(
+            B.energy_bands(f, audio=audio),
+            rate_hz=rate_hz,
+            delta=e.onset_delta,
+            wait_s=e.onset_wait_s,
+            window_s=e.onset_window_s,
+        )
+        for f in features
+    ]
 
 
 def _cca_measures(
@@ -215,21 +352,69 @@ def evaluate_segments(
     profile: pepper.RobotProfile,
     rate_hz: float,
     config: TrainConfig,
+    donors: Sequence[Segment] = (),
+    fgd: FeatureModel | None = None,
+    onsets: Sequence[np.ndarray] | None = None,
 ) -> dict[str, dict[str, dict[str, Any]]]:
-    """{subject → {system → metrics}} for the model (post-processed) and both baselines."""
+    """{subject → {system → metrics}} for the model (post-processed) and the baselines.
+
+    The shuffled clip's donors are `segments` and `donors` (e.g. the train part's).
+    """
+    systems = {name: [postprocess(p, profile, rate_hz, config) for p in model_pred01]}
+    systems |= baselines(
+        segments,
+        mean_pose01=mean_pose01,
+        profile=profile,
+        rate_hz=rate_hz,
+        config=config,
+        donors=donors,
+    )
+    return score_systems(segments, systems, profile, rate_hz, config, fgd=fgd, onsets=onsets)
+
+
+def baselines(
+    segments: Sequence[Segment],
+    *,
+    mean_pose01: np.ndarray,
+    profile: pepper.RobotProfile,
+    rate_hz: float,
+    config: TrainConfig,
+    donors: Sequence[Segment] = (),
+) -> dict[str, list[np.ndarray]]:
+    """The baselines' motion per segment: natural, mean pose, shuffled clip, shifted truth."""
     mean_pose = pepper.denormalise(np.asarray(mean_pose01)[None], profile)[0]
     shift = round(config.shift_baseline_s * rate_hz)
-    systems: dict[str, list[np.ndarray]] = {
-        name: [postprocess(p, profile, rate_hz, config) for p in model_pred01],
+    return {
+        NATURAL: [s.angles for s in segments],
         MEAN_POSE: [np.tile(mean_pose, (len(s), 1)) for s in segments],
+        SHUFFLED: shuffled_clip(segments, [*segments, *donors], seed=config.eval.shuffle_seed),
         SHIFTED: [shifted_truth(s.angles, shift) for s in segments],
     }
+
+
+def score_systems(
+    segments: Sequence[Segment],
+    systems: dict[str, list[np.ndarray]],
+    profile: pepper.RobotProfile,
+    rate_hz: float,
+    config: TrainConfig,
+    *,
+    fgd: FeatureModel | None = None,
+    onsets: Sequence[np.ndarray] | None = None,
+) -> dict[str, dict[str, dict[str, Any]]]:
+    """{subject → {system → metrics}} of each system's angles `(n_k, 11)` per segment."""
     result: dict[str, dict[str, dict[str, Any]]] = {}
     for subject in sorted({s.subject for s in segments}):
         idx = [i for i, s in enumerate(segments) if s.subject == subject]
         result[subject] = {
             system: subject_metrics(
-                [segments[i] for i in idx], [preds[i] for i in idx], profile, rate_hz, config
+                [segments[i] for i in idx],
+                [preds[i] for i in idx],
+                profile,
+                rate_hz,
+                config,
+                fgd=fgd,
+                onsets=[onsets[i] for i in idx] if onsets else None,
             )
             for system, preds in systems.items()
         }

@@ -3,7 +3,7 @@
 Dissertation (seed 000, §3.4): RMSE (Eq. 3.11–3.12), loss L (3.15), CCA (3.16–3.17), local CCA
 (3.18), LCCA_Θ (3.19), ΔLCCA (3.20), jerkiness J, J̃ and ΔJ̃ (3.21–3.22). Seed 002: forced CCA
 (FCCA, Eq. 4.5–4.6). Seed 001: average position error APE (Eq. 1), speed histograms and the
-Hellinger distance (Eq. 2).
+Hellinger distance (Eq. 2). GENEA 2022's average acceleration and jerk (`derivative_norms`).
 
 Angles are `(N, 11)` radians (or `(N, 11)` in [0, 1] for L); every function returns radians-based
 values — conversion to degrees belongs to reports. Rows with NaN are the caller's business except
@@ -144,19 +144,18 @@ def _batched_cca(xw: F64, yw: F64) -> F64:
     return np.minimum(s[:, 0], 1.0)
 
 
-def local_cca(
-    x: ArrayLike, y: ArrayLike, window: int, *, stride: int = 1, chunk: int = 512
-) -> float:
+def local_cca(x: ArrayLike, y: ArrayLike, window: int, *, stride: int, chunk: int = 512) -> float:
     """Local CCA (Eq. 3.18): mean CCA over sliding windows of `window` frames.
 
-    x `(d, p)`, y `(d, q)`; windows start every `stride` frames (Eq. 3.18: 1). A sequence shorter
+    x `(d, p)`, y `(d, q)`; windows start every `stride` frames (`train.lcca_stride`; Eq. 3.18:
+    1). A sequence shorter
     than the window is one window.
     """
     return float(np.mean(local_cca_values(x, y, window, stride=stride, chunk=chunk)))
 
 
 def local_cca_values(
-    x: ArrayLike, y: ArrayLike, window: int, *, stride: int = 1, chunk: int = 512
+    x: ArrayLike, y: ArrayLike, window: int, *, stride: int, chunk: int = 512
 ) -> F64:
     """The per-window CCAs whose mean is `local_cca`, `(W,)`."""
     xx, yy = _2d(x), _2d(y)
@@ -174,13 +173,13 @@ def local_cca_values(
     return np.concatenate(out)  # the summands of Eq. 3.18
 
 
-def lcca_theta(true: ArrayLike, pred: ArrayLike, window: int, *, stride: int = 1) -> float:
+def lcca_theta(true: ArrayLike, pred: ArrayLike, window: int, *, stride: int) -> float:
     """LCCA_Θ = LCCA(ᵗΘ, ᵖΘ) (Eq. 3.19)."""
     return local_cca(true, pred, window, stride=stride)
 
 
 def delta_lcca(
-    audio: ArrayLike, true: ArrayLike, pred: ArrayLike, window: int, *, stride: int = 1
+    audio: ArrayLike, true: ArrayLike, pred: ArrayLike, window: int, *, stride: int
 ) -> float:
     """ΔLCCA = |LCCA(Ω, ᵗΘ) − LCCA(Ω, ᵖΘ)| (Eq. 3.20)."""
     return abs(
@@ -248,6 +247,24 @@ def speeds(theta: ArrayLike, rate_hz: float) -> F64:
     x = np.asarray(theta, dtype=np.float64)
     d = np.diff(x, axis=0) * rate_hz
     return np.linalg.norm(d, axis=-1) if x.ndim == 3 else np.abs(d)
+
+
+def derivative_norms(x: ArrayLike, *, rate_hz: float, order: int) -> F64:
+    """|Δⁿx| · fⁿ per frame and joint, `(N − n, J)`: speed (n = 1), acceleration (2), jerk (3).
+
+    `(N, J)` angles (the norm of a scalar is its absolute value) or `(N, K, D)` positions (the
+    norm over D), as GENEA 2022's numerical evaluations compute them (scaled by fps^n).
+    """
+    v = np.asarray(x, dtype=np.float64)
+    if order < 1 or len(v) <= order:
+        raise ValueError(f"a derivative of order {order} needs more than {order} frames")
+    d = np.diff(v, n=order, axis=0) * rate_hz**order
+    return np.linalg.norm(d, axis=-1) if v.ndim == 3 else np.abs(d)
+
+
+def average_derivative(x: ArrayLike, *, rate_hz: float, order: int) -> float:
+    """GENEA's average acceleration (order 2) or jerk (order 3): mean of `derivative_norms`."""
+    return float(np.mean(derivative_norms(x, rate_hz=rate_hz, order=order)))
 
 
 def speed_histogram(speed: ArrayLike, bin_width: float, top: float) -> F64:

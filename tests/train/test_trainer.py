@@ -17,7 +17,7 @@ from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.robot import pepper
 from gesturebank.train.commands import evaluate_command, synthesize_command, train_command
-from gesturebank.train.evaluate import MEAN_POSE, SHIFTED, shifted_truth
+from gesturebank.train.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED, shifted_truth
 from gesturebank.train.model_folder import load_model
 from gesturebank.train.trainer import validation_loss
 
@@ -119,7 +119,8 @@ def test_evaluate_scores_the_model_and_both_baselines(
     text = console.export_text()
     assert "Loss L" in text and "RMSE (°)" in text and "LCCA_Θ" in text and "average" in text
     saved = json.loads((out / "metrics.json").read_text())
-    assert saved["average"].keys() == {"MLP-SI", MEAN_POSE, SHIFTED}
+    assert saved["average"].keys() == {"MLP-SI", NATURAL, MEAN_POSE, SHUFFLED, SHIFTED}
+    assert "GENEA/BEAT measures (FGD autoencoder " in text and saved["fgd_version"] in text
     (subject,) = saved["per_subject"]
     rows = report["per_subject"][subject]
     # (post-smoothing at 4 Hz blurs the synthetic 120 ms syllables, so the margin is smaller
@@ -127,6 +128,11 @@ def test_evaluate_scores_the_model_and_both_baselines(
     assert rows["MLP-SI"]["loss_l"] < 0.75 * rows[MEAN_POSE]["loss_l"]
     assert rows[MEAN_POSE]["lcca_theta"] == 0.0  # a static pose correlates with nothing
     assert rows[SHIFTED]["delta_jerk"] < 0.05 * rows[SHIFTED]["jerk_true"]  # same motion
+    natural, shuffled = rows[NATURAL], rows[SHUFFLED]
+    assert natural["loss_l"] == 0 and natural["fgd"] <= 1e-6 and natural["hellinger_accel"] == 0
+    assert shuffled["fgd"] > natural["fgd"] and shuffled["loss_l"] > 0
+    assert rows[MEAN_POSE]["avg_jerk"] == 0 and rows[MEAN_POSE]["beat_consistency"] == 0
+    assert 0 < natural["beat_consistency"] <= 1
     assert set(rows["MLP-SI"]["rmse_per_joint_deg"]) == set(pepper.JOINTS)
 
 

@@ -1,0 +1,77 @@
+"""`gesturebank compare` on the dataset built from the sample media: two models, the baselines,
+one table (no quality claim: the demo's speech and motion are unrelated)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rich.console import Console
+from typer.testing import CliRunner
+
+from gesturebank.cli import app
+from gesturebank.config import TrainConfig
+from gesturebank.errors import InputError
+from gesturebank.train.commands import train_command
+from gesturebank.train.compare import COLUMNS, compare_command
+from gesturebank.train.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
+
+BASELINES = [NATURAL, MEAN_POSE, SHUFFLED, SHIFTED]
+
+
+@pytest.fixture(scope="module")
+def two_models(real_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    cfg = TrainConfig.model_validate(
+        {"mlp": {"max_epochs": 5}, "lstm": {"max_epochs": 2, "stride": 20}}
+    )
+    root = tmp_path_factory.mktemp("models")
+    for kind in ("mlp", "lstm"):
+        train_command(real_dataset, kind, "si", 0, None, root / kind, cfg, quiet=True)
+    return [root / "mlp", root / "lstm"]
+
+
+def test_compare_prints_one_table_and_writes_csv_and_markdown(
+    two_models: list[Path], tmp_path: Path
+) -> None:
+    console = Console(record=True, width=250)
+    report = compare_command(two_models, out=tmp_path / "t.csv", console=console)
+    text = console.export_text()
+    version = report["fgd_version"]
+    assert version and f"FGD autoencoder {version}" in text
+    assert list(report["systems"]) == ["mlp", "lstm", *BASELINES]
+    for name in report["systems"]:
+        assert name in text
+    natural = report["systems"][NATURAL]
+    assert natural["loss_l"] == 0 and natural["fgd"] <= 1e-6  # the truth against itself
+    assert report["systems"][MEAN_POSE]["avg_jerk"] == 0
+    for name in ("mlp", "lstm"):
+        assert np.isfinite(report["systems"][name]["loss_l"])
+        assert report["systems"][name]["fgd"] is not None
+    with open(tmp_path / "t.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["system"] for r in rows] == list(report["systems"])
+    assert {r["fgd_version"] for r in rows} == {version}
+    assert float(rows[0]["loss_l"]) == pytest.approx(report["systems"]["mlp"]["loss_l"])
+    assert set(rows[0]) == {"system", "fgd_version", *(k for k, *_ in COLUMNS)}
+
+    result = CliRunner().invoke(
+        app, ["compare", *map(str, two_models), "--out", str(tmp_path / "t.md")]
+    )
+    assert result.exit_code == 0, result.output
+    md = (tmp_path / "t.md").read_text().splitlines()
+    assert f"FGD autoencoder {version}" in md[0]  # the same autoencoder, reused
+    assert md[2].startswith("| System | Loss L") and len(md) == 4 + len(report["systems"])
+
+
+def test_compare_refuses_models_of_other_splits_and_bad_outputs(
+    two_models: list[Path], real_dataset: Path, tmp_path: Path
+) -> None:
+    with pytest.raises(InputError, match=r"t\.txt: the table is written as \.csv or \.md"):
+        compare_command(two_models, out=tmp_path / "t.txt")
+    cfg = TrainConfig.model_validate({"mlp": {"max_epochs": 1}})
+    other = tmp_path / "fold1"
+    train_command(real_dataset, "mlp", "si", 1, None, other, cfg, quiet=True)
+    with pytest.raises(InputError, match="trained on another split or dataset"):
+        compare_command([two_models[0], other])
