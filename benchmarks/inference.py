@@ -7,10 +7,16 @@ PyTorch (closest to its per-call Keras setup). All methods run in the same proce
 in rounds; the table shows p50 / p99 / mean per frame in milliseconds over ≥ 10,000 frames each,
 and how many times slower than the stateful LSTM step each one is.
 
+A second table lists every registered model (`train.registry.MODELS`, default sizes,
+untrained: same cost): causal ones as live mode runs them, one frame (plus state) per call;
+non-causal ones (which cannot run live) as offline `synthesize` runs them, a whole utterance per
+call, its time divided by its frames.
+
 Usage: python benchmarks/inference.py [--frames 10000] [--rounds 5] [--model-dir DIR] [--quick]
 (--model-dir: a trained model folder per kind, e.g. DIR/mlp and DIR/lstm; default: untrained
 models of the default architectures, which cost exactly the same. --quick: 300 frames in one
-round, to check that the script runs; it replaces --frames and --rounds.)
+round and 2 utterances of 1 s per non-causal model, to check that the script runs; it replaces
+--frames and --rounds.)
 """
 
 from __future__ import annotations
@@ -27,10 +33,12 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.config import AudioConfig, TrainConfig
-from gesturebank.extract.audio import frame_features
+from gesturebank.extract.audio_features import frame_features
+from gesturebank.robot.online import OnnxFrameModel
 from gesturebank.train.export import OnnxModel, StreamingLSTM, export_onnx
 from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
 from gesturebank.train.models import LSTMModel, build_model
+from gesturebank.train.registry import MODELS
 
 WINDOW = 300  # N_τ frames the baseline re-runs every frame
 
@@ -61,6 +69,45 @@ def time_calls(fn: Callable[[int], object], n: int, out: list[float]) -> None:
 
 def _offset(fn: Callable[[int], object], offset: int, n: int) -> Callable[[int], object]:
     return lambda i: fn((offset + i) % n)
+
+
+def every_model(
+    tmp: Path, feats: np.ndarray, frames: int, utterances: int, seconds: float
+) -> Table:
+    """Per-frame latency of each registered model at its default size (module docstring)."""
+    table = Table(title="Every model, default sizes, 1 thread (ms per frame)")
+    for col in ("model", "mode", "p50", "p99", "mean"):
+        table.add_column(col, justify="left" if col in ("model", "mode") else "right")
+    cfg = TrainConfig()
+    n_utt = int(seconds * 100)  # 100 frames per second
+    for name in MODELS.names():
+        torch.manual_seed(0)
+        model = build_model(name, feats.shape[1], cfg).eval()
+        folder = tmp / "every" / name
+        paths = export_onnx(model, folder)
+        times: list[float] = []
+        if getattr(model, "causal", False):
+            live = OnnxFrameModel(paths[-1])  # the step graph, or the MLP's frame graph
+
+            def one_step(i: int, live: OnnxFrameModel = live) -> object:
+                return live.step(feats[i % len(feats)])
+
+            time_calls(one_step, 50, [])
+            time_calls(one_step, frames, times)
+            mode = "live: one step"
+        else:
+            offline = OnnxModel(folder / MODEL_ONNX)
+            offline.predict(feats[:n_utt])  # warm-up
+            for i in range(utterances):
+                t0 = time.perf_counter_ns()
+                offline.predict(feats[i : i + n_utt])
+                times.append((time.perf_counter_ns() - t0) / 1e6 / n_utt)
+            mode = f"offline, {seconds:g} s utterance ÷ frames"
+        a = np.asarray(times)
+        p50, p99 = np.percentile(a, [50, 99])
+        table.add_row(name, mode, f"{p50:.3f}", f"{p99:.3f}", f"{a.mean():.3f}")
+    table.caption = "offline rows: non-causal models, which need future audio and cannot run live"
+    return table
 
 
 def main() -> None:
@@ -126,6 +173,10 @@ def main() -> None:
     lstm_p99 = np.percentile(times["LSTM 12, onnxruntime, stateful step"], 99)
     verdict = "met" if max(mlp_p99, lstm_p99) <= 1.0 else "NOT met"
     print(f"target p99 ≤ 1 ms per model: {verdict} (MLP {mlp_p99:.3f} ms, LSTM {lstm_p99:.3f} ms)")
+    with tempfile.TemporaryDirectory() as tmp:
+        utterances, seconds = (2, 1.0) if args.quick else (20, 10.0)
+        table = every_model(Path(tmp), feats, per_round * args.rounds, utterances, seconds)
+    Console(width=max(Console().width, 110)).print(table)
 
 
 if __name__ == "__main__":

@@ -22,12 +22,13 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from gesturebank import __version__
-from gesturebank.config import Config, Executor, ModelKind, Variant, load_config, parse_override
+from gesturebank.config import Config, Executor, Variant, load_config, parse_override
 from gesturebank.errors import GesturebankError, InputError, RobotError
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.lift import LIFTERS
 from gesturebank.registry import Registry
 from gesturebank.robot.backends import BACKENDS
+from gesturebank.train.registry import MODELS
 
 if TYPE_CHECKING:
     from gesturebank.datasets.build import BuildSummary, TakeResult
@@ -141,6 +142,7 @@ def info() -> None:
         table.add_row(dist, _version(dist))
     table.add_row("detectors", ", ".join(DETECTORS.names()) or "(none)")
     table.add_row("lifters", ", ".join(LIFTERS.names()) or "(none)")
+    table.add_row("models", ", ".join(MODELS.names()) or "(none)")
     out.print(table)
 
 
@@ -338,7 +340,7 @@ def _print_summary(console: Console, summary: BuildSummary) -> None:
 @app.command()
 def train(
     dataset: DatasetArg,
-    model: Annotated[ModelKind, typer.Option(help="The network.")] = "mlp",
+    model: Annotated[str, typer.Option(help=f"The network, {_one_of(MODELS)}.")] = "mlp",
     variant: Annotated[
         Variant, typer.Option(help="'si' subject-independent (a fold) or 'sd' (one subject).")
     ] = "si",
@@ -351,10 +353,13 @@ def train(
     sets: SetOption = None,
     quiet: QuietOption = False,
 ) -> None:
-    """Train a speech-to-motion model (MLP or LSTM, dissertation §4.3) on a dataset split.
+    """Train a speech-to-motion model on a dataset split: the dissertation's MLP or LSTM (§4.3)
+    or a seed model — aud2motion (causal GRU), aud2pose (BiGRU window), blstm (span predictor),
+    cvae (sampled motion) — each with its paper's optimiser and schedule ([train.NAME] sizes).
 
     Writes weights (state dict), the resolved config, the audio normalisers and an ONNX export
-    (plus a stateful one-step ONNX model for the LSTM) into the --out folder.
+    (plus a stateful one-step ONNX model for the causal recurrent ones, LSTM and aud2motion, which
+    `live` runs) into the --out folder.
     """
     from gesturebank.train.commands import train_command
 
@@ -383,14 +388,56 @@ def evaluate(
 ) -> None:
     """Score a model like Table 5.1 of the dissertation, per subject and averaged.
 
-    L, RMSE, ΔLCCA, LCCA_Θ, ΔJ̃, CCA, FCCA, APE and speed-histogram Hellinger distance, next to
-    two baselines (the static mean pose and the ground truth shifted in time); metrics.json is
-    written into the model folder.
+    L, RMSE, ΔLCCA, LCCA_Θ, ΔJ̃, CCA, FCCA, APE, and the field's measures (GENEA's acceleration,
+    jerk, speed/acceleration Hellinger distances and FGD; BEAT's beat consistency), next to four
+    baselines (natural motion, the static mean pose, a shuffled clip, the ground truth shifted in
+    time); metrics.json is written into the model folder.
     """
     from gesturebank.train.commands import evaluate_command
 
     with user_errors():
         evaluate_command(model_dir=model_dir, dataset=dataset, split=split, console=out)
+
+
+@app.command()
+def compare(
+    model_dirs: Annotated[
+        list[Path], typer.Argument(help="Model folders written by `train`, all on one split.")
+    ],
+    dataset: Annotated[
+        Path | None,
+        typer.Option(help="Dataset (default: the one the models were trained on)."),
+    ] = None,
+    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+    table_out: Annotated[
+        Path | None, typer.Option("--out", help="Also write the table: a .csv or .md file.")
+    ] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Score several models and the baselines (natural motion, mean pose, a shuffled clip, the
+    shifted truth) on one split: one table of the seeds' and the field's measures (GENEA's
+    acceleration, jerk, Hellinger distances and FGD — its autoencoder's version in the title —
+    and BEAT's beat consistency), each the mean over subjects.
+    """
+    from gesturebank.train.compare import compare_command
+
+    with user_errors():
+        config = (
+            resolve_config(config_file=config_file, sets=sets, flags={}).train
+            if config_file or sets
+            else None
+        )
+        compare_command(
+            model_dirs=model_dirs,
+            dataset=dataset,
+            split=split,
+            config=config,
+            out=table_out,
+            console=out,
+        )
+    if table_out is not None:
+        out.print(f"table written to {table_out}", highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -498,8 +545,9 @@ def live(
     """Live synthesis: speech from a microphone (or a WAV in real time) drives the robot.
 
     Every 10 ms: the latest 25 ms of audio → one feature frame → the model (a stateful step for
-    the LSTM) → inverse normalisation → Kalman smoothing → safety → the backend. Per-frame
-    latency p50/p99 is reported at the end.
+    the LSTM and aud2motion) → inverse normalisation → Kalman smoothing → safety → the backend.
+    Per-frame latency p50/p99 is reported at the end. Causal models only (mlp, lstm,
+    aud2motion); the others need future audio: play them with synthesize.
     """
     from gesturebank.robot.commands import live_command
 

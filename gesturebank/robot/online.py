@@ -8,8 +8,10 @@ loop is testable without an audio device. Per-frame latency (chunk available →
 backend) is measured and summarised as p50/p99.
 
 The model folder is the one `gesturebank train` writes (`gesturebank.train.model_folder` reads
-it): `model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state) or, for the
-MLP, `model.onnx` (`(N, F)` → `(N, 11)`), inputs and outputs taken by position; the audio config
+it): `model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state; Aud2Motion:
+one state) or, for the MLP, `model.onnx` (`(N, F)` → `(N, 11)`), inputs and outputs taken by
+position. Only causal models run live (model.json's "causal"); the others need future audio and
+are refused in one line (offline `synthesize` plays them). Then the audio config
 the model was trained with; z-norm stats per subject and "*" for the whole dataset (the
 dissertation's online mode used the global ones); the robot profile.
 """
@@ -28,7 +30,7 @@ import numpy as np
 
 from gesturebank.config import AudioConfig, PlaybackConfig
 from gesturebank.errors import InputError, RobotError
-from gesturebank.extract.audio import apply_znorm, frame_features, frame_length, frame_step
+from gesturebank.extract.audio_features import apply_znorm, frame_features, frame_length, frame_step
 from gesturebank.filters import KalmanConstAcc
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import Backend, Command
@@ -65,33 +67,27 @@ class OnnxFrameModel:
         name = os.fspath(path)
         self.session = model_folder.session(path)
         inputs = self.session.get_inputs()
-        if len(inputs) not in (1, 3) or len(self.session.get_outputs()) != len(inputs):
-            raise InputError(f"{name}: expected inputs x[, h, c] and outputs y[, h_out, c_out]")
+        if len(self.session.get_outputs()) != len(inputs):
+            raise InputError(f"{name}: expected inputs x[, states…] and outputs y[, states…]")
         self.input_names = [i.name for i in inputs]
         self.output_names = [o.name for o in self.session.get_outputs()]
         dim = inputs[0].shape[-1]
         self.n_features = dim if isinstance(dim, int) else None
-        self.stateful = len(inputs) == 3
-        self.state_shape: tuple[int, ...] = ()
-        if self.stateful:
-            shape = inputs[1].shape
-            if not all(isinstance(d, int) for d in shape):
-                raise InputError(f"{name}: LSTM state input needs a fixed shape, got {shape}")
-            self.state_shape = tuple(int(d) for d in shape)
+        self.state_shapes: list[tuple[int, ...]] = []
+        for i in inputs[1:]:  # recurrent state: (h, c) of an LSTM, h of a GRU
+            if not all(isinstance(d, int) for d in i.shape):
+                raise InputError(f"{name}: state input {i.name} needs a fixed shape, got {i.shape}")
+            self.state_shapes.append(tuple(int(d) for d in i.shape))
+        self.stateful = bool(self.state_shapes)
         self.reset()
 
     def reset(self) -> None:
-        self.h = np.zeros(self.state_shape, np.float32)
-        self.c = np.zeros(self.state_shape, np.float32)
+        self.states = [np.zeros(shape, np.float32) for shape in self.state_shapes]
 
     def step(self, features01: np.ndarray) -> np.ndarray:
         x = np.asarray(features01, np.float32).reshape(1, -1)
-        feed: dict[str, Any] = {self.input_names[0]: x}
-        if self.stateful:
-            feed[self.input_names[1]], feed[self.input_names[2]] = self.h, self.c
-            y, self.h, self.c = self.session.run(self.output_names, feed)
-        else:
-            (y,) = self.session.run(self.output_names, feed)
+        feed: dict[str, Any] = dict(zip(self.input_names, [x, *self.states], strict=True))
+        y, *self.states = self.session.run(self.output_names, feed)
         return np.asarray(y, np.float32).reshape(-1)
 
 
@@ -127,6 +123,12 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
     subject of the training data.
     """
     folder = model_folder.load(model_dir)
+    if not folder.causal:
+        kind = folder.info.get("architecture", {}).get("kind", "?")
+        raise InputError(
+            f"{folder.path}: model {kind!r} is not causal (it needs future audio), so it cannot "
+            "run live; play it offline with `gesturebank synthesize`"
+        )
     mean, std = folder.znorm(znorm)
     model = OnnxFrameModel(folder.graph)
     if model.n_features is not None and model.n_features != len(mean):
@@ -195,9 +197,9 @@ Chunks = Iterator[tuple[np.ndarray, float]]
 def wav_chunks(path: PathLike, hop: int, sample_rate: int, *, realtime: bool = True) -> Chunks:
     """Stream an audio file in `hop`-sample chunks; in real time, chunk k becomes available
     (k + 1) hops after the start, as from a microphone. A partial last chunk is dropped."""
-    from gesturebank.extract.video import read_audio
+    from gesturebank.extract.audio_io import read_audio
 
-    track = read_audio(path, sample_rate)
+    track = read_audio(path, sample_rate=sample_rate)
     if track is None or len(track.signal) < hop:
         raise InputError(f"{os.fspath(path)}: no audio to stream")
     signal = track.signal

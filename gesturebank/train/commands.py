@@ -18,11 +18,12 @@ from gesturebank.config import TrainConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
-from gesturebank.extract.audio import apply_znorm, features
+from gesturebank.extract.audio_features import apply_znorm, features
 from gesturebank.fileio import output_errors, write_bytes_atomic
 from gesturebank.robot import pepper
 from gesturebank.train import model_folder
 from gesturebank.train.evaluate import (
+    FIELD_MEASURES,
     SEED_MEASURES,
     TABLE_5_1,
     average,
@@ -35,6 +36,7 @@ from gesturebank.train.export import OnnxModel, export_onnx
 from gesturebank.train.model_folder import MODEL_ONNX
 from gesturebank.train.models import build_model
 from gesturebank.train.models import predict as torch_predict
+from gesturebank.train.registry import MODELS
 from gesturebank.train.trainer import TrainResult, torch_settings, train
 
 PathLike = str | os.PathLike[str]
@@ -59,12 +61,13 @@ def train_command(
     *,
     quiet: bool = False,
 ) -> TrainResult:
-    """Train `model` ('mlp' | 'lstm') on a SI fold (default 0) or a SD subject.
+    """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
 
     The model folder is written beside `out_dir` and swapped in whole, so no file of an older
     model survives and a failed or interrupted run keeps the old one.
     """
     cfg = config or TrainConfig()
+    MODELS.check(model)  # before any data is read
     if variant == "si" and fold is None:
         fold = 0
     out = Path(out_dir)
@@ -108,17 +111,26 @@ def evaluate_command(
 ) -> dict[str, Any]:
     """Score a model on a split part of `dataset` (default: the one it was trained on).
 
-    Prints a Table-5.1-style table (per subject, plus the average; the model and both baselines)
-    and writes metrics.json into the model folder; returns its content.
+    Prints a Table-5.1-style table (per subject, plus the average; the model and the
+    baselines), the seeds' and the field's measures (FGD with its autoencoder's version), and
+    writes metrics.json into the model folder; returns its content.
     """
+    from gesturebank.train.fgd import label as fgd_label
+    from gesturebank.train.field import prepare
+
     folder = model_folder.load(model_dir)
     net, info, norm = folder.torch_model(), folder.info, folder.norm
     cfg = folder.train_config
     ds = open_dataset(dataset or info["dataset"])
-    items = split_items(ds, info["variant"], split, fold=info["fold"], subject=info["subject"])
-    segments = load_segments(ds, items)
-    if not segments:
-        raise InputError(f"{ds.path}: the {split} part of this split is empty")
+    inputs = prepare(
+        ds,
+        variant=info["variant"],
+        fold=info["fold"],
+        subject=info["subject"],
+        part=split,
+        config=cfg,
+    )
+    segments = inputs.segments
     profile = folder.profile
     with torch_settings(cfg.seed, cfg.threads):
         pred01 = [torch_predict(net, s.audio) for s in segments]
@@ -131,13 +143,18 @@ def evaluate_command(
         profile=profile,
         rate_hz=float(info["rate_hz"]),
         config=cfg,
+        donors=inputs.donors,
+        fgd=inputs.fgd,
+        onsets=inputs.onsets,
     )
+    fgd_version = inputs.fgd.version if inputs.fgd else None
     report = {
         "model": name,
         "split": split,
         "dataset": str(ds.path.resolve()),
         "fold": info["fold"],
         "subject": info["subject"],
+        "fgd_version": fgd_version,
         "per_subject": results,
         "average": average(results),
     }
@@ -146,6 +163,10 @@ def evaluate_command(
     title = f"{name} on {split} ({ds.path.name})"
     out.print(table(results, title, TABLE_5_1))
     out.print(table(results, f"{title}: seed measures", SEED_MEASURES))
+    fgd_title = fgd_label(inputs.fgd)
+    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES))
+    if inputs.fgd_note:
+        out.print(f"note: {inputs.fgd_note}", highlight=False, soft_wrap=True)
     for line in not_computable(results):  # n/a in the tables: say why, not a number
         out.print(f"note: {line}", highlight=False, soft_wrap=True)
     return report
@@ -165,11 +186,11 @@ def synthesize_command(
     model → ν⁻¹ → Butterworth post-smoothing → clamp. CSV columns: time_s (centre of each
     feature window, seconds from the first sample) and the 11 joint names.
     """
-    from gesturebank.extract.video import read_audio
+    from gesturebank.extract.audio_io import read_audio
 
     folder = model_folder.load(model_dir)
     info, cfg, audio_cfg = folder.info, folder.train_config, folder.audio
-    track = read_audio(audio_path, audio_cfg.sample_rate)
+    track = read_audio(audio_path, sample_rate=audio_cfg.sample_rate)
     if track is None:
         raise InputError(f"{audio_path}: no audio track")
     feats = features(track.signal, track.sample_rate, audio_cfg)
@@ -177,7 +198,10 @@ def synthesize_command(
         mean, std = feats.mean(axis=0), feats.std(axis=0)
     else:
         mean, std = folder.znorm(znorm)
-    pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(apply_znorm(feats, mean, std))
+    # a model with a latent (the CVAE) samples z, drawn with the training seed: reproducible
+    pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(
+        apply_znorm(feats, mean, std), z_seed=cfg.seed
+    )
     angles = postprocess(pred01, folder.profile, float(info["rate_hz"]), cfg)
     times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
     text = io.StringIO(newline="")

@@ -1,4 +1,4 @@
-"""ONNX export and onnxruntime inference for both models, including a stateful one-step LSTM.
+"""ONNX export and onnxruntime inference for every model, including stateful one-step graphs.
 
 Exporter: the legacy TorchScript exporter (`torch.onnx.export(..., dynamo=False)`). The dynamo
 exporter needs `onnxscript`, which is not a dependency (and not installed); the TorchScript path
@@ -11,6 +11,9 @@ Files:
 - LSTM `model_step.onnx`: `audio (1, F)`, `h (1, 1, U)`, `c (1, 1, U)` → `angles01 (1, 11)`,
   `h_out`, `c_out`. `StreamingLSTM` carries (h, c) between 10 ms frames, so live synthesis costs
   one LSTM step per frame instead of re-running a 300-frame window (§5.1.2).
+- Every other model: `model.onnx` `audio (B, T, F)` [+ its `onnx_inputs()`, e.g. the CVAE's
+  `z (B, latent)`] → `angles01 (B, T, 11)`; a model with `step_module()` (Aud2Motion: state `h`)
+  also gets `model_step.onnx`, inputs `audio` + its states, outputs `angles01` + `<state>_out`.
 
 The file names and the onnxruntime session builder are the model folder's (`model_folder`).
 """
@@ -26,7 +29,7 @@ import torch
 
 from gesturebank.errors import InputError
 from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX, session
-from gesturebank.train.models import MLP, LSTMModel, LSTMStep
+from gesturebank.train.models import MLP
 
 OPSET = 17
 
@@ -39,11 +42,13 @@ def _export(module: torch.nn.Module, args: tuple[torch.Tensor, ...], path: Path,
         torch.onnx.export(module, args, str(path), dynamo=False, opset_version=OPSET, **kw)
 
 
-def export_onnx(model: MLP | LSTMModel, out_dir: Path) -> list[Path]:
-    """Write `model.onnx` (and for the LSTM `model_step.onnx`) into `out_dir`; returns the paths."""
+def export_onnx(model: torch.nn.Module, out_dir: Path) -> list[Path]:
+    """Write `model.onnx` (and for stateful models `model_step.onnx`) into `out_dir`; returns
+    the paths."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    f = model.n_features
+    described: Any = model  # the registry's interface (train.registry), duck-typed
+    f = int(described.n_features)
     path = out_dir / MODEL_ONNX
     if isinstance(model, MLP):
         _export(
@@ -55,22 +60,30 @@ def export_onnx(model: MLP | LSTMModel, out_dir: Path) -> list[Path]:
             dynamic_axes={"audio": {0: "frames"}, "angles01": {0: "frames"}},
         )
         return [path]
+    extra: dict[str, tuple[int, ...]] = getattr(described, "onnx_inputs", dict)()
     _export(
         model,
-        (torch.zeros(1, 8, f),),
+        (torch.zeros(1, 8, f), *(torch.zeros(shape) for shape in extra.values())),
         path,
-        input_names=["audio"],
+        input_names=["audio", *extra],
         output_names=["angles01"],
-        dynamic_axes={"audio": {0: "batch", 1: "frames"}, "angles01": {0: "batch", 1: "frames"}},
+        dynamic_axes={
+            "audio": {0: "batch", 1: "frames"},
+            "angles01": {0: "batch", 1: "frames"},
+            **{name: {0: "batch"} for name in extra},
+        },
     )
+    if not hasattr(described, "step_module"):
+        return [path]
+    step, state_shapes = described.step_module()
+    names = ["h", "c"][: len(state_shapes)]
     step_path = out_dir / STEP_ONNX
-    u = model.units
     _export(
-        LSTMStep(model),
-        (torch.zeros(1, f), torch.zeros(1, 1, u), torch.zeros(1, 1, u)),
+        step,
+        (torch.zeros(1, f), *(torch.zeros(shape) for shape in state_shapes)),
         step_path,
-        input_names=["audio", "h", "c"],
-        output_names=["angles01", "h_out", "c_out"],
+        input_names=["audio", *names],
+        output_names=["angles01", *(f"{n}_out" for n in names)],
     )
     return [path, step_path]
 
@@ -80,14 +93,22 @@ class OnnxModel:
 
     def __init__(self, path: Path, threads: int = 1) -> None:
         self.session = session(path, threads=threads)
-        shape = self.session.get_inputs()[0].shape
-        self.sequence = len(shape) == 3  # LSTM graphs take (B, T, F)
+        inputs = self.session.get_inputs()
+        self.sequence = len(inputs[0].shape) == 3  # sequence graphs take (B, T, F)
+        self.z_size = next((int(i.shape[-1]) for i in inputs if i.name == "z"), 0)
 
-    def predict(self, audio: np.ndarray) -> np.ndarray:
+    def predict(self, audio: np.ndarray, *, z_seed: int | None = None) -> np.ndarray:
+        """A model with a latent z (the CVAE) decodes z = 0, or with `z_seed` a z ~ N(0, I)."""
         x = np.ascontiguousarray(audio, dtype=np.float32)
-        if self.sequence:
-            return np.asarray(self.session.run(None, {"audio": x[None]})[0][0])
-        return np.asarray(self.session.run(None, {"audio": x})[0])
+        if not self.sequence:
+            return np.asarray(self.session.run(None, {"audio": x})[0])
+        feed = {"audio": x[None]}
+        if self.z_size:
+            z = np.zeros((1, self.z_size), np.float32)
+            if z_seed is not None:
+                z = np.random.default_rng(z_seed).standard_normal(z.shape).astype(np.float32)
+            feed["z"] = z
+        return np.asarray(self.session.run(None, feed)[0][0])
 
 
 class StreamingLSTM:

@@ -1,12 +1,12 @@
 """The trained-model folder on disk (as `datasets.store` is the dataset): names, write, load, ONNX.
 
     weights.pt         state dict (read with torch.load(weights_only=True))
-    model.json         architecture, variant and split, resolved TrainConfig, audio config,
-                       frame rate, training history
+    model.json         architecture, whether the model is causal (live mode needs it), variant
+                       and split, resolved TrainConfig, audio config, frame rate, training history
     normalisers.json   audio z-norm stats per subject and "*" (dataset.json), angle limits, robot
                        profile, joint names, the training mean pose (normalised) for the baseline
-    model.onnx         offline inference graph; model_step.onnx for the LSTM (stateful step);
-                       both written by `export.export_onnx`
+    model.onnx         offline inference graph; model_step.onnx for stateful causal models
+                       (LSTM, Aud2Motion: one frame + state); both written by `export.export_onnx`
     metrics.json       written by `evaluate`
 
 Live mode needs only an ONNX graph, model.json's "audio" and normalisers.json's
@@ -34,9 +34,9 @@ from gesturebank.robot import pepper
 
 if TYPE_CHECKING:
     import onnxruntime as ort
+    from torch import nn
 
     from gesturebank.datasets.store import Dataset
-    from gesturebank.train.models import MLP, LSTMModel
     from gesturebank.train.trainer import TrainResult
 
 PathLike = str | os.PathLike[str]
@@ -76,7 +76,7 @@ def _write_json(path: Path, data: Any) -> None:
 def write(
     folder: Path,
     *,
-    net: MLP | LSTMModel,
+    net: nn.Module,
     dataset: Dataset,
     variant: str,
     fold: int | None,
@@ -97,6 +97,7 @@ def write(
         {
             "tool_version": __version__,
             "architecture": architecture(net),
+            "causal": bool(getattr(net, "causal", False)),
             "variant": variant,
             "fold": fold,
             "subject": subject,
@@ -155,6 +156,12 @@ class ModelFolder:
         return _graph(self.path)
 
     @property
+    def causal(self) -> bool:
+        """Whether each output frame depends on past audio only (folders from before the key
+        held MLP or LSTM models, both causal)."""
+        return bool(self.info.get("causal", True))
+
+    @property
     def train_config(self) -> TrainConfig:
         return TrainConfig.model_validate(self.info["train_config"])
 
@@ -170,7 +177,7 @@ class ModelFolder:
             raise InputError(f"{self.path}: no audio statistics for {who!r}; have {known}")
         return np.asarray(stats[who]["mean"], np.float64), np.asarray(stats[who]["std"], np.float64)
 
-    def torch_model(self) -> MLP | LSTMModel:
+    def torch_model(self) -> nn.Module:
         """The torch model with its trained weights, in eval mode."""
         import torch
 
@@ -222,7 +229,7 @@ def _stored_profile(limits: dict[str, dict[str, float]], name: str) -> pepper.Ro
     return pepper.RobotProfile(name, "from the dataset", table[:, 0], table[:, 1], table[:, 2])
 
 
-def load_model(model_dir: PathLike) -> tuple[MLP | LSTMModel, dict[str, Any], dict[str, Any]]:
+def load_model(model_dir: PathLike) -> tuple[nn.Module, dict[str, Any], dict[str, Any]]:
     """(torch model with its trained weights, model.json, normalisers.json) of a model folder."""
     folder = load(model_dir)
     return folder.torch_model(), folder.info, folder.norm

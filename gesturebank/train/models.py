@@ -1,4 +1,5 @@
-"""The two speech-to-motion models of the dissertation (§3.3, §4.3), sized by config.
+"""The two speech-to-motion models of the dissertation (§3.3, §4.3), sized by config, and the
+helpers over every registered model (`train.registry.MODELS`: build, describe, rebuild, predict).
 
 - `MLP`: N_l hidden layers of N_u ReLU units, He-initialised, and a sigmoid output over the 11
   normalised angles (§4.3.3); frame-wise, `(N, F) → (N, 11)`.
@@ -15,8 +16,9 @@ import numpy as np
 import torch
 from torch import nn
 
-from gesturebank.config import ModelKind, TrainConfig
-from gesturebank.errors import InputError
+from gesturebank.config import TrainConfig
+from gesturebank.train.registry import MODELS
+from gesturebank.train.schedule import Schedule
 
 N_ANGLES = 11
 
@@ -24,9 +26,10 @@ N_ANGLES = 11
 class MLP(nn.Module):
     """`(N, F)` z-normalised audio features → `(N, 11)` angles in [0, 1]."""
 
-    kind: ModelKind = "mlp"
+    kind = "mlp"
+    causal = True  # frame-wise: each output sees its own frame only
 
-    def __init__(self, n_features: int, layers: int = 7, units: int = 8) -> None:
+    def __init__(self, n_features: int, layers: int, units: int) -> None:
         super().__init__()
         self.n_features = n_features
         blocks: list[nn.Module] = []
@@ -43,13 +46,36 @@ class MLP(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return torch.sigmoid(self.out(self.hidden(x)))  # σ_S, Eq. 3.7
 
+    @classmethod
+    def from_config(cls, n_features: int, config: TrainConfig) -> MLP:
+        return cls(n_features, config.mlp.layers, config.mlp.units)
+
+    def architecture(self) -> dict[str, Any]:
+        n_layers = sum(isinstance(m, nn.Linear) for m in self.hidden)
+        return {
+            "kind": self.kind,
+            "n_features": self.n_features,
+            "layers": n_layers,
+            "units": self.out.in_features,
+        }
+
+    @classmethod
+    def from_architecture(cls, arch: dict[str, Any]) -> MLP:
+        return cls(int(arch["n_features"]), int(arch["layers"]), int(arch["units"]))
+
+    def schedule(self, config: TrainConfig) -> Schedule:
+        lr = config.learning_rate
+        return Schedule("adam", lr, config.mlp.batch_size, config.mlp.max_epochs,
+                        config.patience, None, 1, None, lr)  # fmt: skip
+
 
 class LSTMModel(nn.Module):
     """`(B, T, F)` → `(B, T, 11)` in [0, 1]; the state starts at zero unless given."""
 
-    kind: ModelKind = "lstm"
+    kind = "lstm"
+    causal = True
 
-    def __init__(self, n_features: int, units: int = 12) -> None:
+    def __init__(self, n_features: int, units: int) -> None:
         super().__init__()
         self.n_features = n_features
         self.units = units
@@ -66,6 +92,26 @@ class LSTMModel(nn.Module):
         """x (B, T, F), h and c (1, B, units) → (y (B, T, 11), h', c')."""
         y, (h2, c2) = self.lstm(x, (h, c))
         return torch.sigmoid(self.out(y)), h2, c2
+
+    @classmethod
+    def from_config(cls, n_features: int, config: TrainConfig) -> LSTMModel:
+        return cls(n_features, config.lstm.units)
+
+    def architecture(self) -> dict[str, Any]:
+        return {"kind": self.kind, "n_features": self.n_features, "units": self.units}
+
+    @classmethod
+    def from_architecture(cls, arch: dict[str, Any]) -> LSTMModel:
+        return cls(int(arch["n_features"]), int(arch["units"]))
+
+    def schedule(self, config: TrainConfig) -> Schedule:
+        c, lr = config.lstm, config.learning_rate
+        return Schedule("adam", lr, c.batch_size, c.max_epochs, config.patience,
+                        c.seq_len, c.stride, None, lr)  # fmt: skip
+
+    def step_module(self) -> tuple[nn.Module, list[tuple[int, ...]]]:
+        """The one-frame graph for live mode and the shapes of its state inputs (h, c)."""
+        return LSTMStep(self), [(1, 1, self.units), (1, 1, self.units)]
 
 
 class LSTMStep(nn.Module):
@@ -86,37 +132,29 @@ class LSTMStep(nn.Module):
         return y[:, 0, :], h2, c2
 
 
-def build_model(kind: str, n_features: int, config: TrainConfig) -> MLP | LSTMModel:
-    """A freshly initialised model of `kind` ('mlp' | 'lstm') for `n_features` inputs."""
-    if kind == "mlp":
-        return MLP(n_features, config.mlp.layers, config.mlp.units)
-    if kind == "lstm":
-        return LSTMModel(n_features, config.lstm.units)
-    raise InputError(f"model must be 'mlp' or 'lstm', got {kind!r}")
+def build_model(kind: str, n_features: int, config: TrainConfig) -> nn.Module:
+    """A freshly initialised model named `kind` (a `MODELS` name) for `n_features` inputs."""
+    cls: Any = MODELS.get(kind)  # a model class (train.registry's interface)
+    return cls.from_config(n_features, config)
 
 
-def architecture(model: MLP | LSTMModel) -> dict[str, Any]:
+def architecture(model: nn.Module) -> dict[str, Any]:
     """Plain-data description from which `from_architecture` rebuilds the same module."""
-    if isinstance(model, LSTMModel):
-        return {"kind": "lstm", "n_features": model.n_features, "units": model.units}
-    n_layers = sum(isinstance(m, nn.Linear) for m in model.hidden)
-    units = model.out.in_features
-    return {"kind": "mlp", "n_features": model.n_features, "layers": n_layers, "units": units}
+    described: Any = model
+    return described.architecture()
 
 
-def from_architecture(arch: dict[str, Any]) -> MLP | LSTMModel:
-    if arch["kind"] == "mlp":
-        return MLP(int(arch["n_features"]), int(arch["layers"]), int(arch["units"]))
-    if arch["kind"] == "lstm":
-        return LSTMModel(int(arch["n_features"]), int(arch["units"]))
-    raise InputError(f"unknown model kind {arch['kind']!r}")
+def from_architecture(arch: dict[str, Any]) -> nn.Module:
+    cls: Any = MODELS.get(str(arch["kind"]))
+    return cls.from_architecture(arch)
 
 
 @torch.no_grad()
-def predict(model: MLP | LSTMModel, audio: np.ndarray) -> np.ndarray:
+def predict(model: nn.Module, audio: np.ndarray) -> np.ndarray:
     """Whole-segment prediction: z-normalised audio `(N, F)` → `(N, 11)` float32 in [0, 1].
 
-    The LSTM runs over the whole segment from a zero state (as live synthesis does).
+    Sequence models run over the whole segment (recurrent ones from a zero state, as live
+    synthesis does; the CVAE at z = 0, the prior's mean).
     """
     model.eval()
     x = torch.from_numpy(np.ascontiguousarray(audio, dtype=np.float32))

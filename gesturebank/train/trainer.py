@@ -1,6 +1,11 @@
 """Training loop (§3.3.3, §4.3): Adam on the masked MSE of normalised angles (= loss L, Eq. 3.15),
 early stopping on the validation loss with patience, best weights restored.
 
+Each model says how it is trained (`model.schedule(config)` → `Schedule`: optimiser, rate,
+batches, epochs, training windows) and may define its own `loss`. With `lr_factor` set (seed
+004) a stalled validation loss does not stop training at once: the best weights are reloaded and
+the rate multiplied by `lr_factor`, down to `min_lr`; the next stall stops.
+
 Deterministic on CPU: the seed fixes the initial weights and the shuffling (a numpy generator),
 `torch.use_deterministic_algorithms` is on while training, and the thread count is fixed; the
 same data and config give the same weights. Global torch settings are restored afterwards.
@@ -27,7 +32,8 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import FrameDataset, Segment, WindowDataset, masked_mse
 from gesturebank.errors import InputError
-from gesturebank.train.models import MLP, LSTMModel, predict
+from gesturebank.train.models import predict
+from gesturebank.train.schedule import Schedule, make_optimiser
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +48,7 @@ class TrainResult:
 
 
 @contextmanager
-def torch_settings(seed: int, threads: int = 1) -> Iterator[None]:
+def torch_settings(seed: int, threads: int) -> Iterator[None]:
     """Seed torch, fix its threads and make it deterministic; restore the settings on exit."""
     old_threads = torch.get_num_threads()
     old_det = torch.are_deterministic_algorithms_enabled()
@@ -56,7 +62,7 @@ def torch_settings(seed: int, threads: int = 1) -> Iterator[None]:
         torch.use_deterministic_algorithms(old_det)
 
 
-def validation_loss(model: MLP | LSTMModel, segments: Sequence[Segment]) -> float:
+def validation_loss(model: torch.nn.Module, segments: Sequence[Segment]) -> float:
     """Loss L (Eq. 3.15) over the known entries of whole segments."""
     err = 0.0
     count = 0
@@ -69,16 +75,14 @@ def validation_loss(model: MLP | LSTMModel, segments: Sequence[Segment]) -> floa
     return err / count
 
 
-def make_dataset(
-    model: MLP | LSTMModel, segments: Sequence[Segment], config: TrainConfig
-) -> FrameDataset | WindowDataset:
-    if isinstance(model, LSTMModel):
-        return WindowDataset(segments, config.lstm.seq_len, config.lstm.stride)
+def make_dataset(schedule: Schedule, segments: Sequence[Segment]) -> FrameDataset | WindowDataset:
+    if schedule.seq_len is not None:
+        return WindowDataset(segments, schedule.seq_len, schedule.stride)
     return FrameDataset(segments)
 
 
 def train(
-    model: MLP | LSTMModel,
+    model: torch.nn.Module,
     train_segments: Sequence[Segment],
     val_segments: Sequence[Segment],
     config: TrainConfig,
@@ -88,16 +92,45 @@ def train(
 ) -> TrainResult:
     """Train `model` in place; its weights end as those of the best validation epoch.
 
+    A model trained in stages (Aud2Repr2Pose: the motion DAE, then the speech encoder) has
+    `stages(train_segments)`, which sets each stage up and yields its name; the stages run in
+    turn, the result is the last one's, the history all of them (key "stage", from 0).
+
     The model must have been created under the same seed for a fully reproducible run (the
     commands build it inside `torch_settings`).
     """
-    data = make_dataset(model, train_segments, config)
-    if isinstance(model, LSTMModel):
-        batch_size, max_epochs = config.lstm.batch_size, config.lstm.max_epochs
-    else:
-        batch_size, max_epochs = config.mlp.batch_size or len(data), config.mlp.max_epochs
+    stages = getattr(model, "stages", None)
+    if stages is None:
+        return _train_stage(model, train_segments, val_segments, config, quiet, description)
+    done: list[TrainResult] = []
+    for name in stages(train_segments):
+        what = f"{description} · {name}"
+        done.append(_train_stage(model, train_segments, val_segments, config, quiet, what))
+    history = [{**h, "stage": float(i)} for i, r in enumerate(done) for h in r.history]
+    last = done[-1]
+    total = sum(r.seconds for r in done)
+    return TrainResult(last.best_epoch, last.best_val_loss, sum(r.epochs for r in done), total,
+                       history)  # fmt: skip
+
+
+def _train_stage(
+    model: torch.nn.Module,
+    train_segments: Sequence[Segment],
+    val_segments: Sequence[Segment],
+    config: TrainConfig,
+    quiet: bool,
+    description: str,
+) -> TrainResult:
+    schedule: Schedule = model.schedule(config)  # type: ignore[operator]
+    data = make_dataset(schedule, train_segments)
+    batch_size, max_epochs = schedule.batch_size or len(data), schedule.max_epochs
+    loss_of = getattr(model, "loss", None) or (lambda x, y, m: masked_mse(model(x), y, m))
     rng = np.random.default_rng(config.seed)
-    optimiser = torch.optim.Adam(model.parameters(), lr=config.learning_rate)
+    params = getattr(model, "stage_parameters", model.parameters)()  # a stage trains its part
+    optimiser = make_optimiser(schedule, params)
+    own_val = getattr(model, "validation_loss", None)
+    lr = schedule.learning_rate
+    stalled_since = 0  # epoch of the last rate drop
     best = (float("inf"), 0, copy.deepcopy(model.state_dict()))
     history: list[dict[str, float]] = []
     start = time.perf_counter()
@@ -120,15 +153,17 @@ def train(
             for i in range(0, len(order), batch_size):
                 x, y, m = data.batch(order[i : i + batch_size])
                 optimiser.zero_grad()
-                loss = masked_mse(model(x), y, m)  # Eq. 3.15 on the known entries
+                loss = loss_of(x, y, m)  # Eq. 3.15 on the known entries, or the model's own
                 loss.backward()
                 optimiser.step()
                 n_known = float(m.sum())
                 total += loss.item() * n_known
                 weight += n_known
             train_loss = total / max(weight, 1.0)
-            val_loss = validation_loss(model, val_segments)
-            history.append({"epoch": epoch, "train_loss": train_loss, "val_loss": val_loss})
+            val_loss = own_val(val_segments) if own_val else validation_loss(model, val_segments)
+            history.append(
+                {"epoch": epoch, "train_loss": train_loss, "val_loss": val_loss, "lr": lr}
+            )
             if val_loss < best[0]:
                 best = (val_loss, epoch, copy.deepcopy(model.state_dict()))
             progress.update(
@@ -136,8 +171,14 @@ def train(
                 completed=epoch,
                 losses=f"train {train_loss:.5f}  val {val_loss:.5f}  best {best[0]:.5f}@{best[1]}",
             )
-            if epoch - best[1] >= config.patience:
-                break
+            if epoch - max(best[1], stalled_since) >= schedule.patience:
+                lower = lr * schedule.lr_factor if schedule.lr_factor else 0.0
+                if lower < schedule.min_lr * (1 - 1e-6):
+                    break
+                model.load_state_dict(best[2])  # seed 004: back to the best, a tenth the rate
+                lr, stalled_since = lower, epoch
+                for group in optimiser.param_groups:
+                    group["lr"] = lr
         progress.update(task, total=epoch)
     model.load_state_dict(best[2])
     model.eval()

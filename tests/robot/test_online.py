@@ -11,14 +11,14 @@ import torch
 
 from gesturebank.config import AudioConfig
 from gesturebank.errors import InputError
-from gesturebank.extract.audio import features
-from gesturebank.extract.video import read_audio
+from gesturebank.extract.audio_features import features
+from gesturebank.extract.audio_io import read_audio
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
 from gesturebank.robot.commands import live_command
 from gesturebank.robot.online import LiveSynth, OnnxFrameModel, load_frame_model
+from gesturebank.testing.tiny_models import StepLSTM, write_model_dir
 from tests.robot.test_playback import LOWER, NEUTRAL, UPPER, VELOCITY
-from tests.robot.tiny_models import StepLSTM, write_model_dir
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +28,7 @@ def speech(samples: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def speech_feats(speech: Path) -> np.ndarray:
-    track = read_audio(speech, 16000)
+    track = read_audio(speech, sample_rate=16000)
     assert track is not None
     return features(track.signal, 16000, AudioConfig())
 
@@ -46,7 +46,7 @@ def test_onnx_step_matches_torch(tmp_path: Path, kind: str) -> None:
             out, _ = ref.lstm(torch.from_numpy(x)[None])  # the whole sequence in one go
             expected = torch.sigmoid(ref.head(out[0])).numpy()
     else:
-        from tests.robot.tiny_models import MLP
+        from gesturebank.testing.tiny_models import MLP
 
         with torch.no_grad():
             expected = MLP(26, 8).eval()(torch.from_numpy(x)).numpy()
@@ -73,7 +73,7 @@ def test_pipeline_is_safe_and_follows_speech(
 ) -> None:
     model = load_frame_model(write_model_dir(tmp_path / "m", feats=speech_feats))
     synth = LiveSynth(model)
-    track = read_audio(speech, 16000)
+    track = read_audio(speech, sample_rate=16000)
     assert track is not None
     hop = 160
     poses = np.stack(
@@ -89,7 +89,7 @@ def test_live_wav_in_real_time(tmp_path: Path, speech: Path, speech_feats: np.nd
     folder = write_model_dir(tmp_path / "m", feats=speech_feats)
     out = tmp_path / "live.jsonl"
     result = live_command(folder, "record", str(speech), out=out)
-    track = read_audio(speech, 16000)
+    track = read_audio(speech, sample_rate=16000)
     assert track is not None
     n_chunks = len(track.signal) // 160
     live = [c for c in read_record(out) if c["phase"] == "live"]
@@ -126,7 +126,7 @@ def test_live_runs_a_model_trained_by_gesturebank(
     train_command(demo_dataset, kind, "sd", subject="lab", out_dir=folder, config=cfg, quiet=True)
     model = load_frame_model(folder, znorm="lab")
     synth = LiveSynth(model)
-    track = read_audio(speech, 16000)
+    track = read_audio(speech, sample_rate=16000)
     assert track is not None
     poses = np.stack([synth.push(track.signal[k : k + 160]) for k in range(0, 16000, 160)])
     profile = pepper.load_profile(model.profile)

@@ -21,7 +21,7 @@ def audio() -> np.ndarray:
 
 def test_mlp_onnx_equals_torch(tmp_path: Path, audio: np.ndarray) -> None:
     torch.manual_seed(1)
-    model = MLP(26).eval()
+    model = MLP(26, layers=7, units=8).eval()
     export_onnx(model, tmp_path)
     onnx_out = OnnxModel(tmp_path / MODEL_ONNX).predict(audio)
     assert onnx_out.shape == (700, 11)
@@ -52,7 +52,7 @@ def test_lstm_onnx_full_and_step_equal_torch(tmp_path: Path, audio: np.ndarray) 
 
 
 def test_streaming_needs_a_step_model(tmp_path: Path) -> None:
-    export_onnx(MLP(4).eval(), tmp_path)
+    export_onnx(MLP(4, layers=7, units=8).eval(), tmp_path)
     with pytest.raises(InputError):
         StreamingLSTM(tmp_path / MODEL_ONNX)
     with pytest.raises(InputError):

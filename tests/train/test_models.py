@@ -31,9 +31,9 @@ def test_default_mlp_is_table_4_5_for_logfb26() -> None:
 def test_outputs_are_eleven_angles_in_0_1() -> None:
     torch.manual_seed(0)
     x = 10 * torch.randn(50, 26)
-    y = MLP(26)(x)
+    y = MLP(26, layers=7, units=8)(x)
     assert y.shape == (50, 11) and bool(((y >= 0) & (y <= 1)).all())
-    lstm = LSTMModel(26)
+    lstm = LSTMModel(26, units=12)
     ys = lstm(x[None].repeat(2, 1, 1))
     assert ys.shape == (2, 50, 11) and bool(((ys >= 0) & (ys <= 1)).all())
     assert lstm.lstm.hidden_size == 12 and lstm.lstm.num_layers == 1
