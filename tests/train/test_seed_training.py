@@ -143,3 +143,30 @@ def test_cli_trains_a_seed_model_and_live_refuses_it_in_one_line(
     )  # fmt: skip
     assert r.returncode == 2 and "unknown model 'gan'; available: aud2motion" in r.stderr
     assert (out / "model.json").is_file()  # the earlier model is untouched
+
+
+SEED_MODELS = ["aud2motion", "aud2pose", "blstm", "cvae", "aud2repr2pose", "dcccae"]
+
+
+def test_every_seed_model_trains_on_real_media_and_compare_tables_them(
+    real_dataset: Path, tmp_path: Path
+) -> None:
+    """#19's acceptance on the dataset built from the sample media: every model trains to
+    completion (tiny sizes) and `compare` prints one table of them all beside the baselines.
+    No quality claim: the demo's speech and motion are unrelated."""
+    from rich.console import Console
+
+    from gesturebank.train.compare import compare_command
+
+    cfg = TINY.model_copy(update={"cvae": TINY.cvae.model_copy(update={"max_epochs": 3})})
+    dirs = []
+    for kind in SEED_MODELS:
+        result = train_command(real_dataset, kind, "si", 0, None, tmp_path / kind, cfg, quiet=True)
+        assert result.epochs >= 1 and np.isfinite(result.best_val_loss), kind
+        dirs.append(tmp_path / kind)
+    console = Console(record=True, width=250)
+    report = compare_command(dirs, console=console)
+    text = console.export_text()
+    assert list(report["systems"])[: len(SEED_MODELS)] == SEED_MODELS
+    for kind in SEED_MODELS:
+        assert kind in text and np.isfinite(report["systems"][kind]["loss_l"])
