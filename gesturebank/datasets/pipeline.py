@@ -488,8 +488,10 @@ def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
     }
 
 
-# Config sections that change what a take contains (the build section only changes how, the qc
-# and splits sections only how it is judged and split).
+# Config sections that change what a take contains. The others only change how it is built
+# (build), judged (qc), split (splits), calibrated (board), trained on (train) or played
+# (playback); tests/datasets/test_build.py checks that every section is one or the other.
+NOT_CONTENT_SECTIONS = ("build", "qc", "splits", "board", "train", "playback")
 CONTENT_SECTIONS = (
     "video",
     "detector",
@@ -499,6 +501,7 @@ CONTENT_SECTIONS = (
     "clips",
     "lifter",
     "geometric",
+    "fitted",
     "multiview",
     "robot",
     "retarget",

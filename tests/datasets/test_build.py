@@ -85,6 +85,17 @@ def test_audio_clock_is_the_common_span() -> None:
         audio_clock(pose_t + 10, 0.0, 150, 0.01, 0.025)
 
 
+def test_every_config_section_is_content_or_not() -> None:
+    """A new section must be classified: content (a change rebuilds the built takes) or not."""
+    from gesturebank.datasets.pipeline import CONTENT_SECTIONS, NOT_CONTENT_SECTIONS
+
+    sections = set(Config.model_fields)
+    assert sections == set(CONTENT_SECTIONS) | set(NOT_CONTENT_SECTIONS)
+    assert not set(CONTENT_SECTIONS) & set(NOT_CONTENT_SECTIONS)
+    config = Config.model_validate({"fitted": {"fov_deg": 70.0}})
+    assert content_digest(config) != content_digest(Config())  # [fitted] changes a take
+
+
 def test_threads_share_the_cores_between_workers() -> None:
     def threads(workers: int, cores: int, **build: object) -> tuple[int | None, int | None]:
         config = Config.model_validate({"build": build})
