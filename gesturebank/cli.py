@@ -28,6 +28,8 @@ from gesturebank.extract.detectors import DETECTORS
 from gesturebank.lift import LIFTERS
 from gesturebank.registry import Registry
 from gesturebank.robot.backends import BACKENDS
+from gesturebank.study.commands import DEFAULT_HOST as DEFAULT_STUDY_HOST
+from gesturebank.study.commands import DEFAULT_PORT as DEFAULT_STUDY_PORT
 from gesturebank.train.registry import MODELS
 
 if TYPE_CHECKING:
@@ -482,7 +484,8 @@ def replay(
         str | None, typer.Option(help="Play this clip of the dataset folder ANGLES instead.")
     ] = None,
     compare: Annotated[
-        Path | None, typer.Option(help="sim: a second CSV rendered side by side.")
+        list[Path] | None,
+        typer.Option(help="sim: another CSV rendered side by side, with its name (repeatable)."),
     ] = None,
     clamp: Annotated[
         bool, typer.Option("--clamp", help="Play angles far outside the limits clamped.")
@@ -514,6 +517,7 @@ def replay(
                 compare=compare,
                 profile=config.robot.profile,
                 clamp=clamp,
+                render=config.render,
             )
         except KeyboardInterrupt:  # while the sim renders: the video is never half-written
             result = None
@@ -560,6 +564,7 @@ def live(
             url=url,
             out=out_file,
             config=config.playback,
+            render=config.render,
             max_seconds=seconds,
             znorm=znorm,
         )
@@ -719,6 +724,96 @@ def export(
         written = export_command(src=src, fmt=fmt, out=out_path, config=config)
     for path in written:
         out.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+@app.command()
+def stimuli(
+    model_dirs: Annotated[list[Path], typer.Argument(help="Model folders written by `train`.")],
+    study_dir: Annotated[Path, typer.Option("--out", help="Study folder to write.")],
+    audio: Annotated[
+        list[Path] | None, typer.Option(help="Speech: an audio file (repeatable).")
+    ] = None,
+    clip: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Speech of a dataset clip, DATASET_DIR:CLIP_ID, with its ground truth "
+            "(repeatable)."
+        ),
+    ] = None,
+    anchor: Annotated[
+        Literal["mean-pose", "random-clip"], typer.Option(help="The anchor condition.")
+    ] = "mean-pose",
+    anchor_seed: Annotated[
+        int, typer.Option(help="Picks the random-clip anchor and the videos' order.")
+    ] = 0,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Blind stimulus videos for a perceptual study: for each speech (--audio, --clip) one video
+    per model, the ground truth (clips) and an anchor — same camera ([render]) and duration,
+    audio muxed, named by random ids. STUDY/stimuli.json lists them without their conditions;
+    STUDY/key.json says which is which (keep it from participants).
+    """
+    from gesturebank.study.stimuli import stimuli_command
+
+    with user_errors():
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        manifest = stimuli_command(
+            model_dirs=model_dirs,
+            out=study_dir,
+            audios=audio or [],
+            clips=clip or [],
+            anchor=anchor,
+            anchor_seed=anchor_seed,
+            render=config.render,
+            playback=config.playback,
+            profile=config.robot.profile,
+        )
+    n = sum(len(g["videos"]) for g in manifest["groups"])
+    out.print(f"{n} stimuli written to {study_dir}", highlight=False, soft_wrap=True)
+
+
+study_app = typer.Typer(
+    help="A perceptual study of rendered stimuli: serve it to participants, analyse the answers.",
+    no_args_is_help=True,
+)
+app.add_typer(study_app, name="study")
+StudyArg = Annotated[
+    Path, typer.Argument(help="A study folder written by `gesturebank stimuli … --out`.")
+]
+
+
+@study_app.command("serve")
+def study_serve(
+    study_dir: StudyArg,
+    host: Annotated[
+        str, typer.Option(help="Address to listen on; another than 127.0.0.1 lets others in.")
+    ] = DEFAULT_STUDY_HOST,
+    port: Annotated[int, typer.Option(min=0, max=65535, help="Port (0: a free one).")] = (
+        DEFAULT_STUDY_PORT
+    ),
+) -> None:
+    """Serve the study's web app: consent, instructions, A/B and MUSHRA-style rating pages in a
+    random, counterbalanced order per participant, answers in STUDY_DIR/responses.sqlite.
+
+    Prints the participants' address and the operator token that opens /export.csv and
+    /key.json (stored, readable by you only, in STUDY_DIR/operator-token). Ctrl-C stops.
+    """
+    from gesturebank.study.commands import serve_command
+
+    with user_errors():
+        serve_command(folder=study_dir, host=host, port=port, console=out)
+
+
+@study_app.command("analyse")
+def study_analyse(study_dir: StudyArg) -> None:
+    """Tables of the answers: mean rating per condition with 95 % confidence intervals, paired
+    Wilcoxon signed-rank or t-tests per question, A/B shares with a binomial test; and a plot
+    (STUDY_DIR/analysis/ratings.png)."""
+    from gesturebank.study.commands import analyse_command
+
+    with user_errors():
+        analyse_command(folder=study_dir, console=out)
 
 
 def main() -> None:

@@ -1042,10 +1042,6 @@ class PlaybackConfig(Section):
     rest_at_end: bool = Field(
         False, description="naoqi: call ALMotion.rest (crouch, motors off) after returning."
     )
-    sim_fps: int = Field(25, ge=1, le=120, description="sim: video frame rate, frames/s.")
-    sim_view_px: int = Field(
-        360, ge=120, le=1080, description="sim: side of one square view (front or side), px."
-    )
     kalman_q: float = Field(
         0.5, ge=0, description="Live mode: Kalman process noise q (§4.4.2; dissertation 0.5)."
     )
@@ -1061,7 +1057,39 @@ class PlaybackConfig(Section):
         if isinstance(data, dict) and "speed_fraction" in data:
             data = dict(data)
             data.setdefault("max_speed_fraction", data.pop("speed_fraction"))
+        if isinstance(data, dict) and ("sim_fps" in data or "sim_view_px" in data):
+            # the flat drawing's options, moved to [render] (Config moves them; here, dropped)
+            data = {k: v for k, v in data.items() if k not in ("sim_fps", "sim_view_px")}
         return data
+
+
+class RenderConfig(Section):
+    """The `sim` backend's and `stimuli`'s 3D render of Pepper (robot/render3d.py)."""
+
+    frame_rate: int = Field(25, ge=1, le=120, description="Video frame rate, frames/s.")
+    width_px: int = Field(640, ge=64, le=3840, description="Width of one robot's view, px.")
+    height_px: int = Field(480, ge=64, le=2160, description="Height of the video, px.")
+    azimuth_deg: float = Field(
+        30.0,
+        ge=-180,
+        le=180,
+        description="Camera direction around the robot: 0 straight in front, positive towards "
+        "its left (30: a front three-quarter view).",
+    )
+    elevation_deg: float = Field(
+        6.0, ge=-30, le=80, description="Camera height as an angle above the horizon, degrees."
+    )
+    distance_m: float = Field(
+        2.7, gt=0.5, le=20, description="Camera distance from the middle of the robot, metres."
+    )
+    fov_deg: float = Field(
+        32.0, gt=5, lt=120, description="Vertical field of view of the camera, degrees."
+    )
+    ramps: bool = Field(
+        True,
+        description="sim replay: also show the safety moves (start move to frame 0 and the "
+        "return to neutral), the audio starting where the timeline does.",
+    )
 
 
 class SplitsConfig(Section):
@@ -1164,8 +1192,20 @@ class Config(Section):
     splits: SplitsConfig = Field(default_factory=SplitsConfig)
     train: TrainConfig = Field(default_factory=TrainConfig)
     playback: PlaybackConfig = Field(default_factory=PlaybackConfig)
+    render: RenderConfig = Field(default_factory=RenderConfig)
     mocap: MocapConfig = Field(default_factory=MocapConfig)
     build: BuildConfig = Field(default_factory=BuildConfig)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _moved(cls, data: Any) -> Any:
+        # playback.sim_fps became render.frame_rate (datasets and config files with it still load)
+        playback = data.get("playback") if isinstance(data, dict) else None
+        if isinstance(playback, dict) and "sim_fps" in playback:
+            render = dict(data.get("render") or {})
+            render.setdefault("frame_rate", playback["sim_fps"])
+            data = {**data, "render": render}
+        return data
 
     def to_json_dict(self) -> dict[str, Any]:
         return self.model_dump(mode="json")

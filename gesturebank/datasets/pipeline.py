@@ -489,9 +489,9 @@ def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
 
 
 # Config sections that change what a take contains. The others only change how it is built
-# (build), judged (qc), split (splits), calibrated (board), trained on (train) or played
-# (playback); tests/datasets/test_build.py checks that every section is one or the other.
-NOT_CONTENT_SECTIONS = ("build", "qc", "splits", "board", "train", "playback")
+# (build), judged (qc), split (splits), calibrated (board), trained on (train), played
+# (playback) or drawn (render); tests/datasets/test_build.py checks each section is one or the other.
+NOT_CONTENT_SECTIONS = ("build", "qc", "splits", "board", "train", "playback", "render")
 CONTENT_SECTIONS = (
     "video",
     "detector",

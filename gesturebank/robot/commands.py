@@ -4,18 +4,19 @@ from __future__ import annotations
 
 import logging
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gesturebank.config import AudioConfig, PlaybackConfig, RobotConfig
+from gesturebank.config import AudioConfig, PlaybackConfig, RenderConfig, RobotConfig
 from gesturebank.errors import RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.audio_out import DeviceAudio
 from gesturebank.robot.backends import create
 from gesturebank.robot.playback import PlaybackResult, play
-from gesturebank.robot.safety import check_timeline, safe_angles, speed_profile
+from gesturebank.robot.safety import check_timeline
 from gesturebank.robot.timeline import Timeline, from_clip, read_csv
 
 if TYPE_CHECKING:
@@ -35,14 +36,16 @@ def replay_command(
     config: PlaybackConfig | None = None,
     *,
     clip: str | None = None,
-    compare: PathLike | None = None,
+    compare: PathLike | Sequence[PathLike] | None = None,
     profile: str | None = None,
     clamp: bool = False,
+    render: RenderConfig | None = None,
 ) -> PlaybackResult | Path:
     """`gesturebank replay ANGLES.csv --backend naoqi|sim|record [--url|--out] [--audio]`.
 
     `clip`: read the timeline from that clip of the dataset folder `angles_csv` instead.
-    `compare` (sim only): a second timeline CSV rendered side by side; returns the video path.
+    `compare` (sim only): more timeline CSVs rendered side by side; returns the video path.
+    `render` (sim only): the look of the video.
     `clamp`: play timelines far outside the limits clamped instead of refusing them.
     An interrupted sim replay writes no video.
     """
@@ -51,20 +54,29 @@ def replay_command(
     timeline = from_clip(angles_csv, clip) if clip else read_csv(angles_csv)
     name = f"{os.fspath(angles_csv)} clip {clip}" if clip else os.fspath(angles_csv)
     check_timeline(timeline, name=name, profile=robot, config=cfg, clamp=clamp)
-    if compare is not None:
+    others = (
+        [] if compare is None else [compare] if isinstance(compare, str | os.PathLike) else compare
+    )
+    if others:
         if backend != "sim" or out is None:
             raise RobotError("--compare needs --backend sim and --out VIDEO.mp4")
-        other = read_csv(compare)
-        check_timeline(other, name=os.fspath(compare), profile=robot, config=cfg, clamp=clamp)
-        return _side_by_side(
-            [timeline, other],
-            [Path(angles_csv).stem, Path(compare).stem],
+        timelines = [timeline]
+        for path in others:
+            other = read_csv(path)
+            check_timeline(other, name=os.fspath(path), profile=robot, config=cfg, clamp=clamp)
+            timelines.append(other)
+        label = f"{Path(angles_csv).name} {clip}" if clip else Path(angles_csv).stem
+        return side_by_side(
+            timelines,
+            [label, *(Path(p).stem for p in others)],
             out,
-            profile=speed_profile(robot, cfg.max_speed_fraction),
+            profile=robot,
             audio=audio,
             config=cfg,
+            render=render,
         )
-    be = create(backend, url=url, out=out, audio=audio, config=cfg)
+    extra = {"render": render} if backend == "sim" else {}
+    be = create(backend, url=url, out=out, audio=audio, config=cfg, **extra)
     try:
         sound = DeviceAudio(audio) if audio is not None and be.realtime else None
         result = play(timeline, be, config=cfg, profile=robot, audio=sound)
@@ -89,7 +101,7 @@ def replay_command(
     return result
 
 
-def _side_by_side(
+def side_by_side(
     timelines: list[Timeline],
     labels: list[str],
     out: PathLike,
@@ -97,22 +109,33 @@ def _side_by_side(
     profile: pepper.RobotProfile,
     audio: PathLike | None,
     config: PlaybackConfig,
+    render: RenderConfig | None = None,
 ) -> Path:
-    """The timelines, made safe as playback makes them (clamp + speed), rendered next to each
-    other for as long as the longest."""
+    """The timelines played as replay plays them (start move, safe timeline, return move — on
+    the sim backend's virtual clock), rendered next to each other with their labels for as long
+    as the longest; without `render.ramps` only the timelines, from 0 s."""
+    from gesturebank.robot.backends.sim import SimBackend
     from gesturebank.robot.render import write_video  # PyAV and OpenCV: only when rendering
 
-    tracks = [
-        (lab, tl.times, safe_angles(tl, profile)) for tl, lab in zip(timelines, labels, strict=True)
-    ]
-    duration = max(tl.end for tl in timelines)
+    cfg = render or RenderConfig()
+    tracks, starts, ends = [], [], []
+    for tl, lab in zip(timelines, labels, strict=True):
+        collector = SimBackend(Path(out), render=cfg)  # collects the commands; never closed
+        play(tl, collector, config=config, profile=profile)
+        shown = [c for c in collector.commands if cfg.ramps or c.phase == "timeline"]
+        times = np.array([c.t for c in shown])
+        tracks.append((lab, times, np.stack([c.angles for c in shown])))
+        starts.append(min(float(times[0]), 0.0))
+        ends.append(float(times[-1]) + tl.period)
+    start = min(starts)
     return write_video(
         tracks,
         out,
-        duration=duration,
+        duration=max(ends) - start,
         audio=audio,
-        fps=config.sim_fps,
-        view_px=config.sim_view_px,
+        render=cfg,
+        start=start,
+        timeline_end=max(tl.end for tl in timelines),
     )
 
 
@@ -125,6 +148,7 @@ def live_command(
     config: PlaybackConfig | None = None,
     *,
     audio_config: AudioConfig | None = None,
+    render: RenderConfig | None = None,
     max_seconds: float | None = None,
     znorm: str = "*",
 ) -> LiveResult:
@@ -148,7 +172,8 @@ def live_command(
         source: Chunks = _prepend(next_chunk, chunks)
     else:
         source = wav_chunks(input, synth.hop, rate)
-    be = create(backend, url=url, out=out, audio=None if input == "mic" else input, config=cfg)
+    be = create(backend, url=url, out=out, audio=None if input == "mic" else input, config=cfg,
+                **({"render": render} if backend == "sim" else {}))  # fmt: skip
     try:
         result = run_live(synth, source, be, config=cfg)
     finally:

@@ -1,12 +1,12 @@
-"""Drawing Pepper's kinematic model (`pepper.fk`), front and side, into an MP4 with its audio.
+"""Rendering Pepper's kinematic model (`pepper.fk`) in 3D (`render3d`) into an MP4 with its audio.
 
 Drawing only: the angles given are drawn as they are, so the caller makes them safe first
-(`safety.safe_angles`). Video through PyAV (H.264, AAC audio), lines and circles with OpenCV.
-Video frame k shows the last pose at or before k / fps. Several tracks side by side compare
-timelines, e.g. prediction vs ground truth, as in the dissertation's survey videos (§5.2).
-
-Views (robot frame: x forward, y left, z up): "front" looks at the robot's face, so its left arm
-is on the image's right; "side" looks at its right side, forward pointing right.
+(`safety.safe_angles`, or the commands a playback sent). Video through PyAV (H.264, AAC audio).
+Video frame k shows the last pose at or before `start + k / fps` on the playback clock (0 = the
+audio's first sample); a negative `start` shows the start move before the audio, which is then
+delayed to match. Several tracks side by side compare timelines, e.g. prediction vs ground truth,
+as in the dissertation's survey videos (§5.2), each with its label; every frame carries the
+playback time and, outside the timeline, which safety move is shown.
 """
 
 from __future__ import annotations
@@ -20,65 +20,14 @@ import av
 import cv2
 import numpy as np
 
+from gesturebank.config import RenderConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open
-from gesturebank.robot import pepper
+from gesturebank.robot.render3d import Camera, Scene
 
 PathLike = str | os.PathLike[str]
 AUDIO_RATE = 16000
-# Metres shown in a view: wide enough for arms stretched sideways or up.
-_HALF_WIDTH_M, _Z_MIN_M, _Z_MAX_M = 0.55, -0.25, 0.75
-_BG, _BODY, _LEFT, _RIGHT, _TEXT = (
-    (250, 250, 250),
-    (90, 90, 90),
-    (200, 120, 20),
-    (30, 30, 210),
-    (0, 0, 0),
-)
-_BONES = (  # (from, to, colour) — BGR
-    ("pelvis", "left_hip", _BODY),
-    ("pelvis", "right_hip", _BODY),
-    ("left_hip", "left_shoulder", _BODY),
-    ("right_hip", "right_shoulder", _BODY),
-    ("left_shoulder", "right_shoulder", _BODY),
-    ("left_shoulder", "left_elbow", _LEFT),
-    ("left_elbow", "left_wrist", _LEFT),
-    ("right_shoulder", "right_elbow", _RIGHT),
-    ("right_elbow", "right_wrist", _RIGHT),
-)
-
-
-def _project(points: np.ndarray, view: str, size: int) -> np.ndarray:
-    """Robot-frame points `(..., 3)` → pixel coordinates `(..., 2)` int in a size × size view."""
-    scale = size / max(2 * _HALF_WIDTH_M, _Z_MAX_M - _Z_MIN_M)
-    u = points[..., 1] if view == "front" else points[..., 0]
-    v = points[..., 2]
-    px = size / 2 + u * scale
-    py = size - (v - _Z_MIN_M) * scale
-    return np.rint(np.stack([px, py], axis=-1)).astype(np.int32)
-
-
-def draw_view(points: dict[str, np.ndarray], view: str, size: int, label: str = "") -> np.ndarray:
-    """One view `(size, size, 3)` uint8 BGR of one pose given as fk points (each `(3,)`)."""
-    img = np.full((size, size, 3), _BG, np.uint8)
-    px = {k: tuple(int(c) for c in _project(p, view, size)) for k, p in points.items()}
-    # Ground line and the torso as a filled outline first, so the arms draw over them.
-    cv2.line(img, (0, size - 4), (size, size - 4), (200, 200, 200), 2)
-    for a, b, colour in _BONES:
-        cv2.line(img, px[a], px[b], colour, max(2, size // 90), cv2.LINE_AA)
-    for joint in ("left_elbow", "right_elbow", "left_shoulder", "right_shoulder"):
-        cv2.circle(img, px[joint], max(3, size // 80), _BODY, -1, cv2.LINE_AA)
-    for joint, colour in (("left_wrist", _LEFT), ("right_wrist", _RIGHT)):
-        cv2.circle(img, px[joint], max(4, size // 60), colour, -1, cv2.LINE_AA)
-    head_r = max(6, int(0.09 * size / max(2 * _HALF_WIDTH_M, _Z_MAX_M - _Z_MIN_M)))
-    neck = tuple((np.array(px["left_shoulder"]) + np.array(px["right_shoulder"])) // 2)
-    cv2.line(img, neck, px["head"], _BODY, max(2, size // 90), cv2.LINE_AA)
-    face = (np.array(px["left_eye"]) + np.array(px["right_eye"])) // 2
-    cv2.circle(img, tuple(int(c) for c in face), head_r, _BODY, 2, cv2.LINE_AA)
-    cv2.circle(img, px["nose"], max(2, size // 120), (0, 160, 0), -1, cv2.LINE_AA)
-    text = f"{label} {view}".strip()
-    cv2.putText(img, text, (8, 22), cv2.FONT_HERSHEY_SIMPLEX, size / 700, _TEXT, 1, cv2.LINE_AA)
-    return img
+_TEXT = (20, 20, 20)  # RGB
 
 
 def poses_at(times: np.ndarray, angles: np.ndarray, frame_times: np.ndarray) -> np.ndarray:
@@ -90,7 +39,8 @@ def poses_at(times: np.ndarray, angles: np.ndarray, frame_times: np.ndarray) -> 
     return angles[np.clip(idx, 0, len(angles) - 1)]
 
 
-def _audio(path: PathLike | None, duration: float) -> np.ndarray | None:
+def _audio(path: PathLike | None, duration: float, delay: float) -> np.ndarray | None:
+    """The audio, `delay` s of silence first, cut to `duration` s."""
     if path is None:
         return None
     from gesturebank.extract.audio_io import read_audio
@@ -98,7 +48,20 @@ def _audio(path: PathLike | None, duration: float) -> np.ndarray | None:
     track = read_audio(path, sample_rate=AUDIO_RATE)
     if track is None:
         raise InputError(f"{os.fspath(path)}: no audio track to mux into the video")
-    return track.signal[: round(duration * AUDIO_RATE)]
+    silence = np.zeros(round(max(delay, 0.0) * AUDIO_RATE), np.float32)
+    return np.concatenate([silence, track.signal])[: round(duration * AUDIO_RATE)]
+
+
+def camera(render: RenderConfig) -> Camera:
+    """The camera of `render` for one robot's view."""
+    return Camera(
+        azimuth_deg=render.azimuth_deg,
+        elevation_deg=render.elevation_deg,
+        distance_m=render.distance_m,
+        fov_deg=render.fov_deg,
+        width=render.width_px,
+        height=render.height_px,
+    )
 
 
 def write_video(
@@ -107,31 +70,34 @@ def write_video(
     *,
     duration: float,
     audio: PathLike | None = None,
-    fps: int = 25,
-    view_px: int = 360,
+    render: RenderConfig | None = None,
+    start: float = 0.0,
+    timeline_end: float | None = None,
 ) -> Path:
-    """Render `tracks` = [(label, times (N,), angles (N, 11)), …] side by side for `duration` s.
+    """Render `tracks` = [(label, times (N,), angles (N, 11)), …] side by side for `duration` s
+    from playback time `start` (s, ≤ 0 to show a start move; the audio begins at 0).
 
-    Each track gets a front and a side view. The audio (if any) is cut to `duration`.
-    The video is written to a hidden temporary name beside `out` and renamed only when complete,
-    so an interrupted render (Ctrl-C) leaves nothing under `out`; InputError naming `out` when
-    it cannot be written.
+    `timeline_end` (s): frames from then on are captioned as the return move. The audio (if
+    any) is cut to the video. The video is written to a hidden temporary name beside `out` and
+    renamed only when complete, so an interrupted render (Ctrl-C) leaves nothing under `out`;
+    InputError naming `out` when it cannot be written.
     """
+    cfg = render or RenderConfig()
     path = Path(out)
-    n_frames = max(1, round(duration * fps))
-    frame_times = np.arange(n_frames) / fps
-    points = [pepper.fk(poses_at(times, angles, frame_times)) for _, times, angles in tracks]
-    sound = _audio(audio, n_frames / fps)
+    n_frames = max(1, round(duration * cfg.frame_rate))
+    frame_times = start + np.arange(n_frames) / cfg.frame_rate
+    poses = [poses_at(times, angles, frame_times) for _, times, angles in tracks]
+    sound = _audio(audio, n_frames / cfg.frame_rate, -start)
     try:
         with atomic_open(path) as f, av.open(f, mode="w", format="mp4") as container:
             _encode(
                 container,
-                tracks=tracks,
-                points=points,
+                labels=[label for label, _, _ in tracks],
+                poses=poses,
                 times=frame_times,
                 sound=sound,
-                view_px=view_px,
-                fps=fps,
+                render=cfg,
+                timeline_end=timeline_end,
             )
     except (av.FFmpegError, OSError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
@@ -142,33 +108,46 @@ def write_video(
     return path
 
 
+def _caption(t: float, timeline_end: float | None) -> str:
+    if t < 0:
+        return f"{t:6.2f} s  start move"
+    if timeline_end is not None and t >= timeline_end:
+        return f"{t:6.2f} s  return to neutral"
+    return f"{t:6.2f} s"
+
+
 def _encode(
     container: av.container.OutputContainer,
     *,
-    tracks: Sequence[tuple[str, np.ndarray, np.ndarray]],
-    points: list[dict[str, np.ndarray]],
+    labels: list[str],
+    poses: list[np.ndarray],
     times: np.ndarray,
     sound: np.ndarray | None,
-    view_px: int,
-    fps: int,
+    render: RenderConfig,
+    timeline_end: float | None,
 ) -> None:
-    """Draw and encode one video frame per `times (K,)` s, then mux `sound` (if any)."""
-    width = 2 * view_px * len(tracks)
-    vstream = container.add_stream("libx264", rate=fps)
-    vstream.width, vstream.height, vstream.pix_fmt = width, view_px, "yuv420p"
+    """Render and encode one video frame per `times (K,)` s, then mux `sound` (if any)."""
+    scene = Scene(camera(render))
+    width, height = render.width_px * len(labels), render.height_px
+    vstream = container.add_stream("libx264", rate=render.frame_rate)
+    vstream.width, vstream.height, vstream.pix_fmt = width, height, "yuv420p"
     vstream.options = {"crf": "20", "preset": "veryfast"}
     astream = None
     if sound is not None:
         astream = container.add_stream("aac", rate=AUDIO_RATE, layout="mono")
+    scale = height / 480
     for k in range(len(times)):
         panels = []
-        for (label, _, _), pts in zip(tracks, points, strict=True):
-            pose = {name: p[k] for name, p in pts.items()}
-            panels += [draw_view(pose, v, view_px, label) for v in ("front", "side")]
-        img = np.concatenate(panels, axis=1)
-        cv2.putText(img, f"{times[k]:6.2f} s", (width - 110, view_px - 12),
-                    cv2.FONT_HERSHEY_SIMPLEX, 0.5, _TEXT, 1, cv2.LINE_AA)  # fmt: skip
-        frame = av.VideoFrame.from_ndarray(img, format="bgr24")
+        for label, pose in zip(labels, poses, strict=True):
+            img = scene.render(pose[k])
+            if label:
+                cv2.putText(img, label, (12, round(30 * scale)), cv2.FONT_HERSHEY_SIMPLEX,
+                            0.8 * scale, _TEXT, 2, cv2.LINE_AA)  # fmt: skip
+            panels.append(img)
+        img = np.ascontiguousarray(np.concatenate(panels, axis=1))
+        cv2.putText(img, _caption(float(times[k]), timeline_end), (12, height - round(14 * scale)),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.6 * scale, _TEXT, 1, cv2.LINE_AA)  # fmt: skip
+        frame = av.VideoFrame.from_ndarray(img, format="rgb24")
         for packet in vstream.encode(frame):
             container.mux(packet)
     container.mux(vstream.encode(None))

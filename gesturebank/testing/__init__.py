@@ -4,6 +4,6 @@ Each module makes one kind of test input: `clips` (datasets of synthetic clips),
 (corrupted copies of real clips, for the QC), `speech_motion` (a dataset whose motion follows
 its speech, for the trainer), `tiny_models` (model folders of tiny random-weight models, for
 live mode), `mocap` (a real BVH stretch with real speech beside it);
-`naoqi_server` stands in for a robot. Real footage of the kinds users bring is
-`gesturebank.footage`.
+`naoqi_server` stands in for a robot, and `browser` drives headless Chromium for page
+tests. Real footage of the kinds users bring is `gesturebank.footage`.
 """

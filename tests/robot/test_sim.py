@@ -13,7 +13,7 @@ import av
 import numpy as np
 import pytest
 
-from gesturebank.config import PlaybackConfig
+from gesturebank.config import PlaybackConfig, RenderConfig
 from gesturebank.errors import InputError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import BACKENDS, Command
@@ -58,37 +58,49 @@ def decode(path: Path) -> tuple[list[np.ndarray], float, float, int]:
 def test_sim_renders_5s_with_audio(tmp_path: Path, artifacts: Path) -> None:
     csv = write_csv(tmp_path / "a.csv", five_seconds(POSE))
     out = tmp_path / "sim.mp4"
-    cfg = PlaybackConfig(sim_fps=25, sim_view_px=360)
-    replay_command(csv, "sim", out=out, audio=tone_wav(tmp_path / "a.wav", 5.0), config=cfg)
+    render = RenderConfig(frame_rate=25, width_px=320, height_px=240, ramps=False)
+    wav = tone_wav(tmp_path / "a.wav", 5.0)
+    replay_command(csv, "sim", out=out, audio=wav, config=PlaybackConfig(), render=render)
     frames, duration, fps, samples = decode(out)
     assert len(frames) == 125 and fps == 25
     assert duration == pytest.approx(5.0, abs=0.05)
     assert samples == pytest.approx(5.0 * RATE, abs=2048)  # AAC pads up to one frame
     frame = frames[62]
-    assert frame.shape == (360, 720, 3)
+    assert frame.shape == (240, 320, 3)
     av.VideoFrame.from_ndarray(frame, format="rgb24").to_image().save(artifacts / "sim_frame.png")
-    # Front view (left half): the raised left arm is drawn in blue on the viewer's right, high up
-    # (above the mid-height of the view); the right arm is red, lower, on the viewer's left.
-    front = frame[:, :360].astype(int)
-    blue = (front[..., 2] > 150) & (front[..., 0] < 100)
-    red = (front[..., 0] > 150) & (front[..., 2] < 100)
-    by, bx = np.nonzero(blue)
-    ry, rx = np.nonzero(red)
-    assert len(bx) > 50 and len(rx) > 50
-    assert bx.mean() > 180 > rx.mean()
-    assert by.mean() < ry.mean()
+
+
+def test_sim_shows_the_safety_moves_with_the_audio_delayed(tmp_path: Path) -> None:
+    # Start move (≥ start_s) + lead + 5 s + return (≥ return_s): the video covers all of it, and
+    # the audio starts where the timeline does, so it ends before the video.
+    csv = write_csv(tmp_path / "a.csv", five_seconds(POSE))
+    out = tmp_path / "ramps.mp4"
+    render = RenderConfig(frame_rate=25, width_px=160, height_px=120)
+    cfg = PlaybackConfig(start_s=1.0, return_s=1.0)
+    wav = tone_wav(tmp_path / "a.wav", 5.0)
+    replay_command(csv, "sim", out=out, audio=wav, config=cfg, render=render)
+    frames, duration, _, samples = decode(out)
+    assert duration >= 5.0 + 1.0 + 1.0 + cfg.lead_s - 0.05
+    assert len(frames) == pytest.approx(duration * 25, abs=1)
+    with av.open(str(out)) as c:
+        sound = np.concatenate([f.to_ndarray()[0] for f in c.decode(audio=0)])
+    onset = int(np.argmax(np.abs(sound) > 0.05)) / RATE  # silence during the start move
+    assert onset >= 1.0 + cfg.lead_s - 0.03
+    assert samples == pytest.approx((onset + 5.0) * RATE, abs=2048)
+    # the first frame (neutral, arms hanging) differs from one in the timeline (left arm up)
+    assert np.mean(np.abs(frames[0].astype(int) - frames[len(frames) // 2].astype(int))) > 0.5
 
 
 def test_sim_side_by_side(tmp_path: Path) -> None:
     a = write_csv(tmp_path / "pred.csv", five_seconds(POSE))
     b = write_csv(tmp_path / "truth.csv", five_seconds(POSE[[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]]))
-    cfg = PlaybackConfig(sim_view_px=200)
-    out = replay_command(a, "sim", out=tmp_path / "sbs.mp4", compare=b, config=cfg)
+    render = RenderConfig(width_px=200, height_px=150, ramps=False)
+    out = replay_command(a, "sim", out=tmp_path / "sbs.mp4", compare=[b], render=render)
     assert isinstance(out, Path)
     frames, _, _, samples = decode(out)
-    assert frames[0].shape == (200, 800, 3) and len(frames) == 125 and samples == 0
-    # Same poses on both sides → the two halves look the same.
-    diff = np.abs(frames[60][:, :400].astype(int) - frames[60][:, 400:].astype(int))
+    assert frames[0].shape == (150, 400, 3) and len(frames) == 125 and samples == 0
+    # Same poses on both sides → the two halves look the same but for their labels (top rows).
+    diff = np.abs(frames[60][40:, :200].astype(int) - frames[60][40:, 200:].astype(int))
     assert np.mean(diff) < 3
 
 
@@ -113,9 +125,10 @@ def test_sim_unwritable_output_is_one_line_naming_it(tmp_path: Path, where: str)
     out = tmp_path / "afile" / "v.mp4" if where == "under_a_file" else tmp_path / "v.mp4"
     if where == "is_a_folder":
         out.mkdir()
-    cfg = PlaybackConfig(start_s=0.1, return_s=0.1, sim_view_px=120)
+    cfg = PlaybackConfig(start_s=0.1, return_s=0.1)
+    render = RenderConfig(width_px=160, height_px=120)
     with pytest.raises(InputError) as info:
-        replay_command(csv, "sim", out=out, config=cfg)
+        replay_command(csv, "sim", out=out, config=cfg, render=render)
     msg = str(info.value)
     assert msg.startswith(f"{out}: cannot write video") and "\n" not in msg
     assert [p.name for p in tmp_path.rglob(".*")] == []  # no temporary file left behind
@@ -159,7 +172,7 @@ def test_ctrl_c_during_sim_render_leaves_nothing(tmp_path: Path) -> None:
     folder = tmp_path / "out"
     folder.mkdir()
     cmd = [str(BIN / "gesturebank"), "replay", str(csv), "--backend", "sim"]
-    cmd += ["--out", str(folder / "v.mp4"), "--set", "playback.sim_view_px=120"]
+    cmd += ["--out", str(folder / "v.mp4"), "--set", "render.height_px=120"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         for _ in range(6000):  # until the video is being written (a 10 min bound, not a timing)
@@ -175,3 +188,16 @@ def test_ctrl_c_during_sim_render_leaves_nothing(tmp_path: Path) -> None:
     assert list(folder.iterdir()) == []  # no truncated video, no temporary file
     assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr and "interrupted" in stdout
+
+
+def test_old_sim_keys_still_load(tmp_path: Path) -> None:
+    # datasets and config files written before [render] carry playback.sim_fps / sim_view_px
+    from gesturebank.config import Config, load_config
+
+    path = tmp_path / "old.toml"
+    path.write_text("[playback]\nsim_fps = 30\nsim_view_px = 200\n")
+    assert load_config(path).render.frame_rate == 30
+    old = Config().to_json_dict()
+    old["playback"] |= {"sim_fps": 12, "sim_view_px": 360}
+    del old["render"]
+    assert Config.model_validate(old).render == RenderConfig(frame_rate=12)

@@ -1,8 +1,10 @@
-"""`sim` backend: collects a playback's commands and renders the timeline part as an MP4
+"""`sim` backend: collects a playback's commands and renders them as an MP4 of Pepper in 3D
 (`render.write_video`) with the audio muxed in.
 
-The video covers the timeline (playback clock 0 → its end); the safety moves before and after it
-are not drawn. Commands reach a backend already safe (limits, speed), so they are drawn as sent.
+The video shows the safety moves too (`render.ramps`): the start move from the neutral pose to
+frame 0, the timeline with the audio (delayed by the start move, so it stays in sync), and the
+return to neutral; each frame is captioned with the playback time and the move it shows.
+Commands reach a backend already safe (limits, speed), so they are drawn as sent.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from gesturebank.robot.backends import Command
 from gesturebank.robot.render import write_video
 
 if TYPE_CHECKING:
-    from gesturebank.config import PlaybackConfig
+    from gesturebank.config import PlaybackConfig, RenderConfig
 
 PathLike = str | os.PathLike[str]
 
@@ -35,11 +37,10 @@ class SimBackend:
         out: PathLike,
         *,
         audio: PathLike | None = None,
-        fps: int = 25,
-        view_px: int = 360,
+        render: RenderConfig | None = None,
         start_pose: np.ndarray | None = None,
     ) -> None:
-        self.out, self.audio, self.fps, self.view_px = Path(out), audio, fps, view_px
+        self.out, self.audio, self.render = Path(out), audio, render
         if self.out.suffix.lower() != ".mp4":
             raise InputError(f"{self.out}: the sim backend writes .mp4 files")
         self.pose = np.asarray(pepper.neutral_pose() if start_pose is None else start_pose)
@@ -63,19 +64,33 @@ class SimBackend:
         self.commands.clear()
 
     def close(self) -> None:
-        shown = [c for c in self.commands if c.phase in ("timeline", "live")]
-        if not shown or self.video is not None:
+        from gesturebank.config import RenderConfig
+
+        cfg = self.render or RenderConfig()
+        body = [c for c in self.commands if c.phase in ("timeline", "live")]
+        if not body or self.video is not None:
             return
+        # live mode's start move runs on a clock of its own (t ≥ 0 before the live t = 0):
+        # only moves before and after the body, on its clock, are drawn
+        first, last = body[0].t, body[-1].t
+        shown = [
+            c
+            for c in self.commands
+            if c.phase in ("timeline", "live")
+            or (cfg.ramps and (c.t < first if c.phase == "start" else c.t > last))
+        ]
         times = np.array([c.t for c in shown])
         angles = np.stack([c.angles for c in shown])
         period = float(np.median(np.diff(times))) if len(times) > 1 else 0.01
+        start = min(float(times[0]), 0.0)
         self.video = write_video(
             [("", times, angles)],
             self.out,
-            duration=float(times[-1]) + period,
+            duration=float(times[-1]) + period - start,
             audio=self.audio,
-            fps=self.fps,
-            view_px=self.view_px,
+            render=cfg,
+            start=start,
+            timeline_end=float(body[-1].t) + period,
         )
 
 
@@ -85,9 +100,9 @@ def create(
     out: PathLike | None = None,
     audio: PathLike | None = None,
     config: PlaybackConfig | None = None,
+    render: RenderConfig | None = None,
 ) -> SimBackend:
+    """`render`: the look of the video (default: `RenderConfig()`)."""
     if out is None:
         raise InputError("--backend sim needs --out VIDEO.mp4")
-    if config is None:
-        return SimBackend(out, audio=audio)
-    return SimBackend(out, audio=audio, fps=config.sim_fps, view_px=config.sim_view_px)
+    return SimBackend(out, audio=audio, render=render)

@@ -1,0 +1,277 @@
+"""`gesturebank stimuli`: blind stimulus videos of Pepper for a perceptual study.
+
+For each speech source — an audio file (`--audio A.wav`) or a dataset clip (`--clip
+DATASET:CLIP_ID`, whose audio is cut from its source video) — one video per condition: every
+model's motion (offline synthesis, `train.commands.synthesize_command`), the ground truth (clips
+only: the clip's own angles), and an anchor (`mean-pose`: the first model's training mean pose,
+held still; `random-clip`: another clip of the first model's dataset, chosen by a seed). Every
+video of one source has the same camera (`[render]`), the same duration (the audio's) and the
+audio muxed; motion is made safe as replay makes it (clamp and speed limit), without the safety
+moves. Videos are named by random ids, so neither a file name nor the manifest gives a condition
+away; only the key says which is which.
+
+Layout of the study folder:
+
+    videos/<id>.mp4     one stimulus (H.264 + AAC)
+    audio/<name>.wav    the speech of each clip source (16 kHz mono), as muxed
+    stimuli.json        the manifest, for the study app and participants' pages — no conditions
+    key.json            id → condition, model folder, speech source: for the operator only
+
+stimuli.json (format "gesturebank-stimuli/1"):
+
+    {"format": "gesturebank-stimuli/1",
+     "fps": 25, "width_px": 640, "height_px": 480,
+     "groups": [{"audio": "<name>", "duration_s": 3.52,
+                 "videos": [{"id": "<id>", "file": "videos/<id>.mp4"}, ...]}, ...]}
+
+One group per speech source, in the order given; its videos in random order. `audio` is the
+source's name (the audio file's stem, or the clip id), unique within the file.
+
+key.json (format "gesturebank-stimuli-key/1"):
+
+    {"format": "gesturebank-stimuli-key/1",
+     "videos": {"<id>": {"audio": "<name>", "condition": "<model name>" | "ground-truth" |
+                          "anchor", "role": "model" | "reference" | "anchor",
+                          "model_dir": "<path>" | null, "source": "<audio path or DATASET:CLIP>",
+                          "anchor": "mean-pose" | "random-clip" | null}}}
+
+Model names are the model folders' names (with the parent's when two clash), as `compare`
+names them. In MUSHRA terms the ground truth is the hidden reference and the anchor the anchor.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import tempfile
+import wave
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from gesturebank.config import PlaybackConfig, RenderConfig
+from gesturebank.errors import InputError
+from gesturebank.fileio import write_bytes_atomic
+from gesturebank.robot import pepper
+from gesturebank.robot.safety import safe_angles, speed_profile
+from gesturebank.robot.timeline import Timeline, from_clip, read_csv
+
+PathLike = str | os.PathLike[str]
+Anchor = Literal["mean-pose", "random-clip"]
+ANCHORS: tuple[Anchor, ...] = ("mean-pose", "random-clip")
+FORMAT, KEY_FORMAT = "gesturebank-stimuli/1", "gesturebank-stimuli-key/1"
+MANIFEST, KEY = "stimuli.json", "key.json"
+_RATE = 16000
+
+
+@dataclass(frozen=True)
+class Source:
+    """One speech source: `audio` (a file to mux) and, for a dataset clip, where it came from."""
+
+    name: str
+    audio: Path
+    label: str  # as the user gave it: the audio path or DATASET:CLIP_ID
+    dataset: Path | None = None
+    clip_id: str | None = None
+
+
+def parse_clip(spec: str) -> tuple[Path, str]:
+    """'DATASET:CLIP_ID' → (dataset folder, clip id); InputError when malformed."""
+    folder, sep, clip = spec.rpartition(":")
+    if not sep or not folder or not clip:
+        raise InputError(f"--clip {spec!r}: expected DATASET_DIR:CLIP_ID")
+    return Path(folder), clip
+
+
+def _clip_audio(dataset: Path, clip_id: str, out: Path) -> Path:
+    """Cut the clip's span of its source's audio into `out` (16 kHz mono WAV)."""
+    from gesturebank import datasets
+    from gesturebank.extract.audio_io import read_audio
+
+    ds = datasets.open(dataset)
+    row = next((r for r in ds.clips(None) if r["clip_id"] == clip_id), None)
+    if row is None:
+        raise InputError(f"{dataset}: no clip {clip_id!r} in the manifest")
+    source = Path(ds.info.videos_dir) / row["source"]  # sources are relative to the videos
+    if not source.is_file():
+        raise InputError(f"{source}: the source of clip {clip_id} is gone; its audio is needed")
+    track = read_audio(source, sample_rate=_RATE)
+    if track is None:
+        raise InputError(f"{source}: no audio track (clip {clip_id})")
+    cut = track.signal[round(row["start_s"] * _RATE) : round(row["end_s"] * _RATE)]
+    pcm = (np.clip(cut, -1, 1) * 32767).astype("<i2")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with wave.open(os.fspath(out), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(_RATE)
+        w.writeframes(pcm.tobytes())
+    return out
+
+
+def _duration(audio: Path) -> float:
+    from gesturebank.extract.audio_io import read_audio
+
+    track = read_audio(audio, sample_rate=_RATE)
+    if track is None or not len(track.signal):
+        raise InputError(f"{audio}: no audio track")
+    return len(track.signal) / _RATE
+
+
+def _sources(audios: Sequence[PathLike], clips: Sequence[str], out: Path) -> list[Source]:
+    found: list[Source] = []
+    for a in audios:
+        path = Path(a)
+        if not path.is_file():
+            raise InputError(f"{path}: no such audio file")
+        found.append(Source(path.stem, path, os.fspath(path)))
+    for spec in clips:
+        dataset, clip_id = parse_clip(spec)
+        wav = _clip_audio(dataset, clip_id, out / "audio" / f"{clip_id}.wav")
+        found.append(Source(clip_id, wav, spec, dataset, clip_id))
+    names = [s.name for s in found]
+    clash = sorted({n for n in names if names.count(n) > 1})
+    if clash:
+        raise InputError(f"speech sources with the same name: {', '.join(clash)}; rename one")
+    if not found:
+        raise InputError("stimuli needs at least one --audio or --clip")
+    return found
+
+
+def _hold(pose: np.ndarray, duration: float, rate_hz: float = 100.0) -> Timeline:
+    n = max(1, round(duration * rate_hz))
+    return Timeline.of(np.arange(n) / rate_hz, np.tile(pose, (n, 1)))
+
+
+def _cut(timeline: Timeline, duration: float) -> Timeline:
+    """The part before `duration` s (at least the first frame)."""
+    keep = max(1, int(np.searchsorted(timeline.times, duration, side="left")))
+    return Timeline.of(timeline.times[:keep], timeline.angles[:keep])
+
+
+def _random_clip(dataset: Path, avoid: set[str], rng: np.random.Generator) -> Timeline:
+    from gesturebank import datasets
+
+    ids = [c for c in datasets.open(dataset).clip_ids() if c not in avoid]
+    if not ids:
+        raise InputError(f"{dataset}: no other accepted clip for the random-clip anchor")
+    return from_clip(dataset, ids[int(rng.integers(len(ids)))])
+
+
+def stimuli_command(
+    *,
+    model_dirs: Sequence[PathLike],
+    out: PathLike,
+    audios: Sequence[PathLike] = (),
+    clips: Sequence[str] = (),
+    anchor: Anchor = "mean-pose",
+    anchor_seed: int = 0,
+    render: RenderConfig | None = None,
+    playback: PlaybackConfig | None = None,
+    profile: str | None = None,
+) -> dict[str, Any]:
+    """Render the stimuli into the study folder `out`; returns the manifest written.
+
+    `anchor_seed` picks the random-clip anchor and the order of each group's videos; the ids
+    are random every run (`secrets`).
+    """
+    from gesturebank.robot.render import write_video
+    from gesturebank.train import model_folder
+    from gesturebank.train.commands import synthesize_command
+    from gesturebank.train.compare import _names
+
+    if not model_dirs:
+        raise InputError("stimuli needs at least one model folder")
+    if anchor not in ANCHORS:
+        raise InputError(f"--anchor {anchor!r}: one of {', '.join(ANCHORS)}")
+    cfg, play = render or RenderConfig(), playback or PlaybackConfig()
+    root = Path(out)
+    folders = [model_folder.load(d) for d in model_dirs]
+    robot = speed_profile(
+        pepper.load_profile(profile) if profile else folders[0].profile, play.max_speed_fraction
+    )
+    sources = _sources(audios, clips, root)
+    rng = np.random.default_rng(anchor_seed)
+    mean_pose = pepper.denormalise(
+        np.asarray(folders[0].norm["mean_pose01"]).reshape(1, -1), folders[0].profile
+    )[0]
+    names = _names([Path(d) for d in model_dirs])
+    groups: list[dict[str, Any]] = []
+    key: dict[str, dict[str, Any]] = {}
+    used: set[str] = set()
+    with tempfile.TemporaryDirectory(prefix=".stimuli-", dir=_parent(root)) as tmp:
+        for src in sources:
+            duration = _duration(src.audio)
+            conditions: list[tuple[str, str, str | None, Timeline]] = []
+            for name, model_dir in zip(names, model_dirs, strict=True):
+                csv = Path(tmp) / f"{len(key) + len(conditions)}.csv"
+                synthesize_command(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
+                conditions.append((name, "model", os.fspath(model_dir), read_csv(csv)))
+            if src.dataset is not None and src.clip_id is not None:
+                truth = from_clip(src.dataset, src.clip_id)
+                conditions.append(("ground-truth", "reference", None, truth))
+            if anchor == "mean-pose":
+                still = _hold(mean_pose, duration)
+            else:
+                dataset = src.dataset or Path(folders[0].info["dataset"])
+                still = _random_clip(dataset, {src.clip_id or ""}, rng)
+            conditions.append(("anchor", "anchor", None, still))
+            videos = []
+            for condition, role, folder, timeline in conditions:
+                vid = _new_id(used)
+                tl = _cut(timeline, duration)
+                write_video(
+                    [("", tl.times, safe_angles(tl, robot))],
+                    root / "videos" / f"{vid}.mp4",
+                    duration=duration,
+                    audio=src.audio,
+                    render=cfg,
+                )
+                videos.append({"id": vid, "file": f"videos/{vid}.mp4"})
+                key[vid] = {
+                    "audio": src.name,
+                    "condition": condition,
+                    "role": role,
+                    "model_dir": folder,
+                    "source": src.label,
+                    "anchor": anchor if role == "anchor" else None,
+                }
+            order = rng.permutation(len(videos))
+            groups.append(
+                {
+                    "audio": src.name,
+                    "duration_s": round(duration, 3),
+                    "videos": [videos[i] for i in order],
+                }
+            )
+    manifest = {
+        "format": FORMAT,
+        "fps": cfg.frame_rate,
+        "width_px": cfg.width_px,
+        "height_px": cfg.height_px,
+        "groups": groups,
+    }
+    _write_json(root / KEY, {"format": KEY_FORMAT, "videos": key})
+    _write_json(root / MANIFEST, manifest)
+    return manifest
+
+
+def _parent(root: Path) -> Path:
+    root.mkdir(parents=True, exist_ok=True)
+    return root
+
+
+def _new_id(used: set[str]) -> str:
+    while True:
+        vid = secrets.token_hex(5)
+        if vid not in used:
+            used.add(vid)
+            return vid
+
+
+def _write_json(path: Path, data: dict[str, Any]) -> None:
+    write_bytes_atomic(path, (json.dumps(data, indent=2) + "\n").encode("utf-8"))
