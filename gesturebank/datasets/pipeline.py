@@ -15,7 +15,7 @@ import json
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -51,7 +51,8 @@ class BuiltTake:
 
 @dataclass(frozen=True)
 class _View:
-    """What the clips are cut from: the main speaker on the take's (reference) frames.
+    """What the clips are cut from: the main speaker on the take's (reference) frames (of a
+    multi-camera take, pose2d is the reference camera's, drawn but not judged: `_multi_view`).
 
     valid / repaired: (T, 17) COCO-17 bools; speaker: (T,) main track id; lift(a, b): the 3D
     pose of frames [a, b) (lifted per clip for one camera, sliced for several)."""
@@ -178,7 +179,9 @@ def _single_view(take: Take, config: Config) -> _View:
 
 def _multi_view(take: Take, config: Config) -> _View:
     """A multi-camera take: every camera detected and repaired, triangulated by the multi-view
-    lifter. The reference camera's 2D pose, clock, shots and speaker stand for the take. The
+    lifter. The reference camera's clock, shots and speaker stand for the take, its 2D pose is
+    kept to be drawn; the QC judges the 3D as every camera sees it (the cameras travel in the
+    3D pose's meta, `qc.metrics.take_cameras`), not the reference camera's 2D. The
     audio is a .wav beside the videos, else the camera track with the most energy, moved onto
     the reference clock by the camera offsets the lifter used."""
     from gesturebank.extract.audio_io import read_audio
@@ -186,6 +189,7 @@ def _multi_view(take: Take, config: Config) -> _View:
     from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
+    from gesturebank.qc.metrics import CAMERAS_META
     from gesturebank.qc.repair import repair_pose2d, repair_pose3d
 
     assert take.calibration is not None
@@ -199,6 +203,8 @@ def _multi_view(take: Take, config: Config) -> _View:
     assert isinstance(lifter, MultiviewLifter)  # the audio choice below needs its camera offsets
     pose3d, report = lifter.lift_with_report(TakeViews(tuple(poses), cameras, tuple(audios)))
     pose3d, report3d = repair_pose3d(pose3d, config=config.repair)
+    tables = json.dumps([c.to_dict() for c in cameras])
+    pose3d = replace(pose3d, meta={**pose3d.meta, CAMERAS_META: tables})
     ref = config.multiview.reference_camera
     if take.audio is not None:
         audio = read_audio(take.audio, sample_rate=config.audio.sample_rate)

@@ -24,6 +24,7 @@ Both are sums over the 11 joints (as Fig. 4.7); per-joint values are `jerk_raw/<
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,6 +34,10 @@ from gesturebank.datasets.clip import Clip
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
 from gesturebank.skeletons import COCO17, to_coco17
+
+if TYPE_CHECKING:
+    from gesturebank.lift.multiview.cameras import Camera
+    from gesturebank.poses import Pose3D
 
 F64 = NDArray[np.float64]
 # Gaps in the raw angles bridged before the jerk is measured: the processing's default, not the
@@ -281,23 +286,92 @@ def facing_away(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:
     left shoulder lies to the right of the torso's up direction; from behind, to the left
     (youtube-gesture-dataset's rule — right shoulder right of the left — made independent of a
     lean). `xy (T, 17, 2)` COCO-17 pixels, `valid (T, 17)`."""
-    across, up, seen = _torso_axes(xy, valid)
+    turn, seen = _turn(xy, valid)
     with np.errstate(invalid="ignore"):
-        turn = across[:, 0] * up[:, 1] - across[:, 1] * up[:, 0]  # < 0 from the front (y down)
         return np.asarray(seen & (turn > 0))
+
+
+def _turn(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`(T,)` the torso's turn (< 0 seen from the front, > 0 from behind, image y down) and
+    whether the torso was seen."""
+    across, up, seen = _torso_axes(xy, valid)
+    return across[:, 0] * up[:, 1] - across[:, 1] * up[:, 0], seen
 
 
 def sideways(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:
     """`(T,)` frames where the nose lies beyond a shoulder along the shoulder line (a side view;
     youtube-gesture-dataset's "nose outside the shoulders", measured along the shoulders rather
     than the image's x axis so that a lean is not a side view)."""
+    along, seen = _along(xy, valid)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(seen & (np.abs(along) > 0.5))
+
+
+def _along(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`(T,)` where the nose lies along the shoulder line (0 between the shoulders, ±0.5 on a
+    shoulder) and whether the nose and both shoulders were seen."""
     ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
     across = xy[:, ls] - xy[:, rs]
     offset = xy[:, nose] - (xy[:, ls] + xy[:, rs]) / 2
     seen = valid[:, ls] & valid[:, rs] & valid[:, nose]
     with np.errstate(invalid="ignore", divide="ignore"):
-        along = np.sum(offset * across, axis=-1) / np.sum(across * across, axis=-1)
-        return np.asarray(seen & (np.abs(along) > 0.5))
+        return np.sum(offset * across, axis=-1) / np.sum(across * across, axis=-1), seen
+
+
+# A multi-camera take is judged by its 3D as each of its cameras sees it: the triangulated joints
+# projected into every camera. Facing away and sideways only mean something relative to a camera,
+# so the take's rule is the single camera's rule applied to every camera at once: a frame faces
+# away when it faces away from every camera (one camera seeing the front is enough to triangulate
+# the hands in front of the body), and is seen from the side when every camera sees it so. A
+# camera the torso lies behind (its projection is NaN) sees neither the front nor a square view.
+
+
+def facing_away_from_all(views: Sequence[np.ndarray], valid: np.ndarray) -> NDArray[np.bool_]:
+    """`(T,)` frames whose torso faces away from every camera: `views` one `(T, 17, 2)` COCO-17
+    projection per camera of the same 3D pose, `valid (T, 17)` its seen joints."""
+    away = np.ones(len(valid), dtype=bool)
+    seen = np.zeros(len(valid), dtype=bool)
+    for xy in views:
+        turn, seen = _turn(xy, valid)
+        with np.errstate(invalid="ignore"):
+            away &= ~(turn < 0)  # NaN: this camera does not see the front
+    return np.asarray(seen & away)
+
+
+def sideways_from_all(views: Sequence[np.ndarray], valid: np.ndarray) -> NDArray[np.bool_]:
+    """`(T,)` frames that every camera of `views` (as `facing_away_from_all`) sees from the
+    side: in none of them does the nose lie between the shoulders."""
+    side = np.ones(len(valid), dtype=bool)
+    seen = np.zeros(len(valid), dtype=bool)
+    for xy in views:
+        along, seen = _along(xy, valid)
+        with np.errstate(invalid="ignore"):
+            side &= ~(np.abs(along) <= 0.5)
+    return np.asarray(seen & side)
+
+
+# The Pose3D meta key where a multi-camera take keeps the cameras it was triangulated from (a
+# JSON list of calibration tables, `Camera.to_dict`): the QC needs them again when it re-measures.
+CAMERAS_META = "calibration"
+
+
+def take_cameras(pose3d: Pose3D) -> list[Camera]:
+    """The cameras a multi-camera take's 3D was triangulated from; [] for a single camera."""
+    text = pose3d.meta.get(CAMERAS_META)
+    if not text:
+        return []
+    import json
+
+    from gesturebank.lift.multiview.cameras import Camera
+
+    return [Camera.from_dict(t, key=str(t.get("name", ""))) for t in json.loads(text)]
+
+
+def _shoulder_width(xy: np.ndarray, shoulders: np.ndarray, height: float) -> float:
+    """Median shoulder width of `xy (T, 17, 2)` pixels over the `shoulders` frames, as a share
+    of the frame `height`; NaN when there are none."""
+    width = np.linalg.norm(xy[:, _I["left_shoulder"]] - xy[:, _I["right_shoulder"]], axis=-1)
+    return float(np.median(width[shoulders]) / float(height)) if shoulders.any() else float("nan")
 
 
 def _share(flags: np.ndarray, among: np.ndarray) -> float:
@@ -323,6 +397,11 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     limit_frames_fraction; jitter_fraction; swap_events; frozen_fraction; spike_max (shoulder
     widths); motion_range (rad); facing_away_fraction, sideways_fraction, shoulder_width (share
     of the frame height), image_change, people (mean people in the frame).
+
+    A multi-camera take (its cameras in the 3D pose's meta, `take_cameras`) is judged by its 3D:
+    spikes, swaps and freezes of the triangulated joints only, facing away and sideways as every
+    camera sees them (`facing_away_from_all`), the person's size in the camera that sees them
+    largest. The stored 2D (the reference camera's) is then only drawn, not judged.
     """
     nan = float("nan")
     m: dict[str, float] = {"duration_s": clip.duration_s}
@@ -354,13 +433,14 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     joints = np.where(valid[..., None], np.asarray(clip.pose3d.joints, np.float64), np.nan)
     cv = bone_cv(joints)
     m["bone_cv_max"] = float(np.nanmax(cv)) if np.isfinite(cv).any() else nan
-    m["swap_events"] = float(max(swap_events(seen_xy), swap_events(joints)))
+    cameras = take_cameras(clip.pose3d)
+    # One camera: its own 2D and the 3D lifted from it. Several: the triangulated 3D only (one
+    # camera's 2D glitch is outvoted by the others, and the 3D is what the dataset keeps).
+    shapes = [joints] if cameras else [seen_xy, joints]
+    m["swap_events"] = float(max(swap_events(p) for p in shapes))
     upper = [_I[j] for j in MOTION_KEYPOINTS]
-    m["frozen_fraction"] = max(
-        frozen_fraction(seen_xy[:, upper]), frozen_fraction(joints[:, upper])
-    )
-    spikes = [_max(spike_sizes(seen_xy)), _max(spike_sizes(joints))]
-    m["spike_max"] = float(max(spikes))
+    m["frozen_fraction"] = max(frozen_fraction(p[:, upper]) for p in shapes)
+    m["spike_max"] = float(max(_max(spike_sizes(p)) for p in shapes))
 
     at_limit = limit_frames(clip.angles, profile.lower, profile.upper) & known
     m["limit_frames_fraction"] = float(at_limit.any(axis=1).mean()) if len(known) else nan
@@ -368,11 +448,21 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     m["motion_range"] = motion_range(clip.angles)
 
     shoulders = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
-    m["facing_away_fraction"] = _share(facing_away(xy, valid), shoulders)
-    m["sideways_fraction"] = _share(sideways(xy, valid), shoulders & valid[:, _I["nose"]])
-    width = np.linalg.norm(xy[:, _I["left_shoulder"]] - xy[:, _I["right_shoulder"]], axis=-1)
-    height = float(clip.pose2d.image_size[1])
-    m["shoulder_width"] = float(np.median(width[shoulders]) / height) if shoulders.any() else nan
+    if cameras:  # the 3D as every camera sees it; the person's size in the best camera
+        views = [c.project(joints) for c in cameras]
+        both = [_I["left_shoulder"], _I["right_shoulder"]]  # a camera they lie behind: unseen
+        away, side = facing_away_from_all(views, valid), sideways_from_all(views, valid)
+        sizes = [
+            _shoulder_width(v, shoulders & np.isfinite(v[:, both, 0]).all(axis=1), c.size[1])
+            for v, c in zip(views, cameras, strict=True)
+        ]
+        width_share = max(sizes, key=lambda w: w if np.isfinite(w) else -np.inf)
+    else:
+        away, side = facing_away(xy, valid), sideways(xy, valid)
+        width_share = _shoulder_width(xy, shoulders, clip.pose2d.image_size[1])
+    m["facing_away_fraction"] = _share(away, shoulders)
+    m["sideways_fraction"] = _share(side, shoulders & valid[:, _I["nose"]])
+    m["shoulder_width"] = width_share
     change = np.asarray(clip.change, dtype=np.float64)
     m["image_change"] = (
         float(np.median(change[np.isfinite(change)])) if np.isfinite(change).any() else nan
