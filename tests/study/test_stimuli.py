@@ -76,6 +76,12 @@ def test_stimuli_are_blind_keyed_apart_and_alike(
         n, duration, has_audio = seen.pop()
         assert has_audio and n == round(g["duration_s"] * SMALL.frame_rate)
         assert duration == pytest.approx(g["duration_s"], abs=0.15)
+    # what `study serve` reads: one MUSHRA page per speech and the A/B pair of the two models
+    from gesturebank.study.design import load_design
+
+    design = load_design(out)
+    kinds = sorted((t.kind, t.audio) for t in design.trials.values())
+    assert kinds == sorted([("mushra", a) for a in groups] + [("ab", a) for a in groups])
 
 
 def test_a_malformed_clip_is_one_line() -> None:
