@@ -33,7 +33,8 @@ from gesturebank.study.commands import DEFAULT_PORT as DEFAULT_STUDY_PORT
 from gesturebank.train.registry import MODELS
 
 if TYPE_CHECKING:
-    from gesturebank.datasets.build import BuildSummary, TakeResult
+    from gesturebank.datasets.build import BuildSummary
+    from gesturebank.datasets.take_job import TakeResult
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -213,7 +214,11 @@ def build_dataset(
         Executor | None, typer.Option(help="'local' process pool (default) or 'ray'.")
     ] = None,
     ray_address: Annotated[
-        str | None, typer.Option(help="Ray cluster address (default: start a local Ray).")
+        str | None,
+        typer.Option(
+            help="Ray cluster: auto, HOST:PORT or ray://HOST:PORT (default: $RAY_ADDRESS, "
+            "else start a local Ray)."
+        ),
     ] = None,
     force: Annotated[bool, typer.Option(help="Rebuild takes that are already built.")] = False,
     no_cache: Annotated[

@@ -1141,13 +1141,38 @@ class BuildConfig(Section):
         None, ge=1, description="Takes built in parallel (none = number of CPU cores)."
     )
     executor: Executor = Field("local", description="'local' process pool, or 'ray' for a cluster.")
-    ray_address: str | None = Field(None, description="Ray cluster address ('auto', host:port).")
+    ray_address: str | None = Field(
+        None,
+        description="Ray cluster address: 'auto', host:port or ray://host:port (none = "
+        "RAY_ADDRESS, else a private Ray on this machine).",
+    )
+    ray_max_retries: int = Field(
+        2, ge=0, description="Times Ray reruns a take whose worker or node died, elsewhere."
+    )
+    ray_memory_base_mb: float = Field(
+        450.0,
+        gt=0,
+        description="Memory a take's Ray task asks for before its frames (a 7 s 1080p take "
+        "peaked at 430 MB).",
+    )
+    ray_memory_per_frame_kb: float = Field(
+        16.0,
+        ge=0,
+        description="Memory per video frame a take's Ray task asks for on top (pose, audio "
+        "and angle arrays kept for the whole take).",
+    )
+    ray_connect_timeout_s: float = Field(
+        10.0, gt=0, description="Wait for the Ray head to answer before giving up."
+    )
+    ray_check_timeout_s: float = Field(
+        60.0, gt=0, description="Wait for every Ray node's storage check (and for cancelled tasks)."
+    )
     decode_threads: int | None = Field(
         None,
         ge=1,
         description="FFmpeg threads decoding one video (none = CPU cores / workers: a lone "
         "worker decodes on the spare cores, a full pool does not oversubscribe them; "
-        "1 for Ray tasks).",
+        "1 for Ray tasks, which ask Ray for the larger of the two thread counts in CPUs).",
     )
     inference_threads: int | None = Field(
         None,

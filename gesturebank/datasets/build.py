@@ -20,26 +20,30 @@ import multiprocessing
 import os
 import signal
 import threading
-import time
 from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import closing, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.lifeline import die_with
 from gesturebank.datasets.lock import dataset_lock
-from gesturebank.datasets.pipeline import CONTENT_SECTIONS, lifter_name
+from gesturebank.datasets.take_job import (
+    Outcome,
+    TakeResult,
+    content_digest,
+    record_failure,
+    record_stamp,
+    run_take,
+    written_result,
+)
 from gesturebank.datasets.takes import Take
-from gesturebank.errors import GesturebankError, InputError
+from gesturebank.errors import InputError
 
 log = logging.getLogger(__name__)
-
-Outcome = Literal["built", "skipped", "failed"]
 
 # Imported once by the worker pool's fork server (their import is the slow part of a start).
 PIPELINE_MODULES = (
@@ -55,20 +59,6 @@ PIPELINE_MODULES = (
     "scipy.signal",
     "scenedetect",
 )
-
-
-@dataclass(frozen=True)
-class TakeResult:
-    """What a worker reports of one take: timings and what it gave."""
-
-    take_id: str
-    outcome: Outcome
-    reason: str = ""
-    wall_s: float = 0.0
-    video_s: float = 0.0
-    detect_s: float = 0.0
-    clips: int = 0
-    usable_s: float = 0.0
 
 
 @dataclass
@@ -100,10 +90,6 @@ class BuildSummary:
         return sum(r.visible_s for r in self.takes if not r.failed)
 
 
-def content_digest(config: Config) -> str:
-    return config.digest(*CONTENT_SECTIONS)
-
-
 def with_threads(config: Config, workers: int, cores: int) -> Config:
     """`config` with build.decode_threads and build.inference_threads resolved: as set, else
     the cores each worker has to itself (Ray tasks reserve one CPU each, so 1), so that
@@ -117,57 +103,6 @@ def with_threads(config: Config, workers: int, cores: int) -> Config:
         if getattr(config.build, key) is None
     }
     return config.model_copy(update={"build": config.build.model_copy(update=update)})
-
-
-def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
-    """Build one take and write it; every failure becomes a `failed` record, never an exception."""
-    from gesturebank.datasets.pipeline import build_take
-
-    start = time.perf_counter()
-    try:
-        built = build_take(take, source, config)
-    except GesturebankError as exc:
-        reason = str(exc)
-    except Exception as exc:  # a bug or a library error must not stop the other takes
-        log.exception("%s: unexpected error", take.video)
-        reason = f"{take.video}: unexpected {type(exc).__name__}: {exc}"
-    else:
-        try:
-            store.write_take(out, built.record, built.clips, built.preview)
-        except OSError as exc:  # a full disk or quota: nothing of it stays under a final name
-            reason = f"{store.take_dir(out, take.take_id)}: cannot write ({exc.strerror or exc})"
-        else:
-            return TakeResult(
-                take.take_id,
-                "built",
-                "",
-                time.perf_counter() - start,
-                built.record.seconds,
-                built.detect_s,
-                len(built.clips),
-                built.record.usable_s,
-            )
-    return _record_failure(take, source, out, config, reason, time.perf_counter() - start)
-
-
-def _record_failure(
-    take: Take, source: str, out: Path, config: Config, reason: str, wall_s: float = 0.0
-) -> TakeResult:
-    record = store.TakeRecord(
-        take_id=take.take_id,
-        subject=take.subject,
-        source=source,
-        config_digest=content_digest(config),
-        failed=reason,
-        detector=config.detector.name,
-        lifter=lifter_name(take, config),
-        traits=take.traits,
-    )
-    try:
-        store.write_take(out, record)
-    except OSError as exc:  # the disk is full: the summary still reports the failure
-        log.warning("%s: cannot record the failure (%s)", take.take_id, exc.strerror or exc)
-    return TakeResult(take.take_id, "failed", reason, wall_s)
 
 
 def _local(
@@ -197,7 +132,7 @@ def _local(
                     except BrokenProcessPool:
                         # a native crash (e.g. in a decoder) killed a worker: the pool is gone
                         reason = "worker process died; run again to resume"
-                        yield _record_failure(*futures[fut], out, config, reason)
+                        yield record_failure(*futures[fut], out, config, reason)
         except BaseException:
             for fut in pending:
                 fut.cancel()
@@ -209,29 +144,11 @@ def _local(
 
 
 def _ray(
-    jobs: list[tuple[Take, str]], out: Path, config: Config, address: str | None
+    jobs: list[tuple[Take, str]], out: Path, videos_dir: Path, config: Config
 ) -> Generator[TakeResult, None, None]:
-    try:
-        import ray
-    except ImportError:
-        raise InputError(
-            "--executor ray needs Ray: pip install 'gesturebank[distributed]'"
-        ) from None
-    started = not ray.is_initialized()
-    if started:
-        handler = signal.getsignal(signal.SIGTERM)
-        ray.init(address=address, include_dashboard=False, log_to_driver=False)
-        if handler is not None and threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, handler)  # Ray's sys.exit()s: SIGTERM stops as Ctrl-C
-    try:
-        remote = ray.remote(run_take)
-        pending = [remote.remote(take, source, out, config) for take, source in jobs]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            yield ray.get(done[0])
-    finally:
-        if started:
-            ray.shutdown()
+    from gesturebank.datasets.cluster import run_on_ray  # needs Ray: imported when used
+
+    yield from run_on_ray(jobs, out, videos_dir, config)  # close() reaches it: tasks cancelled
 
 
 @contextmanager
@@ -252,31 +169,6 @@ def _sigterm_interrupts() -> Iterator[list[int]]:
         yield received
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
-
-
-def _stamp(out: Path, take_id: str) -> tuple[int, int] | None:
-    """Identity of a take's record file: records are replaced whole, so a rewrite changes it."""
-    try:
-        st = store.take_json(out, take_id).stat()
-    except OSError:
-        return None
-    return st.st_ino, st.st_mtime_ns
-
-
-def _written_result(out: Path, take_id: str) -> TakeResult | None:
-    """The result of a take written in this run whose result never reached us (interrupt)."""
-    record = store.read_record(out, take_id)
-    if record is None:
-        return None
-    if record.failed:
-        return TakeResult(take_id, "failed", record.failed)
-    return TakeResult(
-        take_id,
-        "built",
-        video_s=record.seconds,
-        clips=len(record.data_clips),
-        usable_s=record.usable_s,
-    )
 
 
 def build_dataset(
@@ -343,11 +235,11 @@ def _build(
     workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(jobs)))
     config = with_threads(config, workers, os.cpu_count() or 1)
     results = (
-        _ray(jobs, out, config, config.build.ray_address)
+        _ray(jobs, out, videos_dir, config)
         if config.build.executor == "ray"
         else _local(jobs, out, config, workers)
     )
-    stamps = {take.take_id: _stamp(out, take.take_id) for take, _ in jobs}
+    stamps = {take.take_id: record_stamp(out, take.take_id) for take, _ in jobs}
     terms: list[int] = []
     try:
         # closing: an interrupt stops the workers here, not whenever the generator is collected
@@ -361,9 +253,9 @@ def _build(
         store.remove_stale_temporaries(out)  # what the stopped workers left half-written
         reported = {r.take_id for r in summary.results}
         for take, _ in jobs:
-            if take.take_id in reported or _stamp(out, take.take_id) == stamps[take.take_id]:
+            if take.take_id in reported or record_stamp(out, take.take_id) == stamps[take.take_id]:
                 continue
-            written = _written_result(out, take.take_id)
+            written = written_result(out, take.take_id)
             if written:
                 summary.results.append(written)
                 if on_result:

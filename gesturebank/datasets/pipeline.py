@@ -496,7 +496,7 @@ def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
 
 # Config sections that change what a take contains. The others only change how it is built
 # (build), judged (qc), split (splits), calibrated (board), trained on (train), played
-# (playback) or drawn (render); tests/datasets/test_build.py checks each section is one or the other.
+# (playback) or drawn (render); tests/datasets/test_build.py checks each is one or the other.
 NOT_CONTENT_SECTIONS = ("build", "qc", "splits", "board", "train", "playback", "render")
 CONTENT_SECTIONS = (
     "video",
