@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from gesturebank.errors import InputError
+from gesturebank.robot.pepper import axis_rotations
 
 AXES = {"X": 0, "Y": 1, "Z": 2}
 CHANNELS = tuple(f"{a}{kind}" for kind in ("position", "rotation") for a in "XYZ")
@@ -184,16 +185,7 @@ def read_bvh(path: str | os.PathLike[str]) -> Motion:
 
 def rotation(axis: int, degrees: np.ndarray) -> np.ndarray:
     """(T, 3, 3) right-handed rotations by `degrees (T,)` about x (0), y (1) or z (2)."""
-    t = np.deg2rad(np.asarray(degrees, dtype=np.float64))
-    c, s = np.cos(t), np.sin(t)
-    r = np.zeros((*t.shape, 3, 3))
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    r[..., axis, axis] = 1.0
-    r[..., i, i] = c
-    r[..., j, j] = c
-    r[..., i, j] = -s
-    r[..., j, i] = s
-    return r
+    return axis_rotations(axis, np.deg2rad(np.asarray(degrees, dtype=np.float64)))
 
 
 def local_transforms(motion: Motion) -> tuple[np.ndarray, np.ndarray]:

@@ -276,8 +276,8 @@ FACE_MARKERS = {
 }
 
 
-def _rot(axis: int, t: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) rotations by angles t (N,) about x (0), y (1) or z (2)."""
+def axis_rotations(axis: int, t: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) right-handed rotations by angles t (N,) rad about x (0), y (1) or z (2)."""
     c, s = np.cos(t), np.sin(t)
     r = np.zeros((*t.shape, 3, 3))
     i, j = [(1, 2), (2, 0), (0, 1)][axis]
@@ -315,19 +315,23 @@ def fk(
     col = {j: a[:, i] for i, j in enumerate(JOINTS)}
     n = len(a)
     # URDF HipRoll axis is −x: positive HipRoll tilts the torso towards +y (leans to its left).
-    torso = _rot(0, -col["HipRoll"])
+    torso = axis_rotations(0, -col["HipRoll"])
     out: dict[str, np.ndarray] = {"pelvis": np.zeros((n, 3))}
     for side, sign in (("left", 1.0), ("right", -1.0)):
         s = "L" if side == "left" else "R"
         mirror = np.array([1.0, sign, 1.0])
         shoulder = _apply(torso, np.array(k.shoulder) * mirror)
-        bicep = torso @ _rot(1, col[f"{s}ShoulderPitch"]) @ _rot(2, col[f"{s}ShoulderRoll"])
+        bicep = (
+            torso
+            @ axis_rotations(1, col[f"{s}ShoulderPitch"])
+            @ axis_rotations(2, col[f"{s}ShoulderRoll"])
+        )
         elbow = shoulder + _apply(bicep, np.array(k.elbow) * mirror)
         fore = (
             bicep
-            @ _rot(1, np.full(n, k.elbow_pitch))
-            @ _rot(0, col[f"{s}ElbowYaw"])
-            @ _rot(2, col[f"{s}ElbowRoll"])
+            @ axis_rotations(1, np.full(n, k.elbow_pitch))
+            @ axis_rotations(0, col[f"{s}ElbowYaw"])
+            @ axis_rotations(2, col[f"{s}ElbowRoll"])
         )
         out[f"{side}_shoulder"] = shoulder
         out[f"{side}_elbow"] = elbow
@@ -336,7 +340,7 @@ def fk(
             np.array([k.shoulder[0], sign * k.hip_half_width, 0.0]), (n, 3)
         ).copy()
     head = _apply(torso, np.array(k.head))
-    head_rot = torso @ _rot(2, col["HeadYaw"]) @ _rot(1, col["HeadPitch"])
+    head_rot = torso @ axis_rotations(2, col["HeadYaw"]) @ axis_rotations(1, col["HeadPitch"])
     out["head"] = head
     for name, offset in FACE_MARKERS.items():
         out[name] = head + _apply(head_rot, np.array(offset))
