@@ -1185,6 +1185,20 @@ class BuildConfig(Section):
         description="Reuse 2D detections of a video already seen with the same detector "
         "settings (cached by content in the user cache dir, or $GESTUREBANK_CACHE).",
     )
+    chunk_s: float | None = Field(
+        600.0,
+        gt=0,
+        description="Videos longer than this are detected in time chunks of about this length, "
+        "each a task of its own (so one long video uses every worker), and the chunks' people "
+        "stitched into one take; none = one task per video. Chunks are cached in OUT_DIR's "
+        ".detections folder, which every worker sees.",
+    )
+    chunk_overlap_s: float = Field(
+        5.0,
+        ge=0,
+        description="Each chunk after the first starts this much before its own part: the "
+        "detector's tracking settles there and the people are matched to the previous chunk's.",
+    )
     video_extensions: list[str] = Field(
         [".mp4", ".mov", ".avi", ".mkv", ".webm"], description="Files treated as takes."
     )

@@ -251,6 +251,11 @@ class Recipe:
     keep: int = 1
 
 
+# A 10-minute talk with one camera change half-way, 30 fps, 360 px high: long enough to be
+# detected in chunks (build.chunk_s); tests shorten it (`replace(LECTURE, seconds=...)`).
+LECTURE = Recipe((CAM01, CAM03), (300.0, 300.0), height=360, keep=2)
+
+
 def standard(*, time_scale: float = 1.0) -> dict[str, Recipe]:
     """The standard set. time_scale shortens every take (tests use a few hundredths)."""
 

@@ -26,17 +26,22 @@ from concurrent.futures.process import BrokenProcessPool
 from contextlib import closing, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.lifeline import die_with
 from gesturebank.datasets.lock import dataset_lock
 from gesturebank.datasets.take_job import (
+    ChunkJob,
+    Job,
     Outcome,
+    Schedule,
     TakeResult,
     content_digest,
     record_failure,
     record_stamp,
+    run_chunk,
     run_take,
     written_result,
 )
@@ -44,6 +49,8 @@ from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 
 log = logging.getLogger(__name__)
+
+_DIED = "worker process died; run again to resume"
 
 # Imported once by the worker pool's fork server (their import is the slow part of a start).
 PIPELINE_MODULES = (
@@ -106,12 +113,12 @@ def with_threads(config: Config, workers: int, cores: int) -> Config:
 
 
 def _local(
-    jobs: list[tuple[Take, str]], out: Path, config: Config, workers: int
+    schedule: Schedule, out: Path, config: Config, workers: int
 ) -> Generator[TakeResult, None, None]:
     if workers == 1:
         for module in PIPELINE_MODULES:  # as the pool does: start-up is not a take's time
             importlib.import_module(module)
-        for take, source in jobs:
+        for take, source in schedule.jobs.values():  # each detects its chunks itself
             yield run_take(take, source, out, config)
         return
     # forkserver: a clean server process (no threads inherited from mediapipe or a Ray client)
@@ -121,18 +128,47 @@ def _local(
     with ProcessPoolExecutor(
         max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(os.getpid(),)
     ) as pool:
-        futures = {pool.submit(run_take, *job, out, config): job for job in jobs}
-        pending: set[Future[TakeResult]] = set(futures)
+        jobs: dict[Future[Any], Job] = {}  # TakeResult of a take, None of a chunk
+        died: list[TakeResult] = []  # takes that could not be queued: the pool is gone
+
+        def submit(job: Job) -> set[Future[Any]]:
+            try:
+                fut: Future[Any] = (
+                    pool.submit(run_chunk, job, out, config)
+                    if isinstance(job, ChunkJob)
+                    else pool.submit(run_take, *job, out, config)
+                )
+            except BrokenProcessPool:
+                take = schedule.jobs[job.take_id] if isinstance(job, ChunkJob) else job
+                died.append(record_failure(*take, out, config, _DIED))
+                return set()
+            jobs[fut] = job
+            return {fut}
+
+        pending = {fut for job in schedule.first() for fut in submit(job)}
         try:
-            while pending:
+            while pending or died:
+                yield from died
+                died.clear()
+                if not pending:
+                    break
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in done:
+                    job = jobs[fut]
+                    if isinstance(job, ChunkJob):
+                        # a chunk that failed (even its worker) is detected by its take's task
+                        ready = schedule.chunk_done(job)
+                        if ready is not None:
+                            pending |= submit(ready)
+                        continue
                     try:
-                        yield fut.result()
+                        result = fut.result()
                     except BrokenProcessPool:
                         # a native crash (e.g. in a decoder) killed a worker: the pool is gone
-                        reason = "worker process died; run again to resume"
-                        yield record_failure(*futures[fut], out, config, reason)
+                        yield record_failure(*job, out, config, _DIED)
+                        continue
+                    assert result is not None
+                    yield result
         except BaseException:
             for fut in pending:
                 fut.cancel()
@@ -144,11 +180,11 @@ def _local(
 
 
 def _ray(
-    jobs: list[tuple[Take, str]], out: Path, videos_dir: Path, config: Config
+    schedule: Schedule, out: Path, videos_dir: Path, config: Config
 ) -> Generator[TakeResult, None, None]:
     from gesturebank.datasets.cluster import run_on_ray  # needs Ray: imported when used
 
-    yield from run_on_ray(jobs, out, videos_dir, config)  # close() reaches it: tasks cancelled
+    yield from run_on_ray(schedule, out, videos_dir, config)  # close() reaches it: tasks cancelled
 
 
 @contextmanager
@@ -232,12 +268,13 @@ def _build(
     # longest first (file size as the cheap proxy), so no worker is left with a long take at the end
     jobs.sort(key=lambda job: sum(v.stat().st_size for v in job[0].videos or [job[0].video]))
     jobs.reverse()
-    workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(jobs)))
+    schedule = Schedule(jobs, config)
+    workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(schedule.first())))
     config = with_threads(config, workers, os.cpu_count() or 1)
     results = (
-        _ray(jobs, out, videos_dir, config)
+        _ray(schedule, out, videos_dir, config)
         if config.build.executor == "ray"
-        else _local(jobs, out, config, workers)
+        else _local(schedule, out, config, workers)
     )
     stamps = {take.take_id: record_stamp(out, take.take_id) for take, _ in jobs}
     terms: list[int] = []

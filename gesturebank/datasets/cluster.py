@@ -31,9 +31,13 @@ from typing import Any
 from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.take_job import (
+    ChunkJob,
+    Job,
+    Schedule,
     TakeResult,
     record_failure,
     record_stamp,
+    run_chunk,
     run_take,
     written_result,
 )
@@ -251,6 +255,25 @@ def memory_estimate_mb(
     ) + in_flight
 
 
+def chunk_memory_mb(job: ChunkJob, config: Config) -> float:
+    """A chunk's memory estimate: its video's, for the chunk's duration."""
+    from gesturebank.extract.video import probe
+
+    try:
+        info = probe(job.video)
+    except Exception:  # the take's task will fail with the reason
+        return config.build.ray_memory_base_mb
+    end = job.range.end_s if job.range.end_s is not None else info.duration_s
+    return memory_estimate_mb(
+        duration_s=end - job.range.start_s if end == end else 0.0,  # NaN: unknown
+        fps=info.fps,
+        width=info.size[0],
+        height=info.size[1],
+        decode_threads=config.build.decode_threads or 1,
+        config=config,
+    )
+
+
 def take_memory_mb(take: Take, config: Config) -> float:
     """A take's memory estimate from its videos' headers (the base alone for mocap)."""
     from gesturebank.extract.video import probe
@@ -298,10 +321,11 @@ def _clean_temporaries(out: Path, take_id: str) -> None:
 
 
 def run_on_ray(
-    jobs: list[tuple[Take, str]], out: Path, videos_dir: Path, config: Config
+    schedule: Schedule, out: Path, videos_dir: Path, config: Config
 ) -> Generator[TakeResult, None, None]:
-    """Every job as a Ray task sized for its take; results as they finish. A task whose worker or
-    node died is retried by Ray (build.ray_max_retries), then recorded failed with the reason.
+    """Every job as a Ray task sized for its take (or chunk); take results as they finish. A
+    task whose worker or node died is retried by Ray (build.ray_max_retries), then its take is
+    recorded failed with the reason (a lost chunk is detected by its take's task instead).
     Closing the generator (Ctrl-C) cancels what has not finished."""
     with connected(config.build.ray_address, config) as ray:
         check_storage(ray, out, videos_dir, config)
@@ -318,26 +342,48 @@ def run_on_ray(
             ray.cluster_resources().get("CPU", 0),
             cpus,
         )
-        remote = ray.remote(run_take)
-        refs = {}
-        stamps = {take.take_id: record_stamp(out, take.take_id) for take, _ in jobs}
-        for take, source in jobs:
-            memory_mb = take_memory_mb(take, config)
+        remote_take, remote_chunk = ray.remote(run_take), ray.remote(run_chunk)
+        refs: dict[Any, Job] = {}
+        stamps = {take_id: record_stamp(out, take_id) for take_id in schedule.jobs}
+
+        def submit(job: Job) -> Any:
+            if isinstance(job, ChunkJob):
+                take, _ = schedule.jobs[job.take_id]
+                memory_mb = chunk_memory_mb(job, config)
+            else:
+                take, _ = job
+                memory_mb = take_memory_mb(take, config)
             if most_memory_mb and memory_mb > most_memory_mb:
                 log.warning("%s: needs ~%.0f MB, more than any node has", take.take_id, memory_mb)
                 memory_mb = most_memory_mb
-            ref = remote.options(
+            options = dict(
                 num_cpus=cpus,
                 memory=int(memory_mb * 1e6),
                 max_retries=config.build.ray_max_retries,
-                retry_exceptions=False,  # run_take never raises: only lost workers are retried
-            ).remote(take, source, out, config)
-            refs[ref] = (take, source)
-        pending = list(refs)
+                retry_exceptions=False,  # neither raises: only lost workers are retried
+            )
+            if isinstance(job, ChunkJob):
+                ref = remote_chunk.options(**options).remote(job, out, config)
+            else:
+                ref = remote_take.options(**options).remote(*job, out, config)
+            refs[ref] = job
+            return ref
+
+        pending = [submit(job) for job in schedule.first()]
         try:
             while pending:
                 done, pending = ray.wait(pending, num_returns=1)
-                take, source = refs[done[0]]
+                job = refs[done[0]]
+                if isinstance(job, ChunkJob):
+                    try:
+                        ray.get(done[0])
+                    except ray.exceptions.RayError as exc:  # its take detects it itself
+                        log.info("%s: chunk lost (%s)", job.take_id, type(exc).__name__)
+                    ready = schedule.chunk_done(job)
+                    if ready is not None:
+                        pending.append(submit(ready))
+                    continue
+                take, source = job
                 try:
                     result = ray.get(done[0])
                 except ray.exceptions.RayError as exc:

@@ -33,6 +33,7 @@ from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
 if TYPE_CHECKING:
+    from gesturebank.extract.cache import DetectionCache
     from gesturebank.extract.tracking import TrackReport
 
 _I = COCO17.index
@@ -137,7 +138,7 @@ def usable_frames(valid: np.ndarray) -> np.ndarray:
     return np.asarray(torso & (face | arm))
 
 
-def _single_view(take: Take, config: Config) -> _View:
+def _single_view(take: Take, config: Config, chunks: DetectionCache | None) -> _View:
     from gesturebank.extract.pipeline import extract_take
     from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.qc.repair import repair_pose2d, validity
@@ -147,7 +148,7 @@ def _single_view(take: Take, config: Config) -> _View:
             f"{take.video}: the multiview lifter needs a multi-camera take (a folder with a "
             "calibration file and two or more videos)"
         )
-    ext = extract_take(take.video, config)
+    ext = extract_take(take.video, config, chunks=chunks)
     if ext.audio is None:
         raise InputError(f"{take.video}: no audio track and no {take.video.stem}.wav beside it")
     pose, report = repair_pose2d(ext.tracked.pose, config=config.repair)
@@ -177,7 +178,7 @@ def _single_view(take: Take, config: Config) -> _View:
     )
 
 
-def _multi_view(take: Take, config: Config) -> _View:
+def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _View:
     """A multi-camera take: every camera detected and repaired, triangulated by the multi-view
     lifter. The reference camera's clock, shots and speaker stand for the take, its 2D pose is
     kept to be drawn; the QC judges the 3D as every camera sees it (the cameras travel in the
@@ -195,7 +196,7 @@ def _multi_view(take: Take, config: Config) -> _View:
     assert take.calibration is not None
     # any subset of the calibrated cameras, by name (a broken camera left out)
     cameras, videos = match_cameras(CameraGroup.load(take.calibration), take.videos)
-    exts = [extract_take(v, config) for v in videos]
+    exts = [extract_take(v, config, chunks=chunks) for v in videos]
     repaired = [repair_pose2d(e.tracked.pose, config=config.repair) for e in exts]
     poses = [pose for pose, _ in repaired]
     audios = [e.audio for e in exts]
@@ -388,9 +389,13 @@ def _preview_jpeg(frames: tuple[tuple[float, np.ndarray], ...]) -> bytes | None:
     return jpg.tobytes() if ok else None
 
 
-def build_take(take: Take, source: str, config: Config) -> BuiltTake:
+def build_take(
+    take: Take, source: str, config: Config, *, chunks: DetectionCache | None = None
+) -> BuiltTake:
     """Every clip of one take, its record (clips, dropped spans, QC metrics and absolute
-    verdicts) and its preview; raises a GesturebankError when the take cannot be built."""
+    verdicts) and its preview; raises a GesturebankError when the take cannot be built.
+    chunks: where videos longer than build.chunk_s find their chunks' detections (None: every
+    video is detected in one pass)."""
     from gesturebank.extract.audio_features import features
     from gesturebank.qc.checks import absolute_reasons
     from gesturebank.qc.metrics import clip_metrics
@@ -398,7 +403,7 @@ def build_take(take: Take, source: str, config: Config) -> BuiltTake:
     if take.mocap:
         view = _mocap_view(take, config)
     else:
-        view = _multi_view(take, config) if take.multi_camera else _single_view(take, config)
+        view = (_multi_view if take.multi_camera else _single_view)(take, config, chunks)
     profile = pepper.load_profile(config.robot.profile)
     feats = features(view.audio.signal, view.audio.sample_rate, config.audio)
     audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate

@@ -41,6 +41,7 @@ SCHEMA_VERSION = 2
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
 TAKES_DIR = "takes"
+CHUNKS_DIR = ".detections"  # detections of long videos' chunks (extract.chunks), kept for reruns
 PREVIEW = "preview.jpg"
 
 Status = Literal["accepted", "rejected", "failed"]

@@ -11,11 +11,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from gesturebank.config import Config
+from gesturebank.config import Config, VideoConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, lifter_name
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError
+from gesturebank.extract.cache import DetectionCache
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +37,70 @@ class TakeResult:
     usable_s: float = 0.0
 
 
+@dataclass(frozen=True)
+class ChunkJob:
+    """The detection of one chunk of a long video (`extract.chunks`), run before its take."""
+
+    take_id: str
+    video: Path
+    range: VideoConfig  # the build's video settings, restricted to the chunk
+
+
+Job = ChunkJob | tuple[Take, str]  # a chunk, or a take with its source (relative path)
+
+
+def chunk_cache(out: Path) -> DetectionCache:
+    """Where the chunks of OUT_DIR's long videos are cached: in OUT_DIR, which every worker sees."""
+    return DetectionCache(Path(out) / store.CHUNKS_DIR)
+
+
+def chunk_jobs(take: Take, config: Config) -> list[ChunkJob]:
+    """The chunk detections `take` can start with (its videos longer than build.chunk_s)."""
+    from gesturebank.extract.chunks import video_chunks
+
+    if take.mocap:
+        return []
+    jobs = []
+    for video in take.videos or (take.video,):
+        try:
+            plan = video_chunks(str(video), config)
+        except GesturebankError:  # the take's own task fails with the reason
+            return []
+        jobs += [ChunkJob(take.take_id, video, chunk_range) for _, chunk_range in plan]
+    return jobs
+
+
+def run_chunk(job: ChunkJob, out: Path, config: Config) -> None:
+    """Detect one chunk into OUT_DIR's chunk cache. A chunk that fails is left to its take's
+    task, which detects what the cache lacks itself and fails with the reason."""
+    from gesturebank.extract.chunks import detecting
+    from gesturebank.extract.pipeline import detect_people
+
+    try:
+        detect_people(job.video, detecting(config, job.range), cache=chunk_cache(out))
+    except GesturebankError as exc:
+        log.info("%s: chunk not detected (%s)", job.take_id, exc)
+
+
+class Schedule:
+    """The build's jobs in the order they may run: every chunk first (`first`), each take once
+    its chunks are done (`chunk_done`), takes without chunks at once."""
+
+    def __init__(self, jobs: list[tuple[Take, str]], config: Config) -> None:
+        self.jobs = {take.take_id: (take, source) for take, source in jobs}
+        self.chunks = {take.take_id: chunk_jobs(take, config) for take, _ in jobs}
+        self.left = {take_id: len(chunks) for take_id, chunks in self.chunks.items()}
+
+    def first(self) -> list[Job]:
+        chunks: list[Job] = [chunk for chunks in self.chunks.values() for chunk in chunks]
+        return chunks + [job for take_id, job in self.jobs.items() if not self.left[take_id]]
+
+    def chunk_done(self, chunk: ChunkJob) -> tuple[Take, str] | None:
+        """The take that may run now that `chunk` is done (its last chunk), else None."""
+        self.left[chunk.take_id] -= 1
+        return None if self.left[chunk.take_id] else self.jobs[chunk.take_id]
+
+
 def content_digest(config: Config) -> str:
     return config.digest(*CONTENT_SECTIONS)
 
@@ -46,7 +111,7 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
 
     start = time.perf_counter()
     try:
-        built = build_take(take, source, config)
+        built = build_take(take, source, config, chunks=chunk_cache(out))
     except GesturebankError as exc:
         reason = str(exc)
     except Exception as exc:  # a bug or a library error must not stop the other takes

@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.config import Config
+from gesturebank.config import Config, VideoConfig
 from gesturebank.errors import DetectionError, GesturebankError, InputError
 from gesturebank.extract.audio_io import Audio, read_audio
 from gesturebank.extract.cache import DetectionCache, cache_key, video_digest
+from gesturebank.extract.chunks import Chunk, detecting, stitch, video_chunks
 from gesturebank.extract.detectors import (
     DETECTORS,
     Detector,
@@ -229,6 +230,20 @@ def detect_people(
     return multi, shots, det.name, None if key is None else False, taps.preview
 
 
+def _detect_chunks(
+    path: Path, config: Config, plan: list[tuple[Chunk, VideoConfig]], chunks: DetectionCache
+) -> tuple[MultiPose2D, Shots, str, bool]:
+    """`detect_people` of a long video, chunk by chunk through `chunks` (what the build's chunk
+    tasks left there is read, the rest detected), stitched. The last item: every chunk was
+    cached."""
+    parts, hits, name = [], [], ""
+    for chunk, video in plan:
+        multi, shots, name, hit, _ = detect_people(path, detecting(config, video), cache=chunks)
+        parts.append((chunk, multi, shots))
+        hits.append(bool(hit))
+    return (*stitch(parts=parts), name, all(hits))
+
+
 def preview_times(info: VideoInfo, config: Config, n: int = N_PREVIEW) -> np.ndarray:
     """`n` source times spread over the used range of the video (for the preview strip)."""
     end = config.video.end_s if config.video.end_s is not None else info.duration_s
@@ -254,20 +269,30 @@ def extract_take(
     config: Config | None = None,
     *,
     cache: DetectionCache | None = None,
+    chunks: DetectionCache | None = None,
     with_audio: bool = True,
 ) -> Extraction:
     """Everybody, the shots, the main speaker per shot, and the audio (or None) of one video.
 
     config: uses config.video (range, stride, max_fps), .detector, .shots, .tracking,
-    .audio.sample_rate, .build (threads, cache). cache: where detections are cached (default
-    folder when None).
+    .audio.sample_rate, .build (threads, cache, chunks). cache: where detections are cached
+    (default folder when None). chunks: where a video longer than build.chunk_s finds (or
+    leaves) its chunks' detections (`extract.chunks`); None: detected in one pass.
     """
     config = config or Config()
     path = Path(video_path)
     info = probe(path)
     t0 = time.perf_counter()
     times = preview_times(info, config)
-    multi, shots, name, hit, preview = detect_people(path, config, cache=cache, preview_times=times)
+    plan = [] if chunks is None else video_chunks(str(path), config)
+    preview: list[tuple[float, np.ndarray]] = []
+    hit: bool | None
+    if chunks is not None and plan:
+        multi, shots, name, hit = _detect_chunks(path, config, plan, chunks)
+    else:
+        multi, shots, name, hit, preview = detect_people(
+            path, config, cache=cache, preview_times=times
+        )
     detect_s = time.perf_counter() - t0
     if not preview and len(times):  # detections from the cache: the frames were not decoded
         preview = [(t, thumbnail(image)) for t, image in frames_at(path, times.tolist())]

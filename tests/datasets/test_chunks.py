@@ -1,0 +1,86 @@
+"""A long take detected in chunks on two workers gives the clips of one pass (#21 item 5)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gesturebank import footage
+from gesturebank.config import Config
+from gesturebank.datasets import store
+from gesturebank.datasets.build import build_dataset
+from gesturebank.datasets.takes import discover_takes
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def lecture(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A minute of the lecture (cam01 then cam03, a cut at 30 s) in a videos folder."""
+    videos = tmp_path_factory.mktemp("lecture")
+    made = samples.parent / "footage" / "lecture60s.mp4"  # kept: made again only when changed
+    footage.make_take(replace(footage.LECTURE, seconds=(30.0, 30.0)), samples=samples, out=made)
+    (videos / "talk").mkdir()
+    (videos / "talk" / "lecture.mp4").symlink_to(made)
+    return videos
+
+
+def _build(videos: Path, out: Path, **build: object) -> store.Dataset:
+    # 10 frames a second: a third of the detector's work, and still 2.5× the 4 Hz low-pass
+    config = Config.model_validate({"video": {"max_fps": 10}, "build": build})
+    summary = build_dataset(discover_takes(videos), videos, out, config, dashboard=False)
+    assert not summary.failed, summary.failed
+    return store.Dataset(out)
+
+
+def test_chunked_on_two_workers_gives_the_clips_of_one_pass(lecture: Path, tmp_path: Path) -> None:
+    one = _build(lecture, tmp_path / "one", chunk_s=None, workers=1)
+    chunked = _build(lecture, tmp_path / "chunked", chunk_s=20.0, workers=2)
+    # three chunks of 20 s were detected (cached in OUT_DIR), the cut at 30 s inside the second
+    assert len(list((tmp_path / "chunked" / store.CHUNKS_DIR).glob("*.npz"))) == 3
+    assert not (tmp_path / "one" / store.CHUNKS_DIR).exists()
+    rows = {r["clip_id"]: r for r in one.rows()}
+    assert rows.keys() == {r["clip_id"] for r in chunked.rows()}
+    assert one.clip_ids() and one.clip_ids() == chunked.clip_ids()
+    spans = sorted((r["start_s"], r["end_s"]) for r in rows.values() if r["kind"] == "clip")
+    assert any(a < 20.0 < b for a, b in spans) or any(a < 40.0 < b for a, b in spans)
+    diffs = []
+    for clip_id in one.clip_ids(None):
+        a, b = one.load(clip_id), chunked.load(clip_id)
+        np.testing.assert_array_equal(a.timestamps, b.timestamps)  # the same frames
+        assert a.start_s == b.start_s
+        both = a.mask & b.mask
+        diffs.append(np.abs(a.angles - b.angles)[both])
+    mean_deg = float(np.degrees(np.concatenate(diffs).mean()))
+    assert mean_deg <= 0.5, mean_deg
+    # the speaker followed as in one pass: no other identity switch at the chunks' bounds
+    (record,) = store.take_records(tmp_path / "chunked")
+    (unchunked,) = store.take_records(tmp_path / "one")
+    a_t, b_t = record.tracking, unchunked.tracking
+    assert [(c["start_s"], c["end_s"]) for c in a_t["choices"]] == [
+        (c["start_s"], c["end_s"]) for c in b_t["choices"]
+    ]
+    assert len(a_t["switches"]) == len(b_t["switches"]) and a_t["n_tracks"] == b_t["n_tracks"]
+    assert abs(a_t["main_coverage"] - b_t["main_coverage"]) < 0.01
+    print(f"angles: {mean_deg:.3f} deg mean difference; {len(diffs)} clips")
+
+
+def test_a_rerun_reads_the_chunks_back(lecture: Path, tmp_path: Path) -> None:
+    """The chunks stay in OUT_DIR: rebuilding with another lifter detects nothing again."""
+    out = tmp_path / "out"
+    _build(lecture, out, chunk_s=20.0, workers=2)
+    before = {p: p.stat().st_mtime_ns for p in (out / store.CHUNKS_DIR).glob("*.npz")}
+    config = Config.model_validate(
+        {
+            "video": {"max_fps": 10},
+            "build": {"chunk_s": 20.0, "workers": 2},
+            "lifter": {"name": "geometric"},
+        }
+    )
+    summary = build_dataset(discover_takes(lecture), lecture, out, config, dashboard=False)
+    assert summary.count("built") == 1 and not summary.failed
+    after = {p: p.stat().st_mtime_ns for p in (out / store.CHUNKS_DIR).glob("*.npz")}
+    assert after == before
