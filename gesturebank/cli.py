@@ -285,6 +285,9 @@ def build_dataset(
                 task, advance=1, description=f"[{c}]{result.outcome}[/{c}] {result.take_id}"
             )
 
+        def show_chunk(take_id: str, done: int, total: int) -> None:
+            progress.update(task, description=f"{take_id}: chunk {done}/{total} detected")
+
         with user_errors():
             summary = build(
                 takes=takes,
@@ -293,6 +296,7 @@ def build_dataset(
                 config=config,
                 force=force,
                 on_result=show,
+                on_chunk=show_chunk,
             )
     _print_summary(console, summary)
     if summary.error:

@@ -216,8 +216,10 @@ def build_dataset(
     force: bool = False,
     dashboard: bool = True,
     on_result: Callable[[TakeResult], None] | None = None,
+    on_chunk: Callable[[str, int, int], None] | None = None,
 ) -> BuildSummary:
-    """Build (or resume) the dataset in `out`; see the module docstring.
+    """Build (or resume) the dataset in `out`; see the module docstring. on_result(result): as
+    each take ends; on_chunk(take_id, done, total): as each chunk of a long video is detected.
 
     Holds the dataset's lock throughout (InputError naming the holder when another build or
     `gesturebank qc` writes `out`). SIGTERM and Ctrl-C stop it the same way: the workers are
@@ -237,6 +239,7 @@ def build_dataset(
             force=force,
             dashboard=dashboard,
             on_result=on_result,
+            on_chunk=on_chunk,
         )
 
 
@@ -249,6 +252,7 @@ def _build(
     force: bool,
     dashboard: bool,
     on_result: Callable[[TakeResult], None] | None,
+    on_chunk: Callable[[str, int, int], None] | None,
 ) -> BuildSummary:
     from gesturebank.datasets.refresh import refresh
 
@@ -268,7 +272,7 @@ def _build(
     # longest first (file size as the cheap proxy), so no worker is left with a long take at the end
     jobs.sort(key=lambda job: sum(v.stat().st_size for v in job[0].videos or [job[0].video]))
     jobs.reverse()
-    schedule = Schedule(jobs, config)
+    schedule = Schedule(jobs, config, on_chunk)
     workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(schedule.first())))
     config = with_threads(config, workers, os.cpu_count() or 1)
     results = (

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -86,10 +87,17 @@ class Schedule:
     """The build's jobs in the order they may run: every chunk first (`first`), each take once
     its chunks are done (`chunk_done`), takes without chunks at once."""
 
-    def __init__(self, jobs: list[tuple[Take, str]], config: Config) -> None:
+    def __init__(
+        self,
+        jobs: list[tuple[Take, str]],
+        config: Config,
+        on_chunk: Callable[[str, int, int], None] | None = None,
+    ) -> None:
+        """on_chunk(take_id, chunks done, chunks in all): called as each chunk is done."""
         self.jobs = {take.take_id: (take, source) for take, source in jobs}
         self.chunks = {take.take_id: chunk_jobs(take, config) for take, _ in jobs}
         self.left = {take_id: len(chunks) for take_id, chunks in self.chunks.items()}
+        self.on_chunk = on_chunk
 
     def first(self) -> list[Job]:
         chunks: list[Job] = [chunk for chunks in self.chunks.values() for chunk in chunks]
@@ -98,6 +106,9 @@ class Schedule:
     def chunk_done(self, chunk: ChunkJob) -> tuple[Take, str] | None:
         """The take that may run now that `chunk` is done (its last chunk), else None."""
         self.left[chunk.take_id] -= 1
+        if self.on_chunk:
+            total = len(self.chunks[chunk.take_id])
+            self.on_chunk(chunk.take_id, total - self.left[chunk.take_id], total)
         return None if self.left[chunk.take_id] else self.jobs[chunk.take_id]
 
 

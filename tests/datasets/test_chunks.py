@@ -28,17 +28,28 @@ def lecture(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     return videos
 
 
-def _build(videos: Path, out: Path, **build: object) -> store.Dataset:
+def _build(
+    videos: Path, out: Path, chunks: list[tuple[str, int, int]] | None = None, **build: object
+) -> store.Dataset:
     # 10 frames a second: a third of the detector's work, and still 2.5× the 4 Hz low-pass
     config = Config.model_validate({"video": {"max_fps": 10}, "build": build})
-    summary = build_dataset(discover_takes(videos), videos, out, config, dashboard=False)
+    summary = build_dataset(
+        discover_takes(videos),
+        videos,
+        out,
+        config,
+        dashboard=False,
+        on_chunk=lambda *call: (chunks if chunks is not None else []).append(call),
+    )
     assert not summary.failed, summary.failed
     return store.Dataset(out)
 
 
 def test_chunked_on_two_workers_gives_the_clips_of_one_pass(lecture: Path, tmp_path: Path) -> None:
     one = _build(lecture, tmp_path / "one", chunk_s=None, workers=1)
-    chunked = _build(lecture, tmp_path / "chunked", chunk_s=20.0, workers=2)
+    progress: list[tuple[str, int, int]] = []
+    chunked = _build(lecture, tmp_path / "chunked", progress, chunk_s=20.0, workers=2)
+    assert progress == [("talk__lecture", k, 3) for k in (1, 2, 3)]  # what the CLI shows
     # three chunks of 20 s were detected (cached in OUT_DIR), the cut at 30 s inside the second
     assert len(list((tmp_path / "chunked" / store.CHUNKS_DIR).glob("*.npz"))) == 3
     assert not (tmp_path / "one" / store.CHUNKS_DIR).exists()
