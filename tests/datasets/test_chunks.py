@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -45,22 +46,32 @@ def _build(
     return store.Dataset(out)
 
 
-def test_chunked_on_two_workers_gives_the_clips_of_one_pass(lecture: Path, tmp_path: Path) -> None:
-    one = _build(lecture, tmp_path / "one", chunk_s=None, workers=1)
+@pytest.fixture(scope="module")
+def chunked(lecture: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The lecture built in 20 s chunks on two workers."""
+    out = tmp_path_factory.mktemp("chunked") / "out"
     progress: list[tuple[str, int, int]] = []
-    chunked = _build(lecture, tmp_path / "chunked", progress, chunk_s=20.0, workers=2)
+    _build(lecture, out, progress, chunk_s=20.0, workers=2)
     assert progress == [("talk__lecture", k, 3) for k in (1, 2, 3)]  # what the CLI shows
+    return out
+
+
+def test_chunked_on_two_workers_gives_the_clips_of_one_pass(
+    lecture: Path, chunked: Path, tmp_path: Path
+) -> None:
+    one = _build(lecture, tmp_path / "one", chunk_s=None, workers=1)
+    two = store.Dataset(chunked)
     # three chunks of 20 s were detected (cached in OUT_DIR), the cut at 30 s inside the second
-    assert len(list((tmp_path / "chunked" / store.CHUNKS_DIR).glob("*.npz"))) == 3
+    assert len(list((chunked / store.CHUNKS_DIR).glob("*.npz"))) == 3
     assert not (tmp_path / "one" / store.CHUNKS_DIR).exists()
     rows = {r["clip_id"]: r for r in one.rows()}
-    assert rows.keys() == {r["clip_id"] for r in chunked.rows()}
-    assert one.clip_ids() and one.clip_ids() == chunked.clip_ids()
+    assert rows.keys() == {r["clip_id"] for r in two.rows()}
+    assert one.clip_ids() and one.clip_ids() == two.clip_ids()
     spans = sorted((r["start_s"], r["end_s"]) for r in rows.values() if r["kind"] == "clip")
     assert any(a < 20.0 < b for a, b in spans) or any(a < 40.0 < b for a, b in spans)
     diffs = []
     for clip_id in one.clip_ids(None):
-        a, b = one.load(clip_id), chunked.load(clip_id)
+        a, b = one.load(clip_id), two.load(clip_id)
         np.testing.assert_array_equal(a.timestamps, b.timestamps)  # the same frames
         assert a.start_s == b.start_s
         both = a.mask & b.mask
@@ -68,7 +79,7 @@ def test_chunked_on_two_workers_gives_the_clips_of_one_pass(lecture: Path, tmp_p
     mean_deg = float(np.degrees(np.concatenate(diffs).mean()))
     assert mean_deg <= 0.5, mean_deg
     # the speaker followed as in one pass: no other identity switch at the chunks' bounds
-    (record,) = store.take_records(tmp_path / "chunked")
+    (record,) = store.take_records(chunked)
     (unchunked,) = store.take_records(tmp_path / "one")
     a_t, b_t = record.tracking, unchunked.tracking
     assert [(c["start_s"], c["end_s"]) for c in a_t["choices"]] == [
@@ -79,10 +90,10 @@ def test_chunked_on_two_workers_gives_the_clips_of_one_pass(lecture: Path, tmp_p
     print(f"angles: {mean_deg:.3f} deg mean difference; {len(diffs)} clips")
 
 
-def test_a_rerun_reads_the_chunks_back(lecture: Path, tmp_path: Path) -> None:
+def test_a_rerun_reads_the_chunks_back(lecture: Path, chunked: Path, tmp_path: Path) -> None:
     """The chunks stay in OUT_DIR: rebuilding with another lifter detects nothing again."""
     out = tmp_path / "out"
-    _build(lecture, out, chunk_s=20.0, workers=2)
+    shutil.copytree(chunked, out)
     before = {p: p.stat().st_mtime_ns for p in (out / store.CHUNKS_DIR).glob("*.npz")}
     config = Config.model_validate(
         {
