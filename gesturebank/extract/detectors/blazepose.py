@@ -8,7 +8,8 @@ their own landmarks; the person detector runs every `detect_every_s` seconds of 
 find people who come in), at once when a track is lost, and on every frame while nobody is
 tracked. It looks at the whole frame and, for elongated frames, at square tiles too (a second
 person scores low beside a dominant one). A detection whose landmarks fall on a tracked person
-is that person. Landmarks are one-euro smoothed per track on the frames' own timestamps.
+is that person; when two tracks fall on one person, the one that moved is run again with that
+person hidden. Landmarks are one-euro smoothed per track on the frames' own timestamps.
 
 Geometry in pixels: an ROI is a rotated square (centre, side, angle); a crop maps tensor pixel
 (u, v) to image point c + side · R(angle) · ((u, v) / n − ½)."""
@@ -64,6 +65,21 @@ SAME_PERSON_DISTANCE = 0.15
 # torsos 0.21-0.32). Pairs that are one person (cam03, cam04, 60 fps): torsos 0.00-0.08.
 TORSO = [11, 12, 23, 24]  # shoulders, hips
 TORSOS_APART = 0.2
+# When two tracks fall on one person, the one whose torso moved more is run again with that
+# person hidden: mid-grey discs over their face (landmarks 0-10, FACE_RADIUS of their size) and
+# along their torso (shoulders, waist, hips; TORSO_RADIUS of their shoulder width). The landmark
+# model fits the one face in its crop, and a person seen from behind has none: Demo_MultiPerson
+# cam03 from 1.37 s: the man, back to the camera, overlapping the woman, came out with her face
+# and then her body. With her face hidden his hips stay 24-135 px right of hers, with her torso
+# hidden too 46-139 px (by eye 100-125 px at 1.5-1.63 s: the side of him next to her drifts).
+FACE = slice(0, 11)  # nose, eyes, ears, mouth
+FACE_RADIUS = 0.09
+TORSO_RADIUS = 0.5
+HIDE_GREY = (127.5, 127.5, 127.5)
+# A landmark set found with a person hidden is somebody else when its torso lies this far from
+# theirs (TORSO units; one person twice: 0.00-0.08). The man above: 0.15-0.22 from the woman.
+HIDDEN_APART = 0.1
+Disc = tuple[tuple[float, float], float]  # centre (x, y) px, radius px
 
 
 def sigmoid(x: np.ndarray) -> np.ndarray:
@@ -353,10 +369,16 @@ def refine_from_heatmap(
     return np.where(ok[:, None], np.column_stack([x, y]), xy)
 
 
-def landmark_input(image: np.ndarray, roi: Roi) -> np.ndarray:
+def landmark_input(image: np.ndarray, roi: Roi, hide: Iterable[Disc] = ()) -> np.ndarray:
     """(1, 256, 256, 3) RGB in [0, 1]: the rotated ROI, replicated border (ImageToTensor's
-    default BORDER_REPLICATE in pose_landmark_by_roi_cpu)."""
-    crop = warp(image, roi.crop_transform(), LANDMARK_SIZE, cv2.BORDER_REPLICATE)
+    default BORDER_REPLICATE in pose_landmark_by_roi_cpu), with the discs `hide` (image px)
+    painted mid-grey."""
+    to_image = roi.crop_transform()
+    crop = warp(image, to_image, LANDMARK_SIZE, cv2.BORDER_REPLICATE)
+    scale = LANDMARK_SIZE / roi.side
+    for (x, y), radius in hide:
+        u, v = np.linalg.solve(to_image[:, :2], np.array([x, y]) - to_image[:, 2])
+        cv2.circle(crop, (round(u), round(v)), round(radius * scale), HIDE_GREY, -1)
     return (crop / 255.0)[None]
 
 
@@ -393,10 +415,22 @@ def same_person(a: np.ndarray, b: np.ndarray) -> bool:
     return _distance(a, b) < SAME_PERSON_DISTANCE
 
 
+def torso_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Median distance of the shoulders and hips of two landmark sets `(39, ≥2)` px, in units of
+    the smaller person's size."""
+    d = np.linalg.norm(a[TORSO, :2] - b[TORSO, :2], axis=1)
+    return float(np.median(d)) / max(min(person_size(a), person_size(b)), 1.0)
+
+
 def torsos_apart(a: np.ndarray, b: np.ndarray) -> bool:
     """Whether the torsos of two landmark sets `(39, ≥2)` px are two people's (TORSOS_APART)."""
-    d = np.linalg.norm(a[TORSO, :2] - b[TORSO, :2], axis=1)
-    return float(np.median(d)) / max(min(person_size(a), person_size(b)), 1.0) > TORSOS_APART
+    return torso_distance(a, b) > TORSOS_APART
+
+
+def _duplicate(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two tracks' landmark sets `(39, ≥2)` px are one person: upper bodies together and
+    torsos not apart."""
+    return same_person(a, b) and not torsos_apart(a, b)
 
 
 def _jumped(before: np.ndarray, after: np.ndarray) -> bool:
@@ -414,6 +448,19 @@ def on_legs(a: np.ndarray, b: np.ndarray) -> bool:
     lo, hi = legs.min(axis=0), legs.max(axis=0)
     upper = a[WAIST_UP, :2]
     return bool(np.mean(np.all((upper >= lo) & (upper <= hi), axis=1)) > 0.5)
+
+
+def person_discs(points: np.ndarray) -> list[Disc]:
+    """Discs that hide the face and torso of landmark set `points (39, ≥2)` px (FACE_RADIUS,
+    TORSO_RADIUS)."""
+    face = points[FACE, :2].mean(axis=0)
+    shoulders, hips = points[[11, 12], :2].mean(axis=0), points[[23, 24], :2].mean(axis=0)
+    radius = TORSO_RADIUS * float(np.linalg.norm(points[11, :2] - points[12, :2]))
+    torso = [(p, radius) for p in (shoulders, (shoulders + hips) / 2, hips)]
+    return [
+        ((float(c[0]), float(c[1])), r)
+        for c, r in [(face, FACE_RADIUS * person_size(points)), *torso]
+    ]
 
 
 def next_roi(points: np.ndarray) -> Roi:
@@ -460,7 +507,7 @@ class BlazePoseDetector:
     `detect` for the person seen the most."""
 
     name = "blazepose"
-    version = 2  # in the detection cache key: bump when a video gives other output (2: torsos)
+    version = 3  # in the detection cache key: bump when a video gives other output (3: hiding)
     skeleton = BLAZEPOSE33.name
 
     def __init__(
@@ -507,9 +554,9 @@ class BlazePoseDetector:
         corners = to_pixels(boxes.reshape(-1, 2, 2), to_image, DETECTOR_SIZE).reshape(-1, 4)
         return Detections(corners, to_pixels(kps, to_image, DETECTOR_SIZE), scores)
 
-    def landmarks(self, image: np.ndarray, roi: Roi) -> Landmarks:
-        """One landmark pass on `roi` of an RGB uint8 image."""
-        return decode_landmarks(self._landmarks(landmark_input(image, roi)), roi)
+    def landmarks(self, image: np.ndarray, roi: Roi, hide: Iterable[Disc] = ()) -> Landmarks:
+        """One landmark pass on `roi` of an RGB uint8 image, the discs `hide` painted over."""
+        return decode_landmarks(self._landmarks(landmark_input(image, roi, hide)), roi)
 
     # -- video
 
@@ -574,7 +621,7 @@ class _Tracker:
                 found.append((track, lm))
             else:
                 lost = True
-        found = self._unique(found)
+        found = self._unique(image, found)
         if lost or not found or self._detection_due(t):
             found += self._new_people(t, image, found)
         return self._emit(t, found)
@@ -584,18 +631,43 @@ class _Tracker:
             self.cfg.detect_every_s - 1e-6
         )
 
-    def _unique(self, found: list[tuple[_Track, Landmarks]]) -> list[tuple[_Track, Landmarks]]:
-        """When two tracks now follow one person, keep the older unless it jumped there: the
-        landmark model drifts to the more upright of two overlapping people, and the track that
-        did has lost its own person. Tracks whose torsos stay apart are kept both: only a part
+    def _unique(
+        self, image: np.ndarray, found: list[tuple[_Track, Landmarks]]
+    ) -> list[tuple[_Track, Landmarks]]:
+        """When two tracks now follow one person, the one that jumped or whose torso moved more
+        is run again with that person hidden (person_discs): the landmark model drifts to the
+        more upright of two overlapping people, the one with a face. If that finds somebody else,
+        the two landmark sets go to the two tracks by torso distance to their last landmarks;
+        if not, the track is dropped. Tracks whose torsos stay apart are kept both: only a part
         of one (the face) moved onto the other. (A new detection must be apart as a whole.)"""
         kept: list[tuple[_Track, Landmarks]] = []
-        for track, lm in sorted(found, key=lambda f: (_jumped(f[0].points, f[1].points), f[0].id)):
-            if not any(
-                same_person(lm.points, k.points) and not torsos_apart(lm.points, k.points)
-                for _, k in kept
-            ):
+        order = sorted(
+            found,
+            key=lambda f: (
+                _jumped(f[0].points, f[1].points),
+                torso_distance(f[0].points, f[1].points),
+                f[0].id,
+            ),
+        )
+        for track, lm in order:
+            i = next((i for i, (_, k) in enumerate(kept) if _duplicate(lm.points, k.points)), None)
+            if i is None:
                 kept.append((track, lm))
+                continue
+            other, seen = kept[i]
+            again = self.det.landmarks(image, track.roi, hide=person_discs(seen.points))
+            if again.presence < self.cfg.min_tracking_confidence or any(
+                torso_distance(again.points, k.points) < HIDDEN_APART for _, k in kept
+            ):
+                continue
+            stay = torso_distance(seen.points, other.points) + torso_distance(
+                again.points, track.points
+            )
+            swap = torso_distance(seen.points, track.points) + torso_distance(
+                again.points, other.points
+            )
+            kept[i] = (other, again if swap < stay else seen)
+            kept.append((track, seen if swap < stay else again))
         return kept
 
     def _new_people(
