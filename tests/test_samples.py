@@ -17,11 +17,21 @@ def mtimes(root: Path) -> dict[str, int]:
     return {str(p.relative_to(root)): p.stat().st_mtime_ns for p in root.rglob("*") if p.is_file()}
 
 
-@pytest.fixture
-def fresh(samples: Path, tmp_path: Path) -> tuple[Path, S.FetchReport]:
-    """A new samples folder filled from the (warm) download cache."""
-    root = tmp_path / "samples"
+@pytest.fixture(scope="module")
+def first_fetch(
+    samples: Path, tmp_path_factory: pytest.TempPathFactory
+) -> tuple[Path, S.FetchReport]:
+    """A new samples folder filled from the (warm) download cache, once (~25 s: the talking
+    clips are encoded)."""
+    root = tmp_path_factory.mktemp("first-fetch") / "samples"
     return root, S.fetch_samples(root)
+
+
+@pytest.fixture
+def fresh(first_fetch: tuple[Path, S.FetchReport], tmp_path: Path) -> tuple[Path, S.FetchReport]:
+    """A copy of that folder (mtimes kept) and its first fetch's report, for a test to change."""
+    template, report = first_fetch
+    return Path(shutil.copytree(template, tmp_path / "samples")), report
 
 
 def test_first_fetch_writes_everything_and_the_second_nothing(fresh) -> None:

@@ -36,6 +36,9 @@ NOT_YET = {
     CAMERAS: f"{BEYOND_REACH}: 69 % (RElbowYaw 43 %, RElbowRoll 40 %, RShoulderPitch 14 %)",
     ("cam01", "cam03"): f"{BEYOND_REACH}: 70 % (LElbowYaw 69 %: the straight left arm)",
     ("cam01", "cam04"): f"{BEYOND_REACH}: 70 % (RElbowYaw 49 %, RElbowRoll 36 %)",
+    # Accepted at the last stop's CI, which read detections cached by earlier code; detected
+    # afresh (this stop's detector and the one before alike) the clip is rejected.
+    ("cam01", "cam02"): f"{BEYOND_REACH}: 80-83 %, and facing away in 45 % of frames",
     ("cam02", "cam04"): "right forearm length CV 33 % (opposite views, 138° apart), and "
     f"{BEYOND_REACH}: 84 % (RElbowYaw 70 %)",
     # The 3D is clean (spike 0.06, bone CV 10 %, no swap) but no camera of the take sees the
@@ -54,9 +57,10 @@ RIGS = [
 
 
 @pytest.fixture(scope="module")
-def videos(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """Each camera ping-ponged to 5 s (the same bytes every run: the detection cache hits)."""
-    out = tmp_path_factory.mktemp("demo5s")
+def videos(samples: Path) -> dict[str, Path]:
+    """Each camera ping-ponged to 5 s (the same bytes every run: the detection cache hits),
+    made once beside the samples (~15 s a camera) and remade when its recipe or inputs change."""
+    out = samples.parent / "footage" / "demo5s"
     made = {}
     for cam in CAMERAS:
         recipe = footage.Recipe((f"{DEMO}/videos/{cam}.mp4",), (SECONDS,))
