@@ -145,7 +145,7 @@ def connected(address: str | None, config: Config) -> Iterator[Any]:
                 f"--ray-address {address}: nothing answers there: start the head "
                 f"(`ray start --head --port {port}`) or check the address and firewall"
             )
-        if not address.startswith("ray://") and is_this_machine(host):
+        if is_this_machine(host):
             _send_local_token()
     handler = signal.getsignal(signal.SIGTERM)
     try:
