@@ -107,7 +107,7 @@ def main() -> None:
                 import ray
 
                 # a running cluster, as users have: its start is not the build's time
-                ray.init(include_dashboard=False, log_to_driver=False)
+                ray.init(address="local", include_dashboard=False, log_to_driver=False)
             try:
                 results[name] = run(videos, out, {"video": video, **settings})
             finally:

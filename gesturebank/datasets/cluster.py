@@ -149,7 +149,8 @@ def connected(address: str | None, config: Config) -> Iterator[Any]:
             _send_local_token()
     handler = signal.getsignal(signal.SIGTERM)
     try:
-        ray.init(address=address, include_dashboard=False, log_to_driver=False)
+        # "local": a private Ray, not the cluster a stale /tmp/ray/ray_current_cluster names
+        ray.init(address=address or "local", include_dashboard=False, log_to_driver=False)
     except Exception as exc:  # Ray raises ConnectionError, RuntimeError, AuthenticationError…
         where = address or "a private Ray"
         if address == "auto":
