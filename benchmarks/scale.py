@@ -6,8 +6,10 @@ detection cache off (chunks are always computed afresh: OUT_DIR is new):
 
 - pool, one pass:  build.chunk_s = none, so the take is one task on one worker (the baseline)
 - pool, chunked:   build.chunk_s = 120 on 2 workers
-- Ray, chunked:    the same on a private Ray with every core, started before the clock
-                   starts (as a running cluster): Ray's own overhead
+- Ray, one pass:   build.chunk_s = none on a private Ray with every core, started before the
+                   clock starts (as a running cluster): one task, one CPU, one thread
+- Ray, chunked:    build.chunk_s = 120 there: Ray's own overhead vs the pool, and what chunks
+                   give a cluster
 
 "angles vs one pass" is the mean difference of the clips' 100 Hz angles against the baseline's
 (the chunks' stitch tolerance). The estimate scales the chunked pool's per-core rate (video
@@ -94,6 +96,8 @@ def main() -> None:
     rows = {
         "pool, one pass": {"build": {"chunk_s": None, "workers": 1}},
         "pool, chunked": {"build": {"chunk_s": chunk_s, "workers": cores}},
+        # a take's Ray task reserves 1 CPU and runs 1 thread: a long video is one core's work
+        "Ray, one pass": {"build": {"chunk_s": None, "executor": "ray"}},
         "Ray, chunked": {"build": {"chunk_s": chunk_s, "executor": "ray"}},
     }
     with tempfile.TemporaryDirectory() as tmp:
@@ -134,6 +138,10 @@ def main() -> None:
     console.print(table)
     pool, ray = results["pool, chunked"], results["Ray, chunked"]
     overhead = ray["wall_s"] / pool["wall_s"] - 1
+    console.print(
+        "chunks on Ray: "
+        f"{results['Ray, one pass']['wall_s'] / ray['wall_s']:.2f}× the speed of one task a take"
+    )
     per_core = pool["video_s"] / pool["wall_s"] / cores  # video s per wall s per core
     console.print(
         f"Ray's overhead: {100 * overhead:+.1f} % of the pool's wall time; per core: "
