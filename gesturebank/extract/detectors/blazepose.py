@@ -79,6 +79,12 @@ HIDE_GREY = (127.5, 127.5, 127.5)
 # A landmark set found with a person hidden is somebody else when its torso lies this far from
 # theirs (TORSO units; one person twice: 0.00-0.08). The man above: 0.15-0.22 from the woman.
 HIDDEN_APART = 0.1
+# A person found only in a square of half the short side (`small_people`) is kept when their
+# size (`person_size`) is at least this share of the frame's short side. Bigger people are found
+# in the coarser views; a smaller pose in a small square is fitted to an object or to a part of
+# somebody. Demo_MultiPerson: the far bystander 0.37-0.41 (cam01, cam02); a pose fitted to a
+# wall camera's mount 0.19 (cam03) and to the man's cap and shoulders 0.28 (cam04).
+MIN_SMALL_PERSON = 0.3
 Disc = tuple[tuple[float, float], float]  # centre (x, y) px, radius px
 
 
@@ -169,12 +175,14 @@ class Detections:
     """People found by the detector, strongest first, in image pixels.
 
     boxes: (N, 4) x0, y0, x1, y1 of the face box; keypoints: (N, 4, 2) mid-hip, full-body
-    size/rotation point, mid-shoulder, upper-body point; scores: (N,) in [0, 1].
+    size/rotation point, mid-shoulder, upper-body point; scores: (N,) in [0, 1]; small: (N,)
+    found only in a square of half the short side (`detection_views(small=True)`).
     """
 
     boxes: np.ndarray
     keypoints: np.ndarray
     scores: np.ndarray
+    small: np.ndarray
 
     def __len__(self) -> int:
         return len(self.scores)
@@ -186,7 +194,7 @@ def square_transform(x0: float, y0: float, side: float, size: int = DETECTOR_SIZ
     return np.array([[s, 0.0, x0], [0.0, s, y0]])
 
 
-def detection_views(width: int, height: int) -> list[np.ndarray]:
+def detection_views(width: int, height: int, *, small: bool = False) -> list[np.ndarray]:
     """(2, 3) tensor-to-image maps the person detector looks through, whole frame first.
 
     The whole frame is centred in a square of its long side (zero border), as ImageToTensor
@@ -194,15 +202,22 @@ def detection_views(width: int, height: int) -> list[np.ndarray]:
     person low in that view (the woman behind the man in Pose2Sim Demo_MultiPerson cam03: 0.13
     whole, 0.94 in a square tile), so frames more than TILE_ASPECT times longer than wide add
     squares of the short side spaced evenly along the long side.
+
+    `small` adds squares of half the short side, overlapping (one more than they need to
+    cover each side), for people whose face is too small for the detector in the views above:
+    the far bystander of Demo_MultiPerson cam01 is not found in the whole frame nor in squares
+    of the short side, but at 0.77 in a square of half of it.
     """
     long, short = max(width, height), min(width, height)
     views = [square_transform((width - long) / 2, (height - long) / 2, long)]
-    if long < TILE_ASPECT * short:
-        return views
-    n = int(np.ceil(long / short))
-    for start in np.linspace(0, long - short, n):
-        x0, y0 = (start, 0.0) if width > height else (0.0, start)
-        views.append(square_transform(x0, y0, short))
+    if long >= TILE_ASPECT * short:
+        for start in np.linspace(0, long - short, int(np.ceil(long / short))):
+            x0, y0 = (start, 0.0) if width > height else (0.0, start)
+            views.append(square_transform(x0, y0, short))
+    if small:
+        side = short / 2
+        xs, ys = (np.linspace(0, n - side, int(np.ceil(n / side)) + 1) for n in (width, height))
+        views += [square_transform(x0, y0, side) for y0 in ys for x0 in xs]
     return views
 
 
@@ -450,6 +465,17 @@ def on_legs(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.mean(np.all((upper >= lo) & (upper <= hi), axis=1)) > 0.5)
 
 
+def inside(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether most of pose `a (39, ≥2)`'s upper body lies in the box of all of `b`'s landmarks:
+    a part of `b` taken for a person of its own. A square of half the frame's short side that
+    holds someone's head and shoulders gets a second, smaller pose fitted to them
+    (Demo_MultiPerson cam04, `small_people`: the man's head, 18 % of frames)."""
+    body = b[:N_LANDMARKS, :2]
+    lo, hi = body.min(axis=0), body.max(axis=0)
+    upper = a[WAIST_UP, :2]
+    return bool(np.mean(np.all((upper >= lo) & (upper <= hi), axis=1)) > 0.5)
+
+
 def person_discs(points: np.ndarray) -> list[Disc]:
     """Discs that hide the face and torso of landmark set `points (39, ≥2)` px (FACE_RADIUS,
     TORSO_RADIUS)."""
@@ -530,16 +556,21 @@ class BlazePoseDetector:
         """Everybody the person detector sees in an RGB uint8 `(H, W, 3)` image: each view's
         detections (weighted NMS), whole frame first; a tile's detection whose face box
         overlaps an earlier one's is the same person and dropped."""
-        found = [self._find_in_view(image, v) for v in detection_views(*image.shape[1::-1])]
+        width, height = image.shape[1::-1]
+        views = detection_views(width, height, small=self.config.small_people)
+        found = [self._find_in_view(image, v) for v in views]
         boxes = np.concatenate([f.boxes for f in found])
         keep: list[int] = []
         for i in range(len(boxes)):
             if not keep or np.all(box_iou(boxes[i], boxes[keep]) <= NMS_IOU):
                 keep.append(i)
+        coarse = len(detection_views(width, height))
+        small = np.concatenate([np.full(len(f), v >= coarse) for v, f in enumerate(found)])
         return Detections(
             boxes[keep],
             np.concatenate([f.keypoints for f in found])[keep],
             np.concatenate([f.scores for f in found])[keep],
+            small[keep],
         )
 
     def _find_in_view(self, image: np.ndarray, to_image: np.ndarray) -> Detections:
@@ -552,7 +583,9 @@ class BlazePoseDetector:
         )
         boxes, kps, scores = weighted_nms(boxes, kps, scores)
         corners = to_pixels(boxes.reshape(-1, 2, 2), to_image, DETECTOR_SIZE).reshape(-1, 4)
-        return Detections(corners, to_pixels(kps, to_image, DETECTOR_SIZE), scores)
+        return Detections(
+            corners, to_pixels(kps, to_image, DETECTOR_SIZE), scores, np.zeros(len(scores), bool)
+        )
 
     def landmarks(self, image: np.ndarray, roi: Roi, hide: Iterable[Disc] = ()) -> Landmarks:
         """One landmark pass on `roi` of an RGB uint8 image, the discs `hide` painted over."""
@@ -687,6 +720,11 @@ class _Tracker:
             lm = self.det.landmarks(image, roi)
             if lm.presence < self.cfg.min_tracking_confidence or any(
                 same_person(lm.points, other) or on_legs(lm.points, other) for other in taken
+            ):
+                continue
+            if dets.small[i] and (
+                person_size(lm.points) < MIN_SMALL_PERSON * min(image.shape[:2])
+                or any(inside(lm.points, other) for other in taken)
             ):
                 continue
             taken.append(lm.points)
