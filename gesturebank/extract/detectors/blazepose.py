@@ -459,10 +459,7 @@ def on_legs(a: np.ndarray, b: np.ndarray) -> bool:
     in the box of b's hips-to-feet landmarks. The detector, shown a tile that holds only
     someone's legs, finds a person in them (Demo_SinglePerson cam02: score 0.65, presence 0.97).
     """
-    legs = b[LEGS, :2]
-    lo, hi = legs.min(axis=0), legs.max(axis=0)
-    upper = a[WAIST_UP, :2]
-    return bool(np.mean(np.all((upper >= lo) & (upper <= hi), axis=1)) > 0.5)
+    return _mostly_in_box(a, b[LEGS])
 
 
 def inside(a: np.ndarray, b: np.ndarray) -> bool:
@@ -470,8 +467,12 @@ def inside(a: np.ndarray, b: np.ndarray) -> bool:
     a part of `b` taken for a person of its own. A square of half the frame's short side that
     holds someone's head and shoulders gets a second, smaller pose fitted to them
     (Demo_MultiPerson cam04, `small_people`: the man's head, 18 % of frames)."""
-    body = b[:N_LANDMARKS, :2]
-    lo, hi = body.min(axis=0), body.max(axis=0)
+    return _mostly_in_box(a, b[:N_LANDMARKS])
+
+
+def _mostly_in_box(a: np.ndarray, points: np.ndarray) -> bool:
+    """Whether most of `a (39, ≥2)`'s upper-body landmarks lie in the box of `points (K, ≥2)`."""
+    lo, hi = points[:, :2].min(axis=0), points[:, :2].max(axis=0)
     upper = a[WAIST_UP, :2]
     return bool(np.mean(np.all((upper >= lo) & (upper <= hi), axis=1)) > 0.5)
 
