@@ -261,6 +261,26 @@ def test_a_left_right_swap_in_one_camera_is_undone() -> None:
     np.testing.assert_array_equal(fixed[1, 5:15, le], px[1, 5:15, re])
 
 
+def test_with_two_cameras_the_camera_whose_labels_jumped_is_exchanged() -> None:
+    """Two cameras 90° apart; camera 1 labels the wrists the wrong way round in frames 10-17
+    (as Demo_SinglePerson cam02 does the whole body). Exchanging either camera's labels
+    reprojects alike; only camera 1's jumped, and only its exchange gives the true points."""
+    cams = CameraGroup(list(ring(4))[:2])
+    lw, rw = COCO17.index["left_wrist"], COCO17.index["right_wrist"]
+    X = motion(30, np.random.default_rng(10))
+    X[:, [lw, rw], 0] += [0.3, -0.3]  # arms spread: every swapped frame reprojects badly
+    px = cams.project(X) + np.random.default_rng(11).normal(0, 0.5, (2, 30, 17, 2))
+    px[1, 10:18, [lw, rw]] = px[1, 10:18, [rw, lw]]
+    for order in (cams, CameraGroup(list(cams)[::-1])):  # camera order does not decide
+        flipped = 1 if order is cams else 0
+        views = px if order is cams else px[::-1]
+        swapped = fix_swaps(_views(order, views), max_error_px=12.0)
+        assert swapped[flipped, 10:18][:, [lw, rw]].all()
+        assert swapped.sum() == 2 * 8  # nothing else exchanged
+        tri = solve(relabel(views, swapped), np.ones(views.shape[:-1]), order, max_error_px=12.0)
+        assert np.nanmax(np.linalg.norm(tri.points[:, [lw, rw]] - X[:, [lw, rw]], axis=-1)) < 0.03
+
+
 def test_a_mirrored_stretch_seen_by_two_cameras_is_untangled() -> None:
     """Two cameras agreeing on a swap give a mirrored pair: only continuity can tell."""
     X = motion(40, np.random.default_rng(8))

@@ -9,7 +9,8 @@ reprojects well but lies far from the arm. So, around the DLT with camera exclus
    first triangulation of the torso, points away from it) gives no nose or eyes — the detector
    guesses them there — wherever enough cameras facing the person saw them (`unseen_face`).
 1. Swaps (Pose2Sim's retry): where a left/right pair reprojects badly, each camera's labels of
-   the pair are exchanged in turn; the exchange that halves the pair's all-camera error is kept.
+   the pair are exchanged in turn; the exchange that halves the pair's all-camera error is kept
+   (where several cameras' exchanges would, as always with two, the camera whose labels jumped).
    For the shoulders and hips also where their distance is off the take's median and the
    exchange brings it back (two cameras can agree on a swap: it reprojects well).
 2. Consistency, joint by joint from the torso outwards (`PARENT`): a joint is suspect where its
@@ -153,44 +154,73 @@ def fix_swaps(
     than `max_error_px` — or, for the shoulders and hips (`RIGID`, a constant distance apart),
     because it brings their distance back to the take's median where it was off by more than
     `max_width_dev` (a swap two cameras agree on: their epipolar lines run through both points,
-    so the error stays small, but the points land at a wrong depth). Cameras are tried in turn;
-    an exchange once kept stays."""
+    so the error stays small, but the points land at a wrong depth).
+
+    Where several cameras' exchanges would do, the one whose own labels jumped is taken
+    (`_jumped_labels`): with two cameras exchanging either gives the same points, and only one
+    of them is right (Demo_SinglePerson cam02 labels the whole body the wrong way round in
+    0.5 s of its 1.7 s; exchanging cam01's labels instead mirrored the 3D). Rounds repeat
+    while some exchange is taken, so two cameras can be exchanged in one frame; an exchange
+    once kept stays."""
     obs, w = views.normalised.copy(), views.weights.copy()
-    current = Views(obs, w, views.extrinsics, views.focals)
     swapped = np.zeros(w.shape, bool)
     for name, jl in _I.items():
         other = mirror(name)
         if not name.startswith("left_") or other is None:
             continue
         jr = _I[other]
-        base, width = _pair_fit(current, jl, jr)
+        base, width = _pair_fit(Views(obs, w, views.extrinsics, views.focals), jl, jr)
         rigid = max_width_dev is not None and name in RIGID
         finite = width[np.isfinite(width) & (base <= max_error_px)]
         median = float(np.median(finite)) if finite.size else float("nan")
         check_width = rigid and np.isfinite(median)
-        for c in range(len(obs)):
+        for _ in range(len(obs)):
             bad = base > 2 * max_error_px
             if check_width:
                 bad |= _width_dev(width, median) > max_width_dev
-            both = bad & (w[c, :, jl] > 0) & (w[c, :, jr] > 0)
-            if not both.any():
-                continue
-            trial = Views(obs.copy(), w.copy(), views.extrinsics, views.focals)
-            for a, b in ((jl, jr), (jr, jl)):
-                trial.normalised[c, :, a], trial.weights[c, :, a] = obs[c, :, b], w[c, :, b]
-            err, trial_width = _pair_fit(trial, jl, jr)
-            take = both & (err < 0.5 * base)
-            if check_width:
-                closer = _width_dev(trial_width, median) < 0.5 * _width_dev(width, median)
-                take |= both & closer & (err <= 2 * max_error_px)  # and it still fits the images
-            for k in (jl, jr):
-                obs[c, take, k], w[c, take, k] = (
-                    trial.normalised[c, take, k],
-                    trial.weights[c, take, k],
-                )
-                swapped[c, take, k] ^= True
-            base, width = np.where(take, err, base), np.where(take, trial_width, width)
+            good = ~bad & np.isfinite(base)
+            trials = []
+            for c in range(len(obs)):
+                both = bad & (w[c, :, jl] > 0) & (w[c, :, jr] > 0)
+                trial = Views(obs.copy(), w.copy(), views.extrinsics, views.focals)
+                for a, b in ((jl, jr), (jr, jl)):
+                    trial.normalised[c, :, a], trial.weights[c, :, a] = obs[c, :, b], w[c, :, b]
+                err, trial_width = _pair_fit(trial, jl, jr)
+                take = both & (err < 0.5 * base)
+                if check_width:
+                    closer = _width_dev(trial_width, median) < 0.5 * _width_dev(width, median)
+                    take |= both & closer & (err <= 2 * max_error_px)  # and it still fits
+                jump = _jumped_labels(obs[c, :, [jl, jr]], w[c, :, [jl, jr]] > 0, good)
+                trials.append((np.where(take, jump, -np.inf), err, trial_width))
+            score = np.stack([t[0] for t in trials])  # (C, T)
+            best = score.argmax(axis=0)
+            chosen = np.isfinite(score.max(axis=0))
+            if not chosen.any():
+                break
+            for c, (_, err, trial_width) in enumerate(trials):
+                take = chosen & (best == c)
+                swapped[c, take, jl] ^= True
+                swapped[c, take, jr] ^= True
+                obs[c, take, jl], obs[c, take, jr] = obs[c, take, jr], obs[c, take, jl]
+                w[c, take, jl], w[c, take, jr] = w[c, take, jr], w[c, take, jl]
+                base, width = np.where(take, err, base), np.where(take, trial_width, width)
     return swapped
+
+
+def _jumped_labels(pair: np.ndarray, seen: np.ndarray, good: np.ndarray) -> np.ndarray:
+    """(T,) how much nearer one camera's two labels of a pair `pair (2, T, 2)` (seen `(2, T)`)
+    come to their positions in the nearest frame where the pair is not in doubt (`good (T,)`)
+    when exchanged: > 0 where this camera's labels jumped to the other side; 0 where no such
+    frame is known."""
+    T = pair.shape[1]
+    ref = np.flatnonzero(good & seen.all(axis=0))
+    if not ref.size:
+        return np.zeros(T)
+    near = ref[np.abs(np.arange(T)[:, None] - ref[None]).argmin(axis=1)]  # (T,)
+    a, b = pair[0], pair[1]
+    keep = np.linalg.norm(a - a[near], axis=-1) + np.linalg.norm(b - b[near], axis=-1)
+    cross = np.linalg.norm(b - a[near], axis=-1) + np.linalg.norm(a - b[near], axis=-1)
+    return np.nan_to_num(keep - cross, nan=0.0)
 
 
 def relabel(values: np.ndarray, mirrored: np.ndarray) -> np.ndarray:
