@@ -54,5 +54,8 @@ def test_quick_mode_runs_and_prints_a_table(script: Path, samples: Path) -> None
         encoding="utf-8",
         timeout=900,  # a guard against a hang, not a speed requirement
     )
-    assert done.returncode == 0, f"{script.name} --quick exited {done.returncode}:\n{done.stderr}"
+    # both streams: faults.py says which row failed on stderr and why (its table) on stdout
+    assert done.returncode == 0, (
+        f"{script.name} --quick exited {done.returncode}:\n{done.stderr}\n{done.stdout[-6000:]}"
+    )
     assert any(c in done.stdout for c in BOX_CHARS), f"no table printed:\n{done.stdout}"
