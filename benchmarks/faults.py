@@ -157,8 +157,14 @@ def damage(out: Path) -> str:
 
 
 def snapshot(out: Path) -> dict[str, bytes]:
-    """The clip arrays of the finished takes (their records may be refreshed; arrays never)."""
-    return {str(p.relative_to(out)): p.read_bytes() for p in sorted(out.glob("takes/*/*.npz"))}
+    """The clip arrays of the finished takes (their records may be refreshed; arrays never).
+    A take being written sits in a hidden folder (`.<take>.tmp`) that pathlib's glob matches
+    too: it is not finished, and it is gone once renamed, so it is left out."""
+    return {
+        str(p.relative_to(out)): p.read_bytes()
+        for p in sorted(out.glob("takes/*/*.npz"))
+        if not p.parent.name.startswith(".")
+    }
 
 
 def row(
