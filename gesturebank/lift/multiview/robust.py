@@ -190,7 +190,11 @@ def fix_swaps(
                 if check_width:
                     closer = _width_dev(trial_width, median) < 0.5 * _width_dev(width, median)
                     take |= both & closer & (err <= 2 * max_error_px)  # and it still fits
-                jump = _jumped_labels(obs[c, :, [jl, jr]], w[c, :, [jl, jr]] > 0, good)
+                jump = (
+                    _jumped_labels(obs[c, :, [jl, jr]], w[c, :, [jl, jr]] > 0, good)
+                    if take.any()
+                    else 0.0
+                )
                 trials.append((np.where(take, jump, -np.inf), err, trial_width))
             score = np.stack([t[0] for t in trials])  # (C, T)
             best = score.argmax(axis=0)
@@ -216,7 +220,11 @@ def _jumped_labels(pair: np.ndarray, seen: np.ndarray, good: np.ndarray) -> np.n
     ref = np.flatnonzero(good & seen.all(axis=0))
     if not ref.size:
         return np.zeros(T)
-    near = ref[np.abs(np.arange(T)[:, None] - ref[None]).argmin(axis=1)]  # (T,)
+    t = np.arange(T)
+    # the nearest reference frame of each frame (searchsorted: a long take's T × T won't fit)
+    i = np.searchsorted(ref, t)
+    lo, hi = ref[np.clip(i - 1, 0, len(ref) - 1)], ref[np.clip(i, 0, len(ref) - 1)]
+    near = np.where(np.abs(t - lo) <= np.abs(hi - t), lo, hi)
     a, b = pair[0], pair[1]
     keep = np.linalg.norm(a - a[near], axis=-1) + np.linalg.norm(b - b[near], axis=-1)
     cross = np.linalg.norm(b - a[near], axis=-1) + np.linalg.norm(a - b[near], axis=-1)
