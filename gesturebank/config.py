@@ -91,9 +91,9 @@ class DetectorConfig(Section):
         False,
         description="'blazepose': also look for small people (down to ~1/4 of the frame height, "
         "e.g. a far bystander) in overlapping squares of half the frame's short side, each time "
-        "the person detector runs. On a 1088x1920 frame that is 15 more detector passes per run "
-        "(each ~0.7 of a landmark pass), and each small person found costs a landmark pass per "
-        "frame.",
+        "the person detector runs (frames whose short side is at least 448 px). On a 1088x1920 "
+        "frame that is 15 more detector passes per run (each ~0.7 of a landmark pass), and each "
+        "small person found costs a landmark pass per frame.",
     )
     smoothing: bool = Field(
         True, description="One-euro smoothing of the landmarks on the video's own timestamps."

@@ -104,6 +104,8 @@ def test_small_people_add_overlapping_squares_of_half_the_short_side() -> None:
     x0, y0 = (np.unique(np.round(corners[:, 0, k])) for k in (0, 1))
     assert np.all(np.diff(x0) < 540) and np.all(np.diff(y0) < 540)  # they overlap
     assert len(bp.detection_views(1000, 1100, small=True)) == 1 + 3 * 4
+    # squares under the detector's 224 px input would only be upsampled: none
+    assert len(bp.detection_views(202, 360, small=True)) == len(bp.detection_views(202, 360))
 
 
 # ---------------------------------------------------------------- guards
