@@ -9,6 +9,10 @@
     reference's own error on the same keypoints.
 (c) Each monocular lifter's Pepper-angle error against the reference (all cameras), and its
     speed (frames/s of lifting alone).
+(d) Where (b) and (c) come from: the depth sign of each arm bone. Of the frames where the
+    reference's bone points clearly towards or away from the source camera, those where the
+    monocular lifter's bone points the other way (a bone tilted towards or away from a camera
+    looks the same in its image, so only the lifter's prior decides).
 
 The reference is the `multiview` lifter with the project's config (so `[multiview]` options,
 e.g. a refinement, apply). BlazePose 2D on every camera, the demo's own Qualisys calibration,
@@ -47,6 +51,12 @@ MONOCULAR = ("blazepose-world", "geometric", "fitted")
 QUICK_S = 0.3
 TORSO = [COCO17.index[j] for j in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 LIMBS = [COCO17.index[j] for j in COCO17.joints[:11] if "shoulder" not in j]  # face, arms
+ARM_BONES = {
+    f"{side[0].upper()} {part}": (COCO17.index[f"{side}_{a}"], COCO17.index[f"{side}_{b}"])
+    for side in ("left", "right")
+    for part, (a, b) in (("upper arm", ("shoulder", "elbow")), ("forearm", ("elbow", "wrist")))
+}
+DEEP = 0.3  # (d): a bone points clearly towards or away when |its unit vector's z| exceeds this
 # Output frames → camera axes (x right, y down, z forward).
 AXES = {"camera": (1, 1, 1), "blazepose-world": (1, 1, 1), "image-ortho": (1, -1, -1)}
 
@@ -88,6 +98,24 @@ def cross_view_px(
         s, rot, tr = similarity(world[t, TORSO], reference[t, TORSO])
         errors.append(_view_errors(s * world[t, LIMBS] @ rot.T + tr, t, source, cams, poses))
     return np.concatenate(errors) if errors else np.array([np.nan])
+
+
+def depth_sign_errors(
+    pose: Pose3D, source: int, reference: np.ndarray, cams: CameraGroup
+) -> dict[str, tuple[int, int]]:
+    """(d) per arm bone: (frames where the reference bone points clearly towards or away from
+    camera `source`, of those the frames where the monocular pose's bone points the other way)."""
+    cam = cams[source]
+    local = pose.joints.astype(np.float64) * np.asarray(AXES[pose.frame])
+    ref = reference @ cam.R.T + cam.t  # world → that camera's axes
+    out = {}
+    for name, (i, j) in ARM_BONES.items():
+        mine, true = local[:, j] - local[:, i], ref[:, j] - ref[:, i]
+        with np.errstate(invalid="ignore"):
+            z = true[:, 2] / np.linalg.norm(true, axis=1)
+            deep = (np.abs(z) > DEEP) & np.isfinite(mine[:, 2])
+        out[name] = (int(deep.sum()), int((np.sign(mine[deep, 2]) != np.sign(z[deep])).sum()))
+    return out
 
 
 def _view_errors(
@@ -177,6 +205,10 @@ def main() -> None:
     angle = Table(title="(c) Pepper-angle error against the reference, mean degrees")
     for col in ("lifter", "camera", *JOINTS, "mean", "median"):
         angle.add_column(col, justify="right")
+    signs = Table(title=f"(d) arm bones pointing the wrong way in depth: wrong / deep frames "
+                  f"(|unit z| > {DEEP} in the reference)")  # fmt: skip
+    for col in ("lifter", "camera", *ARM_BONES, "wrong %"):
+        signs.add_column(col, justify="right")
     sources = range(1) if args.quick else range(len(cams))
     for name in MONOCULAR:
         for c in sources:
@@ -194,8 +226,13 @@ def main() -> None:
             mean, _ = mean_median(d)
             angle.add_row(name, cams.names[c], *(f"{v:.0f}" for v in mean),
                           f"{np.nanmean(mean):.1f}", f"{np.nanmedian(d):.1f}")  # fmt: skip
+            sign = depth_sign_errors(pose, c, reference, cams)
+            deep, wrong = (sum(v[k] for v in sign.values()) for k in (0, 1))
+            signs.add_row(name, cams.names[c], *(f"{w}/{n}" for n, w in sign.values()),
+                          f"{100 * wrong / max(deep, 1):.0f}")  # fmt: skip
     console.print(xview)
     console.print(angle)
+    console.print(signs)
 
 
 if __name__ == "__main__":
