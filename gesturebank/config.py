@@ -456,9 +456,9 @@ class MultiviewConfig(Section):
         False,
         description="After the robust DLT, fit the whole take at once (soft-L1 reprojection, "
         "smooth acceleration, one length per bone); false keeps the per-point DLT. Off by "
-        "default: on the Pose2Sim demo it evens bones and spikes out further but raises the "
-        "reprojection error and does not bring disjoint camera pairs closer, at 10-25 s a "
-        "hundred frames.",
+        "default: on the Pose2Sim demo (4 cameras, 100 frames) it evens bones (largest bone "
+        "CV 0.17 -> 0.09) but raises the median reprojection error (8.0 -> 8.9 px) and does not "
+        "bring disjoint camera pairs closer (16-27 deg mean apart, unrefined 16-26).",
     )
     smooth_accel_mps2: float = Field(
         30.0,
