@@ -56,6 +56,16 @@ def chunked(lecture: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+# Mean angle difference allowed between the chunked build and one pass. The issue's 0.5° is for
+# 2-minute chunks of a 10-minute take (benchmarks/scale.py: 0.28°); here chunks are 20 s, and
+# after each stitch the landmark model sees slightly other crops than in one pass (the tracker
+# started elsewhere), which it is sensitive to: 20-30 s of this minute differ by 0.9-1.6° with
+# a warm-up of 5, 10 or 15 s alike, the whole minute by 0.41-0.52° on two machines. A stitching
+# fault costs far more (the same clips one frame, 100 ms, late: 9°); timestamps are compared
+# exactly.
+MAX_MEAN_DEG = 0.75
+
+
 def test_chunked_on_two_workers_gives_the_clips_of_one_pass(
     lecture: Path, chunked: Path, tmp_path: Path
 ) -> None:
@@ -77,7 +87,7 @@ def test_chunked_on_two_workers_gives_the_clips_of_one_pass(
         both = a.mask & b.mask
         diffs.append(np.abs(a.angles - b.angles)[both])
     mean_deg = float(np.degrees(np.concatenate(diffs).mean()))
-    assert mean_deg <= 0.5, mean_deg
+    assert mean_deg <= MAX_MEAN_DEG, mean_deg
     # the speaker followed as in one pass: no other identity switch at the chunks' bounds
     (record,) = store.take_records(chunked)
     (unchunked,) = store.take_records(tmp_path / "one")
