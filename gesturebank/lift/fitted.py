@@ -33,9 +33,9 @@ import numpy as np
 
 from gesturebank.config import Config, FittedConfig, GeometricConfig
 from gesturebank.errors import InputError
+from gesturebank.geometry import Camera
 from gesturebank.lift import TakeViews
 from gesturebank.lift.geometric import GeometricLifter, chain_confidence
-from gesturebank.lift.multiview.cameras import Camera
 from gesturebank.lift.skeleton_fit import (
     N_BONES,
     N_JOINTS,

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from gesturebank.errors import InputError
-from gesturebank.robot.pepper import axis_rotations
+from gesturebank.geometry import axis_rotations
 
 AXES = {"X": 0, "Y": 1, "Z": 2}
 CHANNELS = tuple(f"{a}{kind}" for kind in ("position", "rotation") for a in "XYZ")

@@ -24,6 +24,7 @@ import numpy as np
 
 from gesturebank.config import MocapConfig
 from gesturebank.errors import InputError
+from gesturebank.geometry import body_frame, frame_from, torso_vectors
 from gesturebank.mocap.bvh import Motion, forward_kinematics, rest_positions
 from gesturebank.mocap.names import FACE, face_model, map_joints
 from gesturebank.poses import Pose3D
@@ -61,14 +62,11 @@ def unit_scale(motion: Motion, units: str, *, source: str = "BVH") -> float:
 
 
 def _rest_axes(rest: np.ndarray, at: Mapping[str, int]) -> np.ndarray:
-    """(3, 3) rows forward, up, left of the rest pose (right-handed)."""
-    shoulders = rest[at["left_shoulder"]] - rest[at["right_shoulder"]]
-    up = (rest[at["left_shoulder"]] + rest[at["right_shoulder"]]) / 2
-    up = up - (rest[at["left_hip"]] + rest[at["right_hip"]]) / 2
-    up /= np.linalg.norm(up)
-    left = shoulders - shoulders @ up * up
-    left /= np.linalg.norm(left)
-    return np.stack([np.cross(left, up), up, left])
+    """(3, 3) rows forward, up, left of the rest pose (the body frame, right-handed)."""
+    forward, left, up = body_frame(
+        *(rest[at[k]] for k in ("left_shoulder", "right_shoulder", "left_hip", "right_hip"))
+    )
+    return np.stack([forward, up, left])
 
 
 def body_axes(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -77,19 +75,13 @@ def body_axes(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     shoulder, made orthogonal to up; forward = left × up, right-handed)."""
     j = np.asarray(joints, dtype=np.float64)
     i = COCO17.index
-    ls, rs, lh, rh = (
-        j[:, i[k]] for k in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")
+    across, up = torso_vectors(
+        *(j[:, i[k]] for k in ("left_shoulder", "right_shoulder", "left_hip", "right_hip"))
     )
-    up_all, left_all = (ls + rs - lh - rh) / 2, ls - rs
-    ok = np.isfinite(up_all).all(axis=1) & np.isfinite(left_all).all(axis=1)
+    ok = np.isfinite(up).all(axis=1) & np.isfinite(across).all(axis=1)
     if not ok.any():
         raise InputError("pose: no frame has both shoulders and both hips")
-    up = up_all[ok].mean(axis=0)
-    up /= np.linalg.norm(up)
-    left = left_all[ok].mean(axis=0)
-    left = left - left @ up * up
-    left /= np.linalg.norm(left)
-    return np.cross(left, up), left, up
+    return frame_from(across[ok].mean(axis=0), up[ok].mean(axis=0))
 
 
 def motion_pose(

@@ -32,11 +32,12 @@ from numpy.typing import NDArray
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.datasets.clip import Clip
 from gesturebank.filters import resample_to_clock, unwrap_angles
+from gesturebank.geometry import torso_vectors
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
 from gesturebank.skeletons import COCO17, to_coco17
 
 if TYPE_CHECKING:
-    from gesturebank.lift.multiview.cameras import Camera
+    from gesturebank.geometry import Camera
     from gesturebank.poses import Pose3D
 
 F64 = NDArray[np.float64]
@@ -274,11 +275,11 @@ def _torso_axes(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarr
     whether both were seen. Image coordinates (y down); the body may lean any way."""
     ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
     lh, rh = _I["left_hip"], _I["right_hip"]
-    mid = (xy[:, ls] + xy[:, rs]) / 2
+    across, up = torso_vectors(xy[:, ls], xy[:, rs], xy[:, lh], xy[:, rh])
     hips = valid[:, lh] & valid[:, rh]
-    up = np.where(hips[:, None], mid - (xy[:, lh] + xy[:, rh]) / 2, xy[:, nose] - mid)
+    up = np.where(hips[:, None], up, xy[:, nose] - (xy[:, ls] + xy[:, rs]) / 2)
     seen = valid[:, ls] & valid[:, rs] & (hips | valid[:, nose])
-    return xy[:, ls] - xy[:, rs], up, seen
+    return across, up, seen
 
 
 def facing_away(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:

@@ -18,6 +18,7 @@ from typing import Literal
 import numpy as np
 
 from gesturebank.errors import InputError
+from gesturebank.geometry import axis_rotations as axis_rotations  # first defined here
 
 JOINTS = (
     "HeadPitch",
@@ -274,19 +275,6 @@ FACE_MARKERS = {
     "left_ear": (0.0, 0.09, 0.11),
     "right_ear": (0.0, -0.09, 0.11),
 }
-
-
-def axis_rotations(axis: int, t: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) right-handed rotations by angles t (N,) rad about x (0), y (1) or z (2)."""
-    c, s = np.cos(t), np.sin(t)
-    r = np.zeros((*t.shape, 3, 3))
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    r[..., axis, axis] = 1.0
-    r[..., i, i] = c
-    r[..., j, j] = c
-    r[..., i, j] = -s
-    r[..., j, i] = s
-    return r
 
 
 def _apply(r: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -66,6 +66,7 @@ import numpy as np
 
 from gesturebank.config import RetargetConfig
 from gesturebank.errors import InputError
+from gesturebank.geometry import body_frame, cross, dot, unit
 from gesturebank.poses import Pose3D
 from gesturebank.robot.pepper import JOINTS, MODELS, Kinematics
 from gesturebank.skeletons import COCO17
@@ -190,26 +191,21 @@ def _points(pose: Pose3D | np.ndarray) -> dict[str, np.ndarray]:
 
 # Vectors are (3, T) arrays: row k is component k over all frames.
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    return dot(a, b, axis=0)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.stack(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
+    return cross(a, b, axis=0)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.sqrt(_dot(v, v))
+    return unit(v, axis=0)
 
 
 def _body_frame(p: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Torso axes (forward, left, up), each (3, T) unit, from the shoulders and hips."""
-    ls, rs = p["left_shoulder"], p["right_shoulder"]
-    up = _unit(ls + rs - p["left_hip"] - p["right_hip"])
-    left = ls - rs
-    left = _unit(left - _dot(left, up) * up)
-    return _cross(left, up), left, up
+    """Torso axes (forward, left, up), each (3, T) unit: the body frame of `geometry`."""
+    torso = (p["left_shoulder"], p["right_shoulder"], p["left_hip"], p["right_hip"])
+    return body_frame(*torso, axis=0)
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:

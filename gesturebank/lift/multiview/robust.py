@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gesturebank.geometry import frame_from, torso_vectors
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.triangulate import dlt, reprojection_errors
 from gesturebank.skeletons import COCO17
@@ -429,11 +430,11 @@ def facing(torso: np.ndarray, centers: np.ndarray) -> np.ndarray:
     centers (C, 3): the cameras' optical centres (world).
     """
     ls, rs, lh, rh = (torso[:, k] for k in range(4))
-    left = (ls + lh) / 2 - (rs + rh) / 2
-    up = (ls + rs) / 2 - (lh + rh) / 2
-    forward = np.cross(left, up)  # left × up points forward in a right-handed world
+    # The body frame's forward, its left taken across the shoulders and hips together.
+    across = (ls + lh) / 2 - (rs + rh) / 2
     to_cam = centers[:, None] - torso.mean(axis=1)[None]
     with np.errstate(invalid="ignore", divide="ignore"):
+        forward = frame_from(across, torso_vectors(ls, rs, lh, rh)[1])[0]
         return np.einsum("ti,cti->ct", forward, to_cam) / (
             np.linalg.norm(forward, axis=-1)[None] * np.linalg.norm(to_cam, axis=-1)
         )
