@@ -8,6 +8,7 @@ rate is real), and round-trip through `.npz` without pickle.
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -16,6 +17,7 @@ from typing import Any, Literal
 import numpy as np
 
 from gesturebank.errors import InputError
+from gesturebank.geometry import CameraGroup
 from gesturebank.skeletons import COCO17, get_skeleton
 
 Units = Literal["m", "relative"]
@@ -264,6 +266,11 @@ def _keypoint_fields(arrays: Mapping[str, np.ndarray], prefix: str) -> dict[str,
     }
 
 
+# Where a Pose3D's cameras are stored: a JSON list of their tables (`Camera.to_dict`) under the
+# array `<prefix>meta_calibration`, the name clip files have always used for them.
+_CAMERAS_META = "calibration"
+
+
 @dataclass(frozen=True, eq=False)
 class Pose3D:
     """3D joints of one person over a take, in COCO-17 order.
@@ -273,6 +280,8 @@ class Pose3D:
     timestamps: (T,) float64 seconds.
     frame:      name of the coordinate frame (e.g. "camera", "world", "hips").
     units:      "m", or "relative" when the lifter does not know the scale.
+    cameras:    the calibrated cameras the joints were triangulated from (world frame), or None;
+                the QC projects the 3D into them again.
     """
 
     joints: np.ndarray
@@ -281,6 +290,7 @@ class Pose3D:
     frame: str = "camera"
     units: Units = "m"
     meta: dict[str, str] = field(default_factory=dict)
+    cameras: CameraGroup | None = None
 
     def __post_init__(self) -> None:
         j = np.asarray(self.joints, dtype=np.float32)
@@ -295,6 +305,10 @@ class Pose3D:
         _confidence(c, "Pose3D")
         if self.units not in ("m", "relative"):
             raise InputError(f"Pose3D: units must be 'm' or 'relative', got {self.units!r}")
+        if _CAMERAS_META in self.meta:
+            raise InputError(f"Pose3D: meta key {_CAMERAS_META!r} is kept for the cameras field")
+        if self.cameras is not None and not isinstance(self.cameras, CameraGroup):
+            object.__setattr__(self, "cameras", CameraGroup(self.cameras))
         object.__setattr__(self, "joints", j)
         object.__setattr__(self, "confidence", c)
         object.__setattr__(self, "timestamps", _timestamps(self.timestamps, len(j), "Pose3D"))
@@ -325,12 +339,15 @@ class Pose3D:
         }
         for k, v in self.meta.items():
             out[f"{prefix}meta_{k}"] = np.array(v)
+        if self.cameras is not None:
+            out[f"{prefix}meta_{_CAMERAS_META}"] = np.array(json.dumps(self.cameras.to_tables()))
         return out
 
     @classmethod
     def from_arrays(cls, arrays: Mapping[str, np.ndarray], prefix: str = "") -> Pose3D:
         meta_prefix = f"{prefix}meta_"
         meta = {k[len(meta_prefix) :]: str(arrays[k]) for k in arrays if k.startswith(meta_prefix)}
+        tables = meta.pop(_CAMERAS_META, None)
         units = str(arrays[f"{prefix}units"])
         if units not in ("m", "relative"):
             raise InputError(f"Pose3D: units must be 'm' or 'relative', got {units!r}")
@@ -341,6 +358,7 @@ class Pose3D:
             frame=str(arrays[f"{prefix}frame"]),
             units="m" if units == "m" else "relative",
             meta=meta,
+            cameras=None if tables is None else _cameras(tables),
         )
 
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -349,6 +367,14 @@ class Pose3D:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Pose3D:
         return cls.from_arrays(_load_npz(path))
+
+
+def _cameras(tables: str) -> CameraGroup:
+    """The cameras stored by `Pose3D.to_arrays` (a JSON list of camera tables)."""
+    try:
+        return CameraGroup.from_tables(json.loads(tables), source="Pose3D cameras")
+    except (json.JSONDecodeError, AttributeError, TypeError) as exc:
+        raise InputError(f"Pose3D: stored cameras are not camera tables ({exc})") from None
 
 
 def save_npz(path: str | os.PathLike[str], arrays: Mapping[str, np.ndarray]) -> None:

@@ -10,6 +10,9 @@ from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
 from gesturebank import geometry as G
+from gesturebank.errors import InputError
+from gesturebank.poses import Pose3D
+from gesturebank.skeletons import COCO17
 
 angles = arrays(np.float64, st.integers(1, 20), elements=st.floats(-10, 10))
 axes = st.integers(0, 2)
@@ -192,3 +195,39 @@ def test_points_behind_the_camera_do_not_project() -> None:
     px = camera.project(np.array([[0.1, 0.2, 2.0], [0.1, 0.2, -2.0]]))
     np.testing.assert_allclose(px[0], [25.0, 50.0])
     assert np.isnan(px[1]).all()
+
+
+# ------------------------------------------------------------------------- cameras in a Pose3D
+
+
+def test_a_pose3d_keeps_its_cameras_through_its_arrays() -> None:
+    cams = G.CameraGroup(
+        [
+            G.Camera(
+                "a", (640, 480), np.diag([500.0, 500.0, 1.0]), np.zeros(5), np.eye(3), np.zeros(3)
+            ),
+            G.Camera(
+                "b",
+                (640, 480),
+                np.diag([600.0, 600.0, 1.0]),
+                np.zeros(4),
+                rotation(np.array([0.0, 0.3, 0.0])),
+                np.ones(3),
+            ),
+        ]
+    )
+    joints = np.random.default_rng(0).normal(size=(4, len(COCO17), 3))
+    pose = Pose3D(joints, np.ones((4, len(COCO17))), np.arange(4) / 30, frame="world", cameras=cams)
+    back = Pose3D.from_arrays(pose.to_arrays("pose3d_"), "pose3d_")
+    assert back.cameras is not None and back.cameras.names == ["a", "b"]
+    np.testing.assert_allclose(back.cameras.project(joints), cams.project(joints), atol=1e-9)
+    assert back.meta == {}
+    assert (
+        Pose3D.from_arrays(Pose3D(joints, np.ones((4, 17)), np.arange(4.0)).to_arrays()).cameras
+        is None
+    )
+    broken = {**pose.to_arrays(), "meta_calibration": np.array("[{")}
+    with pytest.raises(InputError, match="stored cameras"):
+        Pose3D.from_arrays(broken)
+    with pytest.raises(InputError, match="calibration"):
+        Pose3D(joints, np.ones((4, 17)), np.arange(4.0), meta={"calibration": "[]"})

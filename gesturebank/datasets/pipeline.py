@@ -15,7 +15,7 @@ import json
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -182,7 +182,7 @@ def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _V
     """A multi-camera take: every camera detected and repaired, triangulated by the multi-view
     lifter. The reference camera's clock, shots and speaker stand for the take, its 2D pose is
     kept to be drawn; the QC judges the 3D as every camera sees it (the cameras travel in the
-    3D pose's meta, `qc.metrics.take_cameras`), not the reference camera's 2D. The
+    3D pose's `cameras`, set by the lifter), not the reference camera's 2D. The
     audio is a .wav beside the videos, else the camera track with the most energy, moved onto
     the reference clock by the camera offsets the lifter used."""
     from gesturebank.extract.audio_io import read_audio
@@ -190,7 +190,6 @@ def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _V
     from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
-    from gesturebank.qc.metrics import CAMERAS_META
     from gesturebank.qc.repair import repair_pose2d, repair_pose3d
 
     assert take.calibration is not None
@@ -204,8 +203,6 @@ def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _V
     assert isinstance(lifter, MultiviewLifter)  # the audio choice below needs its camera offsets
     pose3d, report = lifter.lift_with_report(TakeViews(tuple(poses), cameras, tuple(audios)))
     pose3d, report3d = repair_pose3d(pose3d, config=config.repair)
-    tables = json.dumps([c.to_dict() for c in cameras])
-    pose3d = replace(pose3d, meta={**pose3d.meta, CAMERAS_META: tables})
     ref = config.multiview.reference_camera
     if take.audio is not None:
         audio = read_audio(take.audio, sample_rate=config.audio.sample_rate)

@@ -351,21 +351,9 @@ def sideways_from_all(views: Sequence[np.ndarray], valid: np.ndarray) -> NDArray
     return np.asarray(seen & side)
 
 
-# The Pose3D meta key where a multi-camera take keeps the cameras it was triangulated from (a
-# JSON list of calibration tables, `Camera.to_dict`): the QC needs them again when it re-measures.
-CAMERAS_META = "calibration"
-
-
 def take_cameras(pose3d: Pose3D) -> list[Camera]:
     """The cameras a multi-camera take's 3D was triangulated from; [] for a single camera."""
-    text = pose3d.meta.get(CAMERAS_META)
-    if not text:
-        return []
-    import json
-
-    from gesturebank.lift.multiview.cameras import Camera
-
-    return [Camera.from_dict(t, key=str(t.get("name", ""))) for t in json.loads(text)]
+    return [] if pose3d.cameras is None else list(pose3d.cameras)
 
 
 def _shoulder_width(xy: np.ndarray, shoulders: np.ndarray, height: float) -> float:
@@ -399,7 +387,7 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     widths); motion_range (rad); facing_away_fraction, sideways_fraction, shoulder_width (share
     of the frame height), image_change, people (mean people in the frame).
 
-    A multi-camera take (its cameras in the 3D pose's meta, `take_cameras`) is judged by its 3D:
+    A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged by its 3D:
     spikes, swaps and freezes of the triangulated joints only, facing away and sideways as every
     camera sees them (`facing_away_from_all`), the person's size in the camera that sees them
     largest. The stored 2D (the reference camera's) is then only drawn, not judged.

@@ -4,7 +4,6 @@ the best camera, spikes / swaps / freezes of the triangulated joints."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 
 import numpy as np
@@ -12,7 +11,7 @@ import pytest
 
 from gesturebank.config import QCConfig
 from gesturebank.datasets.clip import Clip
-from gesturebank.lift.multiview.cameras import Camera
+from gesturebank.geometry import Camera, CameraGroup
 from gesturebank.qc import metrics as M
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
@@ -30,9 +29,8 @@ def camera(azimuth_deg: float, name: str, distance: float = 3.0) -> Camera:
 
 
 def rigged(clip: Clip, cameras: list[Camera]) -> Clip:
-    """`clip` as a multi-camera take would store it: its cameras in the 3D pose's meta."""
-    tables = json.dumps([c.to_dict() for c in cameras])
-    return replace(clip, pose3d=replace(clip.pose3d, meta={M.CAMERAS_META: tables}))
+    """`clip` as a multi-camera take would store it: its cameras in the 3D pose."""
+    return replace(clip, pose3d=replace(clip.pose3d, cameras=CameraGroup(cameras)))
 
 
 def measure(clip: Clip) -> dict[str, float]:

@@ -209,6 +209,7 @@ class MultiviewLifter:
                 "sync": ",".join(methods),
                 "median_error_px": f"{_nanmedian(error):.3f}",
             },
+            cameras=cams,
         )
         return pose3d, report
 
