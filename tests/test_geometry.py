@@ -13,6 +13,7 @@ from gesturebank import geometry as G
 from gesturebank.errors import InputError
 from gesturebank.poses import Pose3D
 from gesturebank.skeletons import COCO17
+from tests.test_imports import ROOT, import_graph
 
 angles = arrays(np.float64, st.integers(1, 20), elements=st.floats(-10, 10))
 axes = st.integers(0, 2)
@@ -231,3 +232,10 @@ def test_a_pose3d_keeps_its_cameras_through_its_arrays() -> None:
         Pose3D.from_arrays(broken)
     with pytest.raises(InputError, match="calibration"):
         Pose3D(joints, np.ones((4, 17)), np.arange(4.0), meta={"calibration": "[]"})
+
+
+def test_geometry_sits_on_the_ground_floor_and_mocap_below_robot() -> None:
+    graph = import_graph(ROOT)
+    assert graph["gesturebank.geometry"] <= {"gesturebank.errors"}
+    mocap = [m for m in graph if m.startswith("gesturebank.mocap")]
+    assert mocap and not any(t.startswith("gesturebank.robot") for m in mocap for t in graph[m])
