@@ -33,7 +33,8 @@ from gesturebank.train.evaluate import (
     table,
 )
 from gesturebank.train.export import OnnxModel, export_onnx
-from gesturebank.train.model_folder import MODEL_ONNX
+from gesturebank.train.loss_plot import write_loss_png
+from gesturebank.train.model_folder import LOSS_PNG, MODEL_ONNX
 from gesturebank.train.models import build_model
 from gesturebank.train.models import predict as torch_predict
 from gesturebank.train.registry import MODELS
@@ -60,8 +61,12 @@ def train_command(
     config: TrainConfig | None = None,
     *,
     quiet: bool = False,
+    epochs: int | None = None,
 ) -> TrainResult:
     """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
+
+    `epochs` replaces the model's `max_epochs` (each stage's, for a model trained in stages);
+    early stopping may still end it sooner. loss.png beside model.json draws the losses.
 
     The model folder is written beside `out_dir` and swapped in whole, so no file of an older
     model survives and a failed or interrupted run keeps the old one.
@@ -86,8 +91,11 @@ def train_command(
     what = f"{model.upper()}-{variant.upper()} {part}"
     # the temporary folder is made before training, so an unwritable --out fails at once
     with model_folder.writing(out) as tmp:
-        result = train(net, train_segments, val_segments, cfg, quiet=quiet, description=what)
+        result = train(
+            net, train_segments, val_segments, cfg, quiet=quiet, description=what, epochs=epochs
+        )
         export_onnx(net, tmp)
+        write_loss_png(tmp / LOSS_PNG, history=result.history, title=f"{what}: loss per epoch")
         model_folder.write(
             tmp,
             net=net,
