@@ -24,11 +24,12 @@ from gesturebank.robot import pepper
 from gesturebank.train import model_folder
 from gesturebank.train.evaluate import (
     FIELD_MEASURES,
+    LEGEND,
     SEED_MEASURES,
     TABLE_5_1,
     average,
     evaluate_segments,
-    not_computable,
+    footnotes,
     postprocess,
     table,
 )
@@ -169,14 +170,14 @@ def evaluate_command(
     model_folder.write_metrics(folder.path, report)
     out = console or Console()
     title = f"{name} on {split} ({ds.path.name})"
-    out.print(table(results, title, TABLE_5_1))
-    out.print(table(results, f"{title}: seed measures", SEED_MEASURES))
+    # n/a in the tables: a mark, and why once below them, not a number
+    notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
+    out.print(table(results, title, TABLE_5_1, notes))
+    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes))
     fgd_title = fgd_label(inputs.fgd)
-    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES))
-    if inputs.fgd_note:
-        out.print(f"note: {inputs.fgd_note}", highlight=False, soft_wrap=True)
-    for line in not_computable(results):  # n/a in the tables: say why, not a number
-        out.print(f"note: {line}", highlight=False, soft_wrap=True)
+    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES, notes))
+    for line in [LEGEND, *notes.lines]:
+        out.print(line, highlight=False, soft_wrap=True)
     return report
 
 
