@@ -178,13 +178,34 @@ def fetch_samples_cmd(
 
 
 @app.command("config")
-def config_cmd(config_file: ConfigOption = None, sets: SetOption = None) -> None:
+def config_cmd(
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+    commented: Annotated[
+        bool,
+        typer.Option(
+            "--commented",
+            help="Print the commented example (every key with its unit and default) instead; "
+            "save it with `gesturebank config --commented > gesturebank.toml`.",
+        ),
+    ] = False,
+) -> None:
     """Print the resolved configuration as TOML.
 
     Precedence: defaults < --config file < --set KEY=VALUE. Unset optional keys are omitted.
     """
     import tomli_w
 
+    from gesturebank.config import commented_example
+
+    if commented:
+        if config_file or sets:
+            typer.echo(
+                "error: --commented prints the shipped example: no --config or --set", err=True
+            )
+            raise typer.Exit(EXIT_USAGE)
+        typer.echo(commented_example(), nl=False)
+        return
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
     out.print(

@@ -2,8 +2,9 @@
 
 Precedence is defaults < file < command-line flags. The fully resolved config is what gets saved
 with every output (and hashed, so a re-run knows whether a built take is still valid). Every
-field says its unit and when to change it; `gesturebank.toml` in the repository is the commented
-example of the same.
+field says its unit and when to change it; `gesturebank.toml` is the commented example of the
+same, shipped in the package as gesturebank/data/gesturebank.toml (`commented_example`,
+`gesturebank config --commented`; the repository's top-level file is that one, linked).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import os
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
@@ -1266,6 +1268,11 @@ class Config(Section):
         if sections:
             data = {s: data[s] for s in sections}
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def commented_example() -> str:
+    """The commented gesturebank.toml shipped in the package: every key, its unit, its default."""
+    return resources.files("gesturebank").joinpath("data/gesturebank.toml").read_text("utf-8")
 
 
 def _error_line(source: str, exc: ValidationError, text: str | None = None) -> str:

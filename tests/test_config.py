@@ -3,6 +3,7 @@ from pathlib import Path
 
 import pytest
 
+from gesturebank import config
 from gesturebank.config import Config, load_config, parse_override
 from gesturebank.errors import ConfigError
 
@@ -132,3 +133,20 @@ def test_an_unknown_section_in_a_file_points_at_its_header(tmp_path: Path) -> No
     path = write(tmp_path, "[audio]\nnfilt = 26\n\n[trian.lstm]\nmax_epochs = 3\n")
     with pytest.raises(ConfigError, match=r":4: trian: unknown key \(did you mean train\?\)"):
         load_config(path)
+
+
+def test_the_commented_example_ships_in_the_package_and_is_the_repository_file() -> None:
+    from typer.testing import CliRunner
+
+    from gesturebank.cli import app
+    from gesturebank.config import commented_example
+
+    packaged = Path(config.__file__).parent / "data" / "gesturebank.toml"
+    assert packaged.samefile(EXAMPLE)  # one file: the package's is a link to the top-level one
+    text = commented_example()
+    assert text == EXAMPLE.read_text(encoding="utf-8") and text.count("\n# ") > 100
+    r = CliRunner().invoke(app, ["config", "--commented"])
+    assert r.exit_code == 0 and r.output == text
+    assert Config.model_validate(tomllib.loads(r.output)) == Config()  # every key at its default
+    refused = CliRunner().invoke(app, ["config", "--commented", "--set", "audio.nfilt=20"])
+    assert refused.exit_code == 2
