@@ -512,7 +512,8 @@ def footnotes(
     results: dict[str, dict[str, dict[str, Any]]], absent: dict[str, str] | None = None
 ) -> Footnotes:
     """The n/a reasons of `results` ({subject → {system → metrics}}), one line per group:
-    '¹ LCCA, CCA, FCCA not computable: REASON (s0: every system; s1: MLP)'. `absent` maps a
+    '¹ LCCA, CCA, FCCA not computable: REASON — s0: every system; s1: MLP' (distinct reasons
+    of a group joined by ' · '). `absent` maps a
     measure missing from every row to why (one line each)."""
     by_group: dict[str, dict[str, list[tuple[str, str]]]] = {}
     groups: dict[tuple[str, str], tuple[str, ...]] = {}
@@ -525,7 +526,7 @@ def footnotes(
     lines: list[str] = []
     for group, reasons in by_group.items():
         marks[group] = SUPERSCRIPTS[len(marks) % len(SUPERSCRIPTS)]
-        said = "; ".join(f"{reason} ({_who(where, results)})" for reason, where in reasons.items())
+        said = " · ".join(f"{reason} — {_who(where, results)}" for reason, where in reasons.items())
         lines.append(f"{marks[group]} {group} not computable: {said}")
     for key, reason in (absent or {}).items():
         marks[key] = SUPERSCRIPTS[len(marks) % len(SUPERSCRIPTS)]
@@ -534,7 +535,7 @@ def footnotes(
 
 
 def _who(where: list[tuple[str, str]], results: dict[str, dict[str, dict[str, Any]]]) -> str:
-    """'every subject and system', 'MLP, mean pose (every subject)', or per subject
+    """'every subject and system', 'MLP, mean pose of every subject', or per subject
     's0: every system; s1: MLP'."""
     subjects: dict[str, list[str]] = {}
     for subject, system in where:
@@ -543,7 +544,7 @@ def _who(where: list[tuple[str, str]], results: dict[str, dict[str, dict[str, An
     if whole == set(results):
         return "every subject and system"
     if set(subjects) == set(results) and len({tuple(v) for v in subjects.values()}) == 1:
-        return f"{', '.join(next(iter(subjects.values())))} (every subject)"
+        return f"{', '.join(next(iter(subjects.values())))} of every subject"
     return "; ".join(
         f"{s}: {'every system' if s in whole else ', '.join(systems)}"
         for s, systems in subjects.items()

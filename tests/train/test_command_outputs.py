@@ -204,7 +204,7 @@ def test_n_a_reasons_are_named_once_and_columns_say_which_way_is_better() -> Non
     assert len(notes.lines) == 4, notes.lines
     cca, every, fgd, _ = notes.lines
     assert cca.startswith("¹ LCCA, CCA, FCCA not computable: no stretch of whole known poses")
-    assert cca.endswith(f"(MLP, {NATURAL}, {MEAN_POSE}, {SHUFFLED} (every subject))")
+    assert cca.endswith(f" — MLP, {NATURAL}, {MEAN_POSE}, {SHUFFLED} of every subject")
     assert every.startswith("² every measure not computable: ") and SHIFTED in every
     assert fgd == "³ no FGD: no feature autoencoder"
     console = Console(record=True, width=300)
