@@ -84,7 +84,7 @@ def test_training_replaces_the_whole_model_folder(synthetic_dataset: Path, tmp_p
     assert (out / "model_step.onnx").is_file()
     train_command(synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True)
     names = {p.name for p in out.iterdir()}
-    assert names == {"weights.pt", "model.json", "normalisers.json", "model.onnx"}
+    assert names == {"weights.pt", "model.json", "normalisers.json", "model.onnx", "loss.png"}
     assert [p.name for p in tmp_path.iterdir()] == ["model"]  # no temporary left beside it
 
 
