@@ -178,13 +178,34 @@ def fetch_samples_cmd(
 
 
 @app.command("config")
-def config_cmd(config_file: ConfigOption = None, sets: SetOption = None) -> None:
+def config_cmd(
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+    commented: Annotated[
+        bool,
+        typer.Option(
+            "--commented",
+            help="Print the commented example (every key with its unit and default) instead; "
+            "save it with `gesturebank config --commented > gesturebank.toml`.",
+        ),
+    ] = False,
+) -> None:
     """Print the resolved configuration as TOML.
 
     Precedence: defaults < --config file < --set KEY=VALUE. Unset optional keys are omitted.
     """
     import tomli_w
 
+    from gesturebank.config import commented_example
+
+    if commented:
+        if config_file or sets:
+            typer.echo(
+                "error: --commented prints the shipped example: no --config or --set", err=True
+            )
+            raise typer.Exit(EXIT_USAGE)
+        typer.echo(commented_example(), nl=False)
+        return
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
     out.print(
@@ -360,23 +381,36 @@ def train(
     out_dir: Annotated[
         Path, typer.Option("--out", help="Model folder to write (an older one is replaced whole).")
     ] = Path("model"),
+    epochs: Annotated[
+        int | None,
+        typer.Option(
+            min=1,
+            help="Most epochs to train (replaces the model's [train.MODEL] max_epochs); early "
+            "stopping may end sooner.",
+        ),
+    ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
     quiet: QuietOption = False,
 ) -> None:
     """Train a speech-to-motion model on a dataset split: the dissertation's MLP or LSTM (§4.3)
-    or a seed model — aud2motion (causal GRU), aud2pose (BiGRU window), blstm (span predictor),
-    cvae (sampled motion) — each with its paper's optimiser and schedule ([train.NAME] sizes).
+    or a seed model — aud2motion (causal GRU), aud2pose (BiGRU window), aud2repr2pose (motion
+    autoencoder, then speech to its code), blstm (span predictor), cvae (sampled motion), dcccae
+    (CCA-coupled autoencoders) — each with its paper's optimiser and schedule ([train.NAME]).
 
-    Writes weights (state dict), the resolved config, the audio normalisers and an ONNX export
-    (plus a stateful one-step ONNX model for the causal recurrent ones, LSTM and aud2motion, which
-    `live` runs) into the --out folder.
+    Training stops early when the validation loss stops falling (train.patience), else at the
+    epoch limit; the last line says which. On a terminal a progress bar shows the losses; in a
+    log, one line per epoch.
+
+    Writes weights (state dict), the resolved config, the audio normalisers, loss.png (training
+    and validation loss per epoch) and an ONNX export (plus a stateful one-step ONNX model for
+    the causal recurrent ones, LSTM and aud2motion, which `live` runs) into the --out folder.
     """
     from gesturebank.train.commands import train_command
 
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
-        train_command(
+        result = train_command(
             dataset=dataset,
             model=model,
             variant=variant,
@@ -385,8 +419,12 @@ def train(
             out_dir=out_dir,
             config=config.train,
             quiet=quiet,
+            epochs=epochs,
         )
-    out.print(f"model written to {out_dir}", highlight=False, soft_wrap=True)
+    out.print(result.stop_line(), highlight=False, soft_wrap=True)
+    out.print(
+        f"model written to {out_dir} (loss curves: loss.png)", highlight=False, soft_wrap=True
+    )
 
 
 @app.command()

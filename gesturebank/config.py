@@ -2,17 +2,21 @@
 
 Precedence is defaults < file < command-line flags. The fully resolved config is what gets saved
 with every output (and hashed, so a re-run knows whether a built take is still valid). Every
-field says its unit and when to change it; `gesturebank.toml` in the repository is the commented
-example of the same.
+field says its unit and when to change it; `gesturebank.toml` is the commented example of the
+same, shipped in the package as gesturebank/data/gesturebank.toml (`commented_example`,
+`gesturebank config --commented`; the repository's top-level file is that one, linked).
 """
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import json
 import os
+import re
 import tomllib
 from collections.abc import Iterable, Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
@@ -1266,18 +1270,78 @@ class Config(Section):
         return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def _error_line(source: str, exc: ValidationError) -> str:
-    """One line per problem, naming the dotted key: 'file.toml: audio.nfilt: ...'."""
+def commented_example() -> str:
+    """The commented gesturebank.toml shipped in the package: every key, its unit, its default."""
+    return resources.files("gesturebank").joinpath("data/gesturebank.toml").read_text("utf-8")
+
+
+def _error_line(source: str, exc: ValidationError, text: str | None = None) -> str:
+    """One line per problem, naming the dotted key: 'file.toml:7: audio.nfilt: ...'.
+
+    An unknown key names the nearest valid one ("did you mean max_epochs?"); with the file's
+    `text`, the line of the key is given too.
+    """
     lines = []
     for err in exc.errors():
-        key = ".".join(str(p) for p in err["loc"]) or "(top level)"
+        loc = tuple(str(p) for p in err["loc"])
+        key = ".".join(loc) or "(top level)"
         msg = err["msg"]
         if err["type"] == "extra_forbidden":
-            msg = "unknown key"
+            msg = "unknown key" + _suggestion(loc)
         elif "input" in err and not isinstance(err["input"], dict | list):
             msg = f"{msg} (got {err['input']!r})"
-        lines.append(f"{source}: {key}: {msg}")
+        line = _line_of(text, loc) if text is not None else None
+        where = source if line is None else f"{source}:{line}"
+        lines.append(f"{where}: {key}: {msg}")
     return "; ".join(lines)
+
+
+def _section_model(path: tuple[str, ...]) -> type[BaseModel] | None:
+    """The config model at a dotted path of sections (None when the path leaves the models)."""
+    model: type[BaseModel] = Config
+    for name in path:
+        field = model.model_fields.get(name)
+        inner = field.annotation if field is not None else None
+        if not (isinstance(inner, type) and issubclass(inner, BaseModel)):
+            return None
+        model = inner
+    return model
+
+
+def _suggestion(loc: tuple[str, ...]) -> str:
+    """' (did you mean NAME?)' for an unknown key, from the valid keys of its section (or
+    them all, when none is close and they are few)."""
+    model = _section_model(loc[:-1])
+    if model is None or not loc:
+        return ""
+    keys = list(model.model_fields)
+    close = difflib.get_close_matches(loc[-1], keys, n=1, cutoff=0.6)
+    if close:
+        return f" (did you mean {close[0]}?)"
+    return f" (valid: {', '.join(keys)})" if len(keys) <= 12 else " (see `gesturebank config`)"
+
+
+_TABLE = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?")
+_KEY = re.compile(r"^\s*([A-Za-z0-9_\-.\"' ]+?)\s*=")
+
+
+def _dotted(name: str) -> tuple[str, ...]:
+    return tuple(part.strip().strip("\"'") for part in name.split("."))
+
+
+def _line_of(text: str, loc: tuple[str, ...]) -> int | None:
+    """1-based line of the TOML `text` that defines the key at `loc` (or opens its table)."""
+    table: tuple[str, ...] = ()
+    for number, line in enumerate(text.splitlines(), start=1):
+        if m := _TABLE.match(line):
+            table = _dotted(m.group(1))
+            if table[: len(loc)] == loc:  # an unknown section: its header
+                return number
+        elif m := _KEY.match(line):
+            path = (*table, *_dotted(m.group(1)))
+            if path[: len(loc)] == loc:
+                return number
+    return None
 
 
 def _merge(base: dict[str, Any], over: Mapping[str, Any]) -> dict[str, Any]:
@@ -1320,7 +1384,8 @@ def load_config(
     if path is not None:
         source = os.fspath(path)
         try:
-            from_file = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+            text = Path(path).read_text(encoding="utf-8")
+            from_file = tomllib.loads(text)
         except FileNotFoundError:
             raise ConfigError(f"{source}: config file not found") from None
         except (OSError, UnicodeDecodeError) as exc:
@@ -1330,7 +1395,7 @@ def load_config(
         try:
             Config.model_validate(from_file)
         except ValidationError as exc:
-            raise ConfigError(_error_line(source, exc)) from None
+            raise ConfigError(_error_line(source, exc, text)) from None
         data = _merge(data, from_file)
     for over in overrides:
         data = _merge(data, over)

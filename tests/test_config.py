@@ -3,6 +3,7 @@ from pathlib import Path
 
 import pytest
 
+from gesturebank import config
 from gesturebank.config import Config, load_config, parse_override
 from gesturebank.errors import ConfigError
 
@@ -96,3 +97,56 @@ def test_digest_tracks_changes() -> None:
     a, b = Config(), load_config(None, [{"audio": {"nfilt": 40}}])
     assert a.digest() != b.digest()
     assert a.digest("processing") == b.digest("processing")
+
+
+@pytest.mark.parametrize(
+    ("item", "expected"),
+    [
+        ("train.lstm.epochs=3", "train.lstm.epochs: unknown key (did you mean max_epochs?)"),
+        ("qc.max_facing_away_fracion=0.2", "(did you mean max_facing_away_fraction?)"),
+        ("trian.patience=3", "trian: unknown key (did you mean train?)"),
+        ("train.lstm.zzz=1", "(valid: units, seq_len, stride, batch_size, max_epochs)"),
+    ],
+)
+def test_set_key_error_suggests_the_nearest_key(item: str, expected: str) -> None:
+    with pytest.raises(ConfigError) as exc:
+        load_config(None, [parse_override(item)])
+    assert str(exc.value).startswith("command line: ") and expected in str(exc.value)
+
+
+def test_misspelt_key_in_a_file_names_file_line_and_nearest_key(tmp_path: Path) -> None:
+    path = write(
+        tmp_path,
+        "# my settings\n[qc]\nmax_people = 3\n\nmax_facing_away_fracion = 0.2\n"
+        "[train]\nlstm.epochs = 3\n",
+    )
+    with pytest.raises(ConfigError) as exc:
+        load_config(path)
+    assert str(exc.value) == (
+        f"{path}:5: qc.max_facing_away_fracion: unknown key "
+        "(did you mean max_facing_away_fraction?); "
+        f"{path}:7: train.lstm.epochs: unknown key (did you mean max_epochs?)"
+    )
+
+
+def test_an_unknown_section_in_a_file_points_at_its_header(tmp_path: Path) -> None:
+    path = write(tmp_path, "[audio]\nnfilt = 26\n\n[trian.lstm]\nmax_epochs = 3\n")
+    with pytest.raises(ConfigError, match=r":4: trian: unknown key \(did you mean train\?\)"):
+        load_config(path)
+
+
+def test_the_commented_example_ships_in_the_package_and_is_the_repository_file() -> None:
+    from typer.testing import CliRunner
+
+    from gesturebank.cli import app
+    from gesturebank.config import commented_example
+
+    packaged = Path(config.__file__).parent / "data" / "gesturebank.toml"
+    assert packaged.samefile(EXAMPLE)  # one file: the package's is a link to the top-level one
+    text = commented_example()
+    assert text == EXAMPLE.read_text(encoding="utf-8") and text.count("\n# ") > 100
+    r = CliRunner().invoke(app, ["config", "--commented"])
+    assert r.exit_code == 0 and r.output == text
+    assert Config.model_validate(tomllib.loads(r.output)) == Config()  # every key at its default
+    refused = CliRunner().invoke(app, ["config", "--commented", "--set", "audio.nfilt=20"])
+    assert refused.exit_code == 2

@@ -25,7 +25,52 @@ from gesturebank.config import QCConfig
 Verdict = tuple[Literal["accepted", "rejected"], list[str]]
 
 
-_LABELS = {"jerk_raw": "raw jerk", "jerk": "processed jerk"}
+LABELS = {"jerk_raw": "raw jerk", "jerk": "processed jerk"}  # in the outlier reasons
+
+# The absolute checks as `absolute_reasons` applies them: metric → (QCConfig field, "max" | "min").
+# The dashboard shows each metric beside its threshold from this table (a test keeps the two in
+# step); a field that is None (max_jerk_raw by default) is no check.
+THRESHOLDS: dict[str, tuple[str, Literal["max", "min"]]] = {
+    "head_unknown_fraction": ("max_head_unknown_fraction", "max"),
+    "arms_unknown_fraction": ("max_arms_unknown_fraction", "max"),
+    "bone_cv_max": ("max_bone_cv", "max"),
+    "limit_frames_fraction": ("max_limit_fraction", "max"),
+    "jitter_fraction": ("max_jitter_fraction", "max"),
+    "swap_events": ("max_swap_events", "max"),
+    "spike_max": ("max_spike", "max"),
+    "frozen_fraction": ("max_frozen_fraction", "max"),
+    "motion_range": ("min_motion_range", "min"),
+    "facing_away_fraction": ("max_facing_away_fraction", "max"),
+    "sideways_fraction": ("max_sideways_fraction", "max"),
+    "shoulder_width": ("min_shoulder_width", "min"),
+    "image_change": ("min_image_change", "min"),
+    "people": ("max_people", "max"),
+    "trimmed_fraction": ("max_trimmed_fraction", "max"),
+    "jerk_raw": ("max_jerk_raw", "max"),
+}
+
+
+def threshold(key: str, config: QCConfig) -> tuple[Literal["max", "min"], float] | None:
+    """("max" | "min", limit) of the absolute check on metric `key`; None when it has none."""
+    if key not in THRESHOLDS:
+        return None
+    field, side = THRESHOLDS[key]
+    limit = getattr(config, field)
+    return None if limit is None else (side, float(limit))
+
+
+def fails(key: str, value: float | None, config: QCConfig) -> bool:
+    """Whether metric `key` at `value` fails its absolute check (NaN and None fail nothing)."""
+    check = threshold(key, config)
+    if check is None or value is None or not math.isfinite(value):
+        return False
+    side, limit = check
+    return value > limit if side == "max" else value < limit
+
+
+def is_outlier_reason(key: str, reason: str) -> bool:
+    """Whether `reason` is the dataset-relative outlier reason of metric `key`."""
+    return reason.startswith(f"{LABELS.get(key, key)} ") and "× dataset median" in reason
 
 
 def _num(metrics: Mapping[str, float], key: str) -> float:
@@ -143,7 +188,7 @@ def relative_reasons(
         ratio = values / math.exp(med_log)
         for i, zi, ri in zip(ids, z, ratio, strict=True):
             if zi > config.outlier_z and ri > config.outlier_min_ratio:
-                label = _LABELS.get(key, key)
+                label = LABELS.get(key, key)
                 out[i].append(f"{label} {ri:.1f}× dataset median (robust z {zi:.1f})")
     return out
 

@@ -110,11 +110,17 @@
     return out;
   }
   // Bars on a log axis: groups[i] = {label, href, bars: [{v, colour, opacity, tip}]}.
+  var LABEL_PX = 11, TILT = 55;  // bar labels: font size, degrees below the horizontal
   function logBars(id, cls, groups, ylabel) {
     var bw = Math.max(3, Math.min(18, Math.floor(360 / groups.length))), all = [];
     groups.forEach(function (g) { g.bars.forEach(function (b) { all.push(b.v); }); });
     var range = decades(all), left = 60, top = 10, ph = 220, gw = bw * 2 + 4;
-    var w = Math.max(300, left + groups.length * gw + 90), h = top + ph + 120;
+    // room below and right of the plot for the longest tilted label (~0.62 em a character)
+    var labelled = groups.length <= 80, rad = TILT * Math.PI / 180;
+    var longest = Math.max.apply(null, groups.map(function (g) { return g.label.length; }));
+    var reach = labelled ? longest * LABEL_PX * 0.62 : 0;
+    var w = Math.max(300, left + groups.length * gw + Math.max(90, reach * Math.cos(rad) + 16));
+    var h = top + ph + 20 + reach * Math.sin(rad) + LABEL_PX;
     if (!range) { draw(id, cls, w, 40, text(10, 20, 'no finite jerk to plot')); return; }
     var sy = log10(range[0], range[1], top + ph, top), s = '';
     groups.forEach(function (g, i) {
@@ -125,9 +131,9 @@
                              height: top + ph - sy(b.v), fill: b.colour, opacity: b.opacity},
                     tip(b.tip));
       });
-      if (groups.length <= 80) {
-        var at = 'translate(' + (x0 + bw) + ',' + (top + ph + 8) + ') rotate(55)';
-        bars += text(0, 0, g.label, {transform: at, 'font-size': 10});
+      if (labelled) {
+        var at = 'translate(' + (x0 + bw) + ',' + (top + ph + 8) + ') rotate(' + TILT + ')';
+        bars += text(0, 0, g.label, {transform: at, 'font-size': LABEL_PX, 'class': 'label'});
       }
       s += g.href ? tag('a', {href: g.href}, bars) : bars;
     });

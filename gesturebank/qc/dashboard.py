@@ -33,11 +33,13 @@ from urllib.parse import quote
 
 import numpy as np
 
+from gesturebank.config import QCConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.cut import frame_ends
 from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
+from gesturebank.qc import checks
 from gesturebank.robot.retarget import NEEDS
 from gesturebank.skeletons import COCO17, COCO17_BONES, to_coco17
 
@@ -71,6 +73,7 @@ _METRICS = (
     ("shoulder_width", "shoulder width", "{:.1f} % of the frame height", 100.0),
     ("image_change", "image change", "{:.3f}", 1.0),
     ("people", "people in the frame", "{:.1f}", 1.0),
+    ("trimmed_fraction", "take's video outside its audio", "{:.0f} %", 100.0),
 )
 
 # The page's style, and its script that draws every chart from the page's JSON (id "data") and
@@ -449,7 +452,7 @@ def _speakers(choices: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     out = []
     for c in choices:
         who = "nobody" if c["main"] < 0 else f"#{c['main']}"
-        vs = "" if c["runner"] is None else f" vs #{c['runner']}"
+        vs = "" if c["runner"] is None else f" (runner-up #{c['runner']})"
         tip = (
             f"{c['t0']}–{c['t1']} s: main speaker {who} (total {_total(c, c['main'])}), "
             f"runner-up {'none' if c['runner'] is None else '#' + str(c['runner'])} "
@@ -668,18 +671,64 @@ def _preview_html(preview: Mapping[str, Any] | None, record: store.TakeRecord) -
     return f"<div id='preview'></div>{legend}<ol class='frames'>{notes}</ol>"
 
 
-def _metrics_table(metrics: Mapping[str, float]) -> str:
-    """The clip's metrics (not the per-joint ones), three to a row."""
-    cells = [(label, _metric_text(metrics, key, fmt, scale)) for key, label, fmt, scale in _METRICS]
+def _readable(key: str) -> str:
+    """A label for a metric the page has none for: 'trimmed_fraction' → 'trimmed (share)'."""
+    *words, last = key.split("_")
+    unit = {"fraction": " (share)", "s": " (s)"}.get(last)
+    return " ".join(words) + unit if unit and words else " ".join([*words, last])
+
+
+def _threshold_text(key: str, fmt: str, scale: float, qc: QCConfig) -> str:
+    """The clip's limit on metric `key` in the metric's own unit, and its outlier rule."""
+    parts = []
+    check = checks.threshold(key, qc)
+    if check is not None:
+        parts.append(f"{check[0]} {fmt.format(check[1] * scale)}")
+    if key in qc.outlier_metrics:
+        parts.append(
+            f"outlier if > {qc.outlier_min_ratio:g}× dataset median and robust z > {qc.outlier_z:g}"
+        )
+    return "; ".join(parts)
+
+
+def _verdict(key: str, value: float | None, reasons: Sequence[str], qc: QCConfig) -> str:
+    """'✗ over the max', '✗ under the min', '✗ outlier', '✓' (checked, passed) or ''."""
+    failed = []
+    if checks.fails(key, value, qc):
+        failed.append("over the max" if checks.THRESHOLDS[key][1] == "max" else "under the min")
+    if any(checks.is_outlier_reason(key, r) for r in reasons):
+        failed.append("outlier")
+    if failed:
+        return "✗ " + ", ".join(failed)
+    checked = checks.threshold(key, qc) is not None or key in qc.outlier_metrics
+    return "✓" if checked and value is not None and math.isfinite(value) else ""
+
+
+def _metrics_table(metrics: Mapping[str, float], reasons: Sequence[str], qc: QCConfig) -> str:
+    """The clip's metrics (not the per-joint ones), each beside its threshold; the rows of the
+    checks it failed are marked (class 'fail', ✗)."""
     shown = {k for k, *_ in _METRICS}
-    cells += [
-        (k, f"{v:.4g}") for k, v in sorted(metrics.items()) if "/" not in k and k not in shown
+    rows_of = [(k, label, fmt, scale) for k, label, fmt, scale in _METRICS if k in metrics]
+    rows_of += [
+        (k, _readable(k), "{:.4g}", 1.0) for k in sorted(metrics) if "/" not in k and k not in shown
     ]
-    rows = [
-        "".join(f"<td class='l'>{_e(k)}</td><td>{_e(v)}</td>" for k, v in cells[i : i + 3])
-        for i in range(0, len(cells), 3)
-    ]
-    return "<table class='metrics'>" + "".join(f"<tr>{r}</tr>" for r in rows) + "</table>"
+    rows = []
+    for key, label, fmt, scale in rows_of:
+        value = metrics.get(key)
+        verdict = _verdict(key, value, reasons, qc)
+        cls = " class='fail'" if verdict.startswith("✗") else ""
+        cells = [
+            f"<td class='l' title='{_e(key)}'>{_e(label)}</td>",
+            f"<td>{_e(_metric_text(metrics, key, fmt, scale))}</td>",
+            f"<td class='l'>{_e(_threshold_text(key, fmt, scale, qc)) or '–'}</td>",
+            f"<td class='l verdict'>{_e(verdict)}</td>",
+        ]
+        rows.append(f"<tr{cls} data-metric='{_e(key)}'>{''.join(cells)}</tr>")
+    head = "".join(f"<th class='l'>{h}</th>" for h in ("metric", "value", "threshold", "check"))
+    return (
+        f"<table class='metrics'><thead><tr>{head}</tr></thead>"
+        f"<tbody>{''.join(rows)}</tbody></table>"
+    )
 
 
 def _masked_text(clip: Clip, joints: Sequence[str]) -> str:
@@ -692,7 +741,9 @@ def _masked_text(clip: Clip, joints: Sequence[str]) -> str:
     return ", ".join(f"{j} {v:.0%}" for j, v in zip(joints, share, strict=True) if v > 0)
 
 
-def _clip_html(n: int, c: store.ClipRecord, clip: Clip | str, joints: Sequence[str]) -> str:
+def _clip_html(
+    n: int, c: store.ClipRecord, clip: Clip | str, joints: Sequence[str], qc: QCConfig
+) -> str:
     kind = _kind(c)
     reasons = "".join(f"<li>{_e(r)}</li>" for r in c.qc_reasons)
     if isinstance(clip, Clip):
@@ -714,7 +765,7 @@ def _clip_html(n: int, c: store.ClipRecord, clip: Clip | str, joints: Sequence[s
         f"<p>{c.start_s:.2f}–{c.end_s:.2f} s of the source, {c.duration_s:.2f} s at 100 Hz "
         f"({c.n_frames} frames). {arrays}</p>"
         + (f"<p>Rejected because:</p><ul class='reasons'>{reasons}</ul>" if reasons else "")
-        + _metrics_table(c.metrics)
+        + _metrics_table(c.metrics, c.qc_reasons, qc)
         + "<h4>Angles: raw (video frames) vs processed (100 Hz), with the robot's limits "
         f"<span class='note'>(plotted at up to {PLOT_RATE_HZ:g} points a second)</span></h4>"
         f"{plot}</section>"
@@ -722,16 +773,27 @@ def _clip_html(n: int, c: store.ClipRecord, clip: Clip | str, joints: Sequence[s
 
 
 def _clip_sections(
-    record: store.TakeRecord, clips: Mapping[str, Clip | str], joints: Sequence[str]
+    record: store.TakeRecord,
+    clips: Mapping[str, Clip | str],
+    joints: Sequence[str],
+    qc: QCConfig,
 ) -> list[str]:
     """One section per clip, in time order; plot n is the n-th clip whose arrays could be read
     (the order of the page data's clips)."""
     sections, n = [], 0
     for c in record.data_clips:
         clip = clips[c.clip_id]
-        sections.append(_clip_html(n, c, clip, joints))
+        sections.append(_clip_html(n, c, clip, joints, qc))
         n += isinstance(clip, Clip)
     return sections
+
+
+_SPEAKER_NOTE = (
+    "<p class='note' id='speaker-note'>Speaker row: who was followed as the main speaker in each "
+    "stretch, by their person number in this take's tracking (“#1 (runner-up #4)”: person 1 "
+    "was chosen over person 4, the next best candidate; grey: nobody). Hover a stretch for both "
+    "scores; all of them are under Main speaker.</p>"
+)
 
 
 def _take_page(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key: str) -> str:
@@ -748,13 +810,14 @@ def _take_page(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key
         f"<p class='note'>{_tag('kept')} {_tag('rejected')} {_tag('dropped')} dashed lines: "
         "shot cuts (from the main-speaker report); ▲ preview frames. Hover a segment for its "
         "reasons.</p>",
+        _SPEAKER_NOTE if choices else "",
         _segment_list(record),
         "<h2>Main speaker</h2>",
         _tracking_table(choices),
         "<h2>Preview frames</h2>",
         _preview_html(data["preview"], record),
         "<h2>Clips</h2>" if record.data_clips else "",
-        *_clip_sections(record, clips, info.joints),
+        *_clip_sections(record, clips, info.joints, info.config.qc),
     ]
     return _page(f"QC {record.take_id}", "".join(body), data, key)
 
@@ -773,12 +836,13 @@ def _stat(path: Path) -> tuple[int, int] | None:
 
 def _page_key(out: Path, record: store.TakeRecord, info: store.DatasetInfo, code: str) -> str:
     """What a take page shows depends on: this module, the record, the clips' files, the
-    preview and the robot's limits."""
+    preview, the robot's limits and the QC thresholds."""
     folder = store.take_dir(out, record.take_id)
     parts = [
         code,
         json.dumps(record.to_json_dict(), sort_keys=True),
         json.dumps([info.joints, info.limits], sort_keys=True),
+        info.config.qc.model_dump_json(),  # the thresholds beside the metrics
         _stat(folder / store.PREVIEW),
         [_stat(store.clip_npz(out, record.take_id, c.clip_id)) for c in record.data_clips],
     ]

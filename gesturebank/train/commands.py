@@ -24,16 +24,18 @@ from gesturebank.robot import pepper
 from gesturebank.train import model_folder
 from gesturebank.train.evaluate import (
     FIELD_MEASURES,
+    LEGEND,
     SEED_MEASURES,
     TABLE_5_1,
     average,
     evaluate_segments,
-    not_computable,
+    footnotes,
     postprocess,
     table,
 )
 from gesturebank.train.export import OnnxModel, export_onnx
-from gesturebank.train.model_folder import MODEL_ONNX
+from gesturebank.train.loss_plot import write_loss_png
+from gesturebank.train.model_folder import LOSS_PNG, MODEL_ONNX
 from gesturebank.train.models import build_model
 from gesturebank.train.models import predict as torch_predict
 from gesturebank.train.registry import MODELS
@@ -60,8 +62,12 @@ def train_command(
     config: TrainConfig | None = None,
     *,
     quiet: bool = False,
+    epochs: int | None = None,
 ) -> TrainResult:
     """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
+
+    `epochs` replaces the model's `max_epochs` (each stage's, for a model trained in stages);
+    early stopping may still end it sooner. loss.png beside model.json draws the losses.
 
     The model folder is written beside `out_dir` and swapped in whole, so no file of an older
     model survives and a failed or interrupted run keeps the old one.
@@ -86,8 +92,11 @@ def train_command(
     what = f"{model.upper()}-{variant.upper()} {part}"
     # the temporary folder is made before training, so an unwritable --out fails at once
     with model_folder.writing(out) as tmp:
-        result = train(net, train_segments, val_segments, cfg, quiet=quiet, description=what)
+        result = train(
+            net, train_segments, val_segments, cfg, quiet=quiet, description=what, epochs=epochs
+        )
         export_onnx(net, tmp)
+        write_loss_png(tmp / LOSS_PNG, history=result.history, title=f"{what}: loss per epoch")
         model_folder.write(
             tmp,
             net=net,
@@ -161,14 +170,14 @@ def evaluate_command(
     model_folder.write_metrics(folder.path, report)
     out = console or Console()
     title = f"{name} on {split} ({ds.path.name})"
-    out.print(table(results, title, TABLE_5_1))
-    out.print(table(results, f"{title}: seed measures", SEED_MEASURES))
+    # n/a in the tables: a mark, and why once below them, not a number
+    notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
+    out.print(table(results, title, TABLE_5_1, notes))
+    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes))
     fgd_title = fgd_label(inputs.fgd)
-    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES))
-    if inputs.fgd_note:
-        out.print(f"note: {inputs.fgd_note}", highlight=False, soft_wrap=True)
-    for line in not_computable(results):  # n/a in the tables: say why, not a number
-        out.print(f"note: {line}", highlight=False, soft_wrap=True)
+    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES, notes))
+    for line in [LEGEND, *notes.lines]:
+        out.print(line, highlight=False, soft_wrap=True)
     return report
 
 

@@ -25,10 +25,16 @@ from gesturebank.errors import InputError
 from gesturebank.fileio import output_errors, write_bytes_atomic
 from gesturebank.train import model_folder
 from gesturebank.train.evaluate import (
+    FIELD_MEASURES,
+    LEGEND,
+    SEED_MEASURES,
+    TABLE_5_1,
     Column,
+    Footnotes,
     average,
     baselines,
-    not_computable,
+    cell,
+    footnotes,
     postprocess,
     score_systems,
 )
@@ -38,18 +44,23 @@ from gesturebank.train.models import predict as torch_predict
 from gesturebank.train.trainer import torch_settings
 
 PathLike = str | os.PathLike[str]
-COLUMNS: tuple[Column, ...] = (
-    ("loss_l", "Loss L", 1.0, "{:.4f}"),
-    ("rmse_deg", "RMSE (°)", 1.0, "{:.2f}"),
-    ("ape_deg", "APE (°)", 1.0, "{:.2f}"),
-    ("cca", "CCA", 1.0, "{:.3f}"),
-    ("lcca_theta", "LCCA_Θ", 1.0, "{:.4f}"),
-    ("avg_accel", "Acc (rad/s²)", 1.0, "{:.2f}"),
-    ("avg_jerk", "Jerk (rad/s³)", 1.0, "{:.1f}"),
-    ("hellinger_speed", "H vel", 1.0, "{:.3f}"),
-    ("hellinger_accel", "H acc", 1.0, "{:.3f}"),
-    ("fgd", "FGD", 1.0, "{:.3f}"),
-    ("beat_consistency", "BC", 1.0, "{:.3f}"),
+_BY_KEY = {c.key: c for c in (*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES)}
+# evaluate's columns (one name and direction per measure), a selection
+COLUMNS: tuple[Column, ...] = tuple(
+    _BY_KEY[k]
+    for k in (
+        "loss_l",
+        "rmse_deg",
+        "ape_deg",
+        "cca",
+        "lcca_theta",
+        "avg_accel",
+        "avg_jerk",
+        "hellinger_speed",
+        "hellinger_accel",
+        "fgd",
+        "beat_consistency",
+    )
 )
 FORMATS = (".csv", ".md")
 
@@ -127,13 +138,15 @@ def compare_command(
         f"{ds.path.name}, {first['variant'].upper()} {part}, {split}: mean over subjects "
         f"({fgd_label(inputs.fgd)})"
     )
-    notes = [*([inputs.fgd_note] if inputs.fgd_note else []), *not_computable(results)]
+    notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
     screen = console or Console()
-    screen.print(rich_table(rows, title))
-    for line in notes:
-        screen.print(f"note: {line}", highlight=False, soft_wrap=True)
+    screen.print(rich_table(rows, title, notes))
+    for line in [LEGEND, *notes.lines]:
+        screen.print(line, highlight=False, soft_wrap=True)
     if out is not None:
-        text = to_csv(rows, version) if Path(out).suffix == ".csv" else to_markdown(rows, title)
+        text = (
+            to_csv(rows, version) if Path(out).suffix == ".csv" else to_markdown(rows, title, notes)
+        )
         with output_errors(out, "the comparison table"):
             write_bytes_atomic(out, text.encode("utf-8"))
     return {
@@ -141,23 +154,26 @@ def compare_command(
         "dataset": str(ds.path.resolve()),
         "fgd_version": version,
         "systems": rows,
-        "notes": notes,
+        "notes": notes.lines,
     }
 
 
-def _cells(row: dict[str, float | None]) -> list[str]:
-    values = [(row.get(k), scale, fmt) for k, _, scale, fmt in COLUMNS]
-    return ["n/a" if v is None else fmt.format(v * scale) for v, scale, fmt in values]
+def _cells(system: str, row: dict[str, float | None], notes: Footnotes) -> list[str]:
+    return [cell(row.get(c.key), c, notes.mark(system, c.key)) for c in COLUMNS]
 
 
-def rich_table(rows: dict[str, dict[str, float | None]], title: str) -> Table:
-    """One row per system (models first, then the baselines)."""
+def rich_table(
+    rows: dict[str, dict[str, float | None]], title: str, notes: Footnotes | None = None
+) -> Table:
+    """One row per system (models first, then the baselines); headers with ↑/↓/≈ (`LEGEND`),
+    n/a cells with the marks of `notes`."""
+    notes = notes or Footnotes({}, {}, [])
     t = Table(title=title)
     t.add_column("System", no_wrap=True)
-    for _, header, _, _ in COLUMNS:
-        t.add_column(header, justify="right")
+    for c in COLUMNS:
+        t.add_column(c.title, justify="right")
     for name, row in rows.items():
-        t.add_row(name, *_cells(row))
+        t.add_row(name, *_cells(name, row, notes))
     return t
 
 
@@ -165,19 +181,26 @@ def to_csv(rows: dict[str, dict[str, float | None]], fgd_version: str | None) ->
     """system, every column key (full precision, empty where not computable), fgd_version."""
     text = io.StringIO(newline="")
     w = csv.writer(text)
-    w.writerow(["system", *(k for k, *_ in COLUMNS), "fgd_version"])
+    w.writerow(["system", *(c.key for c in COLUMNS), "fgd_version"])
     for name, row in rows.items():
-        values = [row.get(k) for k, *_ in COLUMNS]
+        values = [row.get(c.key) for c in COLUMNS]
         w.writerow(
             [name, *("" if v is None else repr(float(v)) for v in values), fgd_version or ""]
         )
     return text.getvalue()
 
 
-def to_markdown(rows: dict[str, dict[str, float | None]], title: str) -> str:
-    """A Markdown table with the printed precision, titled."""
-    head = ["System", *(h for _, h, _, _ in COLUMNS)]
+def to_markdown(
+    rows: dict[str, dict[str, float | None]], title: str, notes: Footnotes | None = None
+) -> str:
+    """A Markdown table with the printed precision, titled; the legend and n/a reasons below."""
+    notes = notes or Footnotes({}, {}, [])
+    head = ["System", *(c.title for c in COLUMNS)]
     lines = [f"**{title}**", "", "| " + " | ".join(head) + " |"]
     lines.append("|" + "|".join(["---"] + ["---:"] * len(COLUMNS)) + "|")
-    lines += ["| " + " | ".join([name, *_cells(row)]) + " |" for name, row in rows.items()]
+    lines += [
+        "| " + " | ".join([name, *_cells(name, row, notes)]) + " |" for name, row in rows.items()
+    ]
+    for line in [LEGEND, *notes.lines]:  # paragraphs of their own
+        lines += ["", line]
     return "\n".join(lines) + "\n"

@@ -28,7 +28,8 @@ a number. The table's average row is the mean over the subjects where a measure 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 from rich.table import Table
@@ -47,30 +48,50 @@ SHIFTED = "shifted truth"
 NATURAL = "natural motion"
 SHUFFLED = "shuffled clip"
 
-Column = tuple[str, str, float, str]  # key, header, scale, format
-# The columns of Table 5.1, and a second table with the other seeds' measures.
+LOWER, HIGHER, NEAR_NATURAL = "↓", "↑", "≈"
+LEGEND = (
+    f"{LOWER} lower is better · {HIGHER} higher is better · "
+    f"{NEAR_NATURAL} closer to natural motion's value is better"
+)
+
+
+class Column(NamedTuple):
+    key: str
+    header: str
+    scale: float
+    fmt: str
+    better: str  # LOWER, HIGHER or NEAR_NATURAL
+
+    @property
+    def title(self) -> str:
+        """The header with its better-direction mark, e.g. 'RMSE (°) ↓'."""
+        return f"{self.header} {self.better}"
+
+
+# The columns of Table 5.1, a second table with the other seeds' measures and a third with the
+# field's; a measure is shown in one of them only.
 TABLE_5_1: tuple[Column, ...] = (
-    ("loss_l", "Loss L", 1.0, "{:.4f}"),
-    ("rmse_deg", "RMSE (°)", 1.0, "{:.2f}"),
-    ("delta_lcca", "ΔLCCA", 1.0, "{:.3f}"),
-    ("lcca_theta", "LCCA_Θ", 1.0, "{:.4f}"),
-    ("delta_jerk", "ΔJ̃ (10⁵ rad²s⁻⁵)", 1e-5, "{:.3f}"),
+    Column("loss_l", "Loss L", 1.0, "{:.4f}", LOWER),
+    Column("rmse_deg", "RMSE (°)", 1.0, "{:.2f}", LOWER),
+    Column("delta_lcca", "ΔLCCA", 1.0, "{:.3f}", LOWER),  # Eq. 3.20: a distance
+    Column("lcca_theta", "LCCA_Θ", 1.0, "{:.4f}", HIGHER),
+    Column("delta_jerk", "ΔJ̃ (10⁵ rad²s⁻⁵)", 1e-5, "{:.3f}", LOWER),
 )
 SEED_MEASURES: tuple[Column, ...] = (
-    ("cca", "CCA", 1.0, "{:.3f}"),
-    ("fcca", "FCCA", 1.0, "{:.3f}"),
-    ("ape_deg", "APE (°)", 1.0, "{:.2f}"),
-    ("hellinger_speed", "H speed", 1.0, "{:.3f}"),
+    Column("cca", "CCA", 1.0, "{:.3f}", HIGHER),
+    Column("fcca", "FCCA", 1.0, "{:.3f}", HIGHER),
+    Column("ape_deg", "APE (°)", 1.0, "{:.2f}", LOWER),
 )
-# GENEA 2022 and BEAT: the numbers the field compares.
+# GENEA 2022 and BEAT: the numbers the field compares. Acceleration, jerk and beat consistency
+# are best near natural motion's (jittery motion scores high on all three; BEAT's "higher is
+# better" holds only for motion as smooth as the real one).
 FIELD_MEASURES: tuple[Column, ...] = (
-    ("avg_accel", "Acc (rad/s²)", 1.0, "{:.2f}"),
-    ("avg_jerk", "Jerk (rad/s³)", 1.0, "{:.1f}"),
-    ("hellinger_speed", "H vel", 1.0, "{:.3f}"),
-    ("hellinger_accel", "H acc", 1.0, "{:.3f}"),
-    ("cca", "CCA", 1.0, "{:.3f}"),
-    ("fgd", "FGD", 1.0, "{:.3f}"),
-    ("beat_consistency", "BC", 1.0, "{:.3f}"),
+    Column("avg_accel", "Acc (rad/s²)", 1.0, "{:.2f}", NEAR_NATURAL),
+    Column("avg_jerk", "Jerk (rad/s³)", 1.0, "{:.1f}", NEAR_NATURAL),
+    Column("hellinger_speed", "H speed", 1.0, "{:.3f}", LOWER),  # seed 001's = GENEA's
+    Column("hellinger_accel", "H acc", 1.0, "{:.3f}", LOWER),
+    Column("fgd", "FGD", 1.0, "{:.3f}", LOWER),
+    Column("beat_consistency", "BC", 1.0, "{:.3f}", NEAR_NATURAL),
 )
 
 
@@ -118,6 +139,20 @@ MOTION_KEYS = (
     "avg_jerk",
     "hellinger_accel",
 )
+# The groups of "not_computable" and the measures each leaves as None.
+EVERY = "every measure"
+CCA_GROUP, MOTION_GROUP, FGD_GROUP, BEAT_GROUP = (
+    "LCCA, CCA, FCCA",
+    "jerk, speeds",
+    "FGD",
+    "beat consistency",
+)
+GROUP_KEYS: dict[str, tuple[str, ...]] = {
+    CCA_GROUP: CCA_KEYS,
+    MOTION_GROUP: MOTION_KEYS,
+    FGD_GROUP: ("fgd",),
+    BEAT_GROUP: ("beat_consistency",),
+}
 
 
 def shuffled_clip(
@@ -167,9 +202,7 @@ def subject_metrics(
     out |= dict.fromkeys((*ERROR_KEYS, *CCA_KEYS, *MOTION_KEYS, *field_keys))
     out["rmse_per_joint_rad"] = out["rmse_per_joint_deg"] = dict.fromkeys(pepper.JOINTS)
     if out["frames"] == 0:
-        out["not_computable"]["every measure"] = (
-            "no frame where the truth and this system are both known"
-        )
+        out["not_computable"][EVERY] = "no frame where the truth and this system are both known"
         return out
     true01 = np.where(known, pepper.normalise(np.nan_to_num(true), profile), np.nan)
     pred01 = pepper.normalise(pred, profile)
@@ -205,7 +238,7 @@ def subject_metrics(
         )
     else:
         longest = max((len(t) for t in t_runs), default=0) / rate_hz
-        out["not_computable"]["LCCA, CCA, FCCA"] = (
+        out["not_computable"][CCA_GROUP] = (
             f"no stretch of whole known poses as long as the {config.lcca_window_s:g} s LCCA "
             f"window (longest {longest:.2f} s)"
         )
@@ -227,7 +260,7 @@ def subject_metrics(
         }
         out |= _genea_measures(t_runs, p_runs, rate_hz, config)
     else:
-        out["not_computable"]["jerk, speeds"] = f"no stretch of {MIN_RUN} whole known poses"
+        out["not_computable"][MOTION_GROUP] = f"no stretch of {MIN_RUN} whole known poses"
     if fgd is not None:
         out |= _fgd_measure(out["not_computable"], t_runs, p_runs, fgd, rate_hz, config)
     if onsets:
@@ -246,7 +279,7 @@ def subject_metrics(
         if pooled.size:
             out["beat_consistency"] = float(np.mean(pooled))  # BEAT, over every audio beat
         else:
-            out["not_computable"]["beat consistency"] = "no audio onset inside a known stretch"
+            out["not_computable"][BEAT_GROUP] = "no audio onset inside a known stretch"
     return out
 
 
@@ -282,7 +315,7 @@ def _fgd_measure(
     real = chunks(t_runs, rate_hz=rate_hz, config=config.eval)
     gen = chunks(p_runs, rate_hz=rate_hz, config=config.eval)
     if min(len(real), len(gen)) < 2:
-        reasons["FGD"] = (
+        reasons[FGD_GROUP] = (
             f"fewer than 2 chunks of {config.eval.fgd_chunk_s:g} s of whole known poses"
         )
         return {}
@@ -446,28 +479,108 @@ def not_computable(results: dict[str, dict[str, dict[str, Any]]]) -> list[str]:
     ]
 
 
+SUPERSCRIPTS = "¹²³⁴⁵⁶⁷⁸⁹"
+
+
+@dataclass(frozen=True)
+class Footnotes:
+    """Why cells are n/a, each reason said once: a mark per group of measures, and its line.
+
+    `groups[(subject, system)]` are the groups not computable there; `absent` maps a measure
+    that no row has (FGD without an autoencoder) to its mark.
+    """
+
+    marks: dict[str, str]  # group (or absent measure) → superscript
+    groups: dict[tuple[str, str], tuple[str, ...]]
+    lines: list[str]
+
+    def mark(self, system: str, key: str, subject: str | None = None) -> str:
+        """The marks of the reasons `key` is n/a for `system` (of `subject`, else any)."""
+        if key in self.marks:  # a measure no row has
+            return self.marks[key]
+        found = {
+            g
+            for (subj, sys_), groups in self.groups.items()
+            if sys_ == system and subject in (None, subj)
+            for g in groups
+            if g == EVERY or key in GROUP_KEYS.get(g, ())
+        }
+        return "".join(m for g, m in self.marks.items() if g in found)
+
+
+def footnotes(
+    results: dict[str, dict[str, dict[str, Any]]], absent: dict[str, str] | None = None
+) -> Footnotes:
+    """The n/a reasons of `results` ({subject → {system → metrics}}), one line per group:
+    '¹ LCCA, CCA, FCCA not computable: REASON — s0: every system; s1: MLP' (distinct reasons
+    of a group joined by ' · '). `absent` maps a
+    measure missing from every row to why (one line each)."""
+    by_group: dict[str, dict[str, list[tuple[str, str]]]] = {}
+    groups: dict[tuple[str, str], tuple[str, ...]] = {}
+    for subject, systems in results.items():
+        for system, row in systems.items():
+            groups[(subject, system)] = tuple(row["not_computable"])
+            for group, reason in row["not_computable"].items():
+                by_group.setdefault(group, {}).setdefault(reason, []).append((subject, system))
+    marks: dict[str, str] = {}
+    lines: list[str] = []
+    for group, reasons in by_group.items():
+        marks[group] = SUPERSCRIPTS[len(marks) % len(SUPERSCRIPTS)]
+        said = " · ".join(f"{reason} — {_who(where, results)}" for reason, where in reasons.items())
+        lines.append(f"{marks[group]} {group} not computable: {said}")
+    for key, reason in (absent or {}).items():
+        marks[key] = SUPERSCRIPTS[len(marks) % len(SUPERSCRIPTS)]
+        lines.append(f"{marks[key]} {reason}")
+    return Footnotes(marks, groups, lines)
+
+
+def _who(where: list[tuple[str, str]], results: dict[str, dict[str, dict[str, Any]]]) -> str:
+    """'every subject and system', 'MLP, mean pose of every subject', or per subject
+    's0: every system; s1: MLP'."""
+    subjects: dict[str, list[str]] = {}
+    for subject, system in where:
+        subjects.setdefault(subject, []).append(system)
+    whole = {s for s, systems in subjects.items() if len(systems) == len(results[s])}
+    if whole == set(results):
+        return "every subject and system"
+    if set(subjects) == set(results) and len({tuple(v) for v in subjects.values()}) == 1:
+        return f"{', '.join(next(iter(subjects.values())))} of every subject"
+    return "; ".join(
+        f"{s}: {'every system' if s in whole else ', '.join(systems)}"
+        for s, systems in subjects.items()
+    )
+
+
+def cell(value: Any, column: Column, mark: str) -> str:
+    """A formatted measure, or 'n/a' with the marks of its reasons."""
+    if value is None:
+        return f"n/a{mark}"
+    return column.fmt.format(value * column.scale)
+
+
 def table(
     results: dict[str, dict[str, dict[str, Any]]],
     title: str,
     columns: Sequence[Column] = TABLE_5_1,
+    notes: Footnotes | None = None,
 ) -> Table:
-    """A rich table like Table 5.1: one row per subject and system, then the averages."""
+    """A rich table like Table 5.1: one row per subject and system, then the averages.
+
+    Headers carry the better-direction (`LEGEND`); n/a cells the marks of `notes`."""
+    notes = notes or footnotes(results)
     t = Table(title=title)
     t.add_column("Subject")
     t.add_column("System", no_wrap=True)
-    for _, header, _, _ in columns:
-        t.add_column(header, justify="right")
+    for c in columns:
+        t.add_column(c.title, justify="right")
 
-    def cells(row: dict[str, Any]) -> list[str]:
-        return [
-            "–" if k not in row else "n/a" if row[k] is None else fmt.format(row[k] * scale)
-            for k, _, scale, fmt in columns
-        ]
+    def cells(system: str, row: dict[str, Any], subject: str | None) -> list[str]:
+        return [cell(row.get(c.key), c, notes.mark(system, c.key, subject)) for c in columns]
 
     for subject, systems in results.items():
         for i, (system, row) in enumerate(systems.items()):
-            t.add_row(subject if i == 0 else "", system, *cells(row))
+            t.add_row(subject if i == 0 else "", system, *cells(system, row, subject))
         t.add_section()
     for i, (system, row) in enumerate(average(results).items()):
-        t.add_row("[bold]average[/bold]" if i == 0 else "", system, *cells(row))
+        t.add_row("[bold]average[/bold]" if i == 0 else "", system, *cells(system, row, None))
     return t

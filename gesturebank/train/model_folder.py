@@ -7,6 +7,7 @@
                        profile, joint names, the training mean pose (normalised) for the baseline
     model.onnx         offline inference graph; model_step.onnx for stateful causal models
                        (LSTM, Aud2Motion: one frame + state); both written by `export.export_onnx`
+    loss.png           training and validation loss per epoch (`loss_plot`)
     metrics.json       written by `evaluate`
 
 Live mode needs only an ONNX graph, model.json's "audio" and normalisers.json's
@@ -44,6 +45,7 @@ WEIGHTS = "weights.pt"
 MODEL_JSON = "model.json"
 NORMALISERS = "normalisers.json"
 METRICS = "metrics.json"
+LOSS_PNG = "loss.png"
 MODEL_ONNX = "model.onnx"
 STEP_ONNX = "model_step.onnx"
 
@@ -109,6 +111,8 @@ def write(
                 "best_epoch": result.best_epoch,
                 "best_val_loss": result.best_val_loss,
                 "epochs": result.epochs,
+                "max_epochs": result.max_epochs,
+                "stopped": result.stopped,
                 "seconds": result.seconds,
                 "history": result.history,
             },

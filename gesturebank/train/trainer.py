@@ -19,6 +19,7 @@ matters when the model is used.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 import time
 from collections.abc import Iterator, Sequence
@@ -27,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import torch
+from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from gesturebank.config import TrainConfig
@@ -37,6 +39,9 @@ from gesturebank.train.schedule import Schedule, make_optimiser
 
 log = logging.getLogger(__name__)
 
+EARLY_STOP = "early stopping"
+MAX_EPOCHS = "max epochs reached"
+
 
 @dataclass
 class TrainResult:
@@ -44,7 +49,21 @@ class TrainResult:
     best_val_loss: float
     epochs: int  # epochs run
     seconds: float
+    stopped: str  # EARLY_STOP or MAX_EPOCHS (of the last stage)
+    max_epochs: int  # the epoch limit of the last stage
     history: list[dict[str, float]] = field(default_factory=list)  # epoch, train, val
+
+    def stop_line(self) -> str:
+        """'stopped: early stopping …' or 'stopped: max epochs reached …', for the user."""
+        why = (
+            "early stopping (the validation loss stopped falling)"
+            if self.stopped == EARLY_STOP
+            else f"{MAX_EPOCHS} ({self.max_epochs}); the validation loss may still be falling"
+        )
+        return (
+            f"stopped: {why}; kept epoch {self.best_epoch} "
+            f"(validation loss {self.best_val_loss:.5f})"
+        )
 
 
 @contextmanager
@@ -89,6 +108,7 @@ def train(
     *,
     quiet: bool = False,
     description: str = "training",
+    epochs: int | None = None,
 ) -> TrainResult:
     """Train `model` in place; its weights end as those of the best validation epoch.
 
@@ -96,21 +116,28 @@ def train(
     `stages(train_segments)`, which sets each stage up and yields its name; the stages run in
     turn, the result is the last one's, the history all of them (key "stage", from 0).
 
+    `epochs` (`train --epochs`) replaces the schedule's `max_epochs`, of every stage.
+
+    Progress: a live bar on a terminal; otherwise (a log, a pipe) one plain line per epoch.
+
     The model must have been created under the same seed for a fully reproducible run (the
     commands build it inside `torch_settings`).
     """
     stages = getattr(model, "stages", None)
+    run = (model, train_segments, val_segments, config, quiet)
     if stages is None:
-        return _train_stage(model, train_segments, val_segments, config, quiet, description)
+        return _train_stage(*run, description, epochs)
     done: list[TrainResult] = []
     for name in stages(train_segments):
-        what = f"{description} · {name}"
-        done.append(_train_stage(model, train_segments, val_segments, config, quiet, what))
+        done.append(_train_stage(*run, f"{description} · {name}", epochs))
     history = [{**h, "stage": float(i)} for i, r in enumerate(done) for h in r.history]
     last = done[-1]
-    total = sum(r.seconds for r in done)
-    return TrainResult(last.best_epoch, last.best_val_loss, sum(r.epochs for r in done), total,
-                       history)  # fmt: skip
+    return dataclasses.replace(
+        last,
+        epochs=sum(r.epochs for r in done),
+        seconds=sum(r.seconds for r in done),
+        history=history,
+    )
 
 
 def _train_stage(
@@ -120,8 +147,11 @@ def _train_stage(
     config: TrainConfig,
     quiet: bool,
     description: str,
+    epochs: int | None,
 ) -> TrainResult:
     schedule: Schedule = model.schedule(config)  # type: ignore[operator]
+    if epochs is not None:
+        schedule = dataclasses.replace(schedule, max_epochs=epochs)
     data = make_dataset(schedule, train_segments)
     batch_size, max_epochs = schedule.batch_size or len(data), schedule.max_epochs
     loss_of = getattr(model, "loss", None) or (lambda x, y, m: masked_mse(model(x), y, m))
@@ -134,16 +164,19 @@ def _train_stage(
     best = (float("inf"), 0, copy.deepcopy(model.state_dict()))
     history: list[dict[str, float]] = []
     start = time.perf_counter()
+    console = Console()
+    plain = not quiet and not console.is_terminal  # a log gets a line per epoch, not a bar
     progress = Progress(
         TextColumn("[bold]{task.description}"),
         BarColumn(),
         TextColumn("epoch {task.completed:.0f}/{task.total:.0f}"),
         TextColumn("{task.fields[losses]}"),
         TimeElapsedColumn(),
-        disable=quiet,
+        disable=quiet or plain,
         transient=False,
+        console=console,
     )
-    epoch = 0
+    epoch, stopped = 0, MAX_EPOCHS
     with torch_settings(config.seed, config.threads), progress:
         task = progress.add_task(description, total=max_epochs, losses="")
         for epoch in range(1, max_epochs + 1):
@@ -166,14 +199,19 @@ def _train_stage(
             )
             if val_loss < best[0]:
                 best = (val_loss, epoch, copy.deepcopy(model.state_dict()))
-            progress.update(
-                task,
-                completed=epoch,
-                losses=f"train {train_loss:.5f}  val {val_loss:.5f}  best {best[0]:.5f}@{best[1]}",
-            )
+            losses = f"train {train_loss:.5f}  val {val_loss:.5f}  best {best[0]:.5f}@{best[1]}"
+            progress.update(task, completed=epoch, losses=losses)
+            if plain:
+                console.print(
+                    f"{description}: epoch {epoch}/{max_epochs}  {losses}",
+                    highlight=False,
+                    markup=False,
+                    soft_wrap=True,
+                )
             if epoch - max(best[1], stalled_since) >= schedule.patience:
                 lower = lr * schedule.lr_factor if schedule.lr_factor else 0.0
                 if lower < schedule.min_lr * (1 - 1e-6):
+                    stopped = EARLY_STOP
                     break
                 model.load_state_dict(best[2])  # seed 004: back to the best, a tenth the rate
                 lr, stalled_since = lower, epoch
@@ -184,4 +222,4 @@ def _train_stage(
     model.eval()
     seconds = time.perf_counter() - start
     log.info("%s: best val loss %.5f at epoch %d of %d", description, best[0], best[1], epoch)
-    return TrainResult(best[1], best[0], epoch, seconds, history)
+    return TrainResult(best[1], best[0], epoch, seconds, stopped, max_epochs, history)

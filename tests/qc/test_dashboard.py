@@ -14,10 +14,11 @@ import cv2
 import numpy as np
 import pytest
 
-from gesturebank.config import Config
+from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.refresh import refresh
+from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
 from gesturebank.qc.dashboard import reason_kind, write_dashboard
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.skeletons import COCO17, COCO17_BONES
@@ -234,7 +235,8 @@ def test_take_page_timeline_shows_kept_rejected_and_dropped(dataset: Path) -> No
     assert line["segments"][1]["reasons"] == ["main speaker absent"]
     assert any("raw jerk" in r for r in line["segments"][2]["reasons"])
     assert line["cuts"] == [10.0]
-    assert [s["label"] for s in line["speakers"]] == ["#1 vs #4", "#2"]
+    assert [s["label"] for s in line["speakers"]] == ["#1 (runner-up #4)", "#2"]
+    assert "person 1 was chosen over person 4" in page  # the speaker row explained
     assert "runner-up #4 (total 1.6)" in line["speakers"][0]["tip"]
     segments = page.split("<ol class='segments'>")[1].split("</ol>")[0]
     assert "dropped</span> s4_mixed__s000: main speaker absent" in segments
@@ -268,6 +270,56 @@ def test_clip_plots_carry_masked_spans_and_repaired_frames(dataset: Path) -> Non
     inside = [v for t, v in zip(times, proc, strict=True) if 3.2 < t < 3.8]
     assert inside and all(v is None for v in inside)  # unknown, not drawn
     assert len(proc) <= 25 * SECONDS + 1  # thinned for the page
+
+
+def _metric_rows(page: str, clip_id: str) -> dict[str, tuple[bool, list[str]]]:
+    """metric key → (row marked as failed, cell texts) of a clip's metrics table."""
+    section = page.split(f"id='{clip_id}'>", 1)[1].split("</section>", 1)[0]
+    table = section.split("<table class='metrics'>", 1)[1].split("</table>", 1)[0]
+    rows = re.findall(r"<tr( class='fail')? data-metric='(\w+)'>(.*?)</tr>", table, re.S)
+    return {
+        key: (
+            bool(fail),
+            [re.sub(r"<[^>]+>", "", c) for c in re.findall(r"<td[^>]*>(.*?)</td>", r)],
+        )
+        for fail, key, r in rows
+    }
+
+
+def test_each_metric_is_shown_beside_its_threshold_and_the_failed_one_marked(
+    dataset: Path,
+) -> None:
+    unseen = _metric_rows(_page(dataset, "s3_unseen"), "s3_unseen__c000")
+    fail, (label, value, limit, check) = unseen["head_unknown_fraction"]
+    assert fail and label == "head unseen" and limit == "max 50 %" and check == "✗ over the max"
+    assert float(value.split()[0]) > 50
+    assert unseen["motion_range"][1][2] == "min 2.0°"  # the metric's own unit
+    record = store.read_record(dataset, "s3_unseen")
+    assert record is not None  # one marked row per reason the clip was rejected for
+    assert sum(f for f, _ in unseen.values()) == len(record.clips[0].qc_reasons)
+    mixed = _metric_rows(_page(dataset, "s4_mixed"), "s4_mixed__c001")
+    fail, (_, _, limit, check) = mixed["jerk_raw"]
+    assert fail and check == "✗ outlier" and "dataset median" in limit
+    kept = _metric_rows(_page(dataset, "s4_mixed"), "s4_mixed__c000")
+    assert not any(f for f, _ in kept.values()) and kept["people"][1][3] == "✓"
+    labels = [cells[0] for _, cells in kept.values()]
+    assert not [x for x in labels if "_" in x], labels  # no raw key leaks
+
+
+def test_every_absolute_check_has_its_threshold_for_the_dashboard() -> None:
+    """checks.THRESHOLDS (what the page shows) and absolute_reasons (what rejects) agree: a
+    metric just past its limit gives exactly one reason and fails exactly its own check."""
+    qc = QCConfig(max_jerk_raw=1e4)
+    for key, (field, side) in THRESHOLDS.items():
+        limit = getattr(qc, field)
+        past = limit * 1.5 + 1 if side == "max" else limit * 0.5
+        assert len(absolute_reasons({key: past}, qc)) == 1, key
+        assert absolute_reasons({key: limit}, qc) == [], key
+        assert fails(key, past, qc) and not fails(key, limit, qc), key
+    worst = {
+        k: (getattr(qc, f) * 1.5 + 1 if s == "max" else 0.0) for k, (f, s) in THRESHOLDS.items()
+    }
+    assert len(absolute_reasons(worst, qc)) == len(THRESHOLDS)  # no check missing from the table
 
 
 def test_pages_are_small_and_fetch_nothing(dataset: Path) -> None:
@@ -362,6 +414,77 @@ def test_index_draws_its_charts_and_sorts_in_chromium(
     tab.screenshot(artifacts / "qc-dashboard-index.png")
     tab.close()
     assert _problems(browser.events, index) == []
+
+
+def _after(tab: Tab, selector: str) -> str:
+    """The rendered text of an element's ::after (CSS `content`, quotes removed)."""
+    return tab.eval(
+        f"getComputedStyle(document.querySelector({json.dumps(selector)}), '::after')"
+        ".content.replace(/^\"|\"$/g, '')"
+    )
+
+
+def test_sort_arrows_and_chart_labels_render_in_chromium(
+    dataset: Path, browser: Browser, artifacts: Path
+) -> None:
+    index = dataset / "qc" / "index.html"
+    tab = browser.open(index.as_uri())
+    assert _after(tab, "#takes th:nth-child(5)") == " ▼"  # sorted by usable s, descending
+    assert _after(tab, "#takes th:first-child") == " ⇅"  # sortable, not sorted
+    tab.click("#takes th:first-child")
+    assert _after(tab, "#takes th:first-child") == " ▲"
+    assert _after(tab, "#takes th:nth-child(5)") == " ⇅"
+    assert "\\" not in tab.eval("document.querySelector('#takes thead').innerText")
+    tab.screenshot(artifacts / "qc-dashboard-sorted.png")
+    tab.close()
+    assert _problems(browser.events, index) == []
+
+
+def test_long_clip_ids_fit_in_the_jerk_chart_in_chromium(
+    tmp_path: Path, browser: Browser, artifacts: Path
+) -> None:
+    take = "subject07_lab_cam01_arctic_a0001_second_session"  # ids as long as real ones
+    write_dataset(tmp_path, {take: [_clean(take, k, 70 + k) for k in range(3)]})
+    refresh(tmp_path, Config())
+    index = write_dashboard(tmp_path)
+    tab = browser.open(index.as_uri())
+    outside = tab.eval(  # labels reaching past their chart's box (cut off when drawn)
+        "Array.from(document.querySelectorAll('svg.chart')).map(function (svg) {"
+        " var box = svg.getBoundingClientRect();"
+        " return Array.from(svg.querySelectorAll('text')).filter(function (t) {"
+        "  var r = t.getBoundingClientRect();"
+        "  return r.bottom > box.bottom + 0.5 || r.right > box.right + 0.5 || r.left < box.left;"
+        " }).map(function (t) { return t.textContent; }); })"
+    )
+    assert outside == [[], []]
+    assert _count(tab, "svg.jerk-clips text.label") == 3
+    tab.screenshot(artifacts / "qc-dashboard-long-ids.png")
+    tab.close()
+
+
+def test_failed_metric_is_marked_in_chromium(
+    dataset: Path, browser: Browser, artifacts: Path
+) -> None:
+    page = dataset / "qc" / "takes" / "s3_unseen.html"
+    tab = browser.open(page.as_uri())
+    row = "table.metrics tr[data-metric=head_unknown_fraction]"
+    shown = tab.eval(
+        f"(function (r) {{ r.scrollIntoView(); var s = getComputedStyle(r.cells[0]);"
+        f" return [r.className, r.innerText, s.backgroundColor, s.fontWeight]; }})"
+        f"(document.querySelector({json.dumps(row)}))"
+    )
+    assert shown[0] == "fail" and "✗ over the max" in shown[1] and "max 50 %" in shown[1]
+    assert shown[2] == "rgb(253, 236, 234)" and int(shown[3]) >= 700  # red-tinted, bold
+    passed = "table.metrics tr[data-metric=people]"
+    assert tab.eval(f"document.querySelector({json.dumps(passed)}).className") == ""
+    tab.call(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": 1400, "height": 1000, "deviceScaleFactor": 1, "mobile": False},
+    )
+    tab.screenshot(artifacts / "qc-dashboard-failed-metric.png")
+    tab.close()
+    assert _problems(browser.events, page) == []
+    assert (artifacts / "qc-dashboard-failed-metric.png").stat().st_size > 20_000
 
 
 def test_take_page_draws_timeline_skeletons_and_angles_in_chromium(

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from rich.console import Console
 
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import Segment
@@ -22,11 +23,22 @@ from gesturebank.fileio import atomic_folder, permissions
 from gesturebank.robot import pepper
 from gesturebank.testing.speech_motion import write_speech_motion_dataset
 from gesturebank.train.commands import synthesize_command, train_command
+from gesturebank.train.compare import COLUMNS as COMPARE_COLUMNS
 from gesturebank.train.evaluate import (
+    FIELD_MEASURES,
+    HIGHER,
+    LEGEND,
+    LOWER,
     MEAN_POSE,
+    NATURAL,
+    NEAR_NATURAL,
+    SEED_MEASURES,
     SHIFTED,
+    SHUFFLED,
+    TABLE_5_1,
     average,
     evaluate_segments,
+    footnotes,
     not_computable,
     table,
 )
@@ -72,7 +84,7 @@ def test_training_replaces_the_whole_model_folder(synthetic_dataset: Path, tmp_p
     assert (out / "model_step.onnx").is_file()
     train_command(synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True)
     names = {p.name for p in out.iterdir()}
-    assert names == {"weights.pt", "model.json", "normalisers.json", "model.onnx"}
+    assert names == {"weights.pt", "model.json", "normalisers.json", "model.onnx", "loss.png"}
     assert [p.name for p in tmp_path.iterdir()] == ["model"]  # no temporary left beside it
 
 
@@ -181,6 +193,38 @@ def test_a_split_shorter_than_the_windows_is_flagged_not_scored() -> None:
     lines = not_computable(results)
     assert any(ln.startswith("s0, shifted truth: every measure not computable") for ln in lines)
     json.dumps(results, allow_nan=False)  # valid JSON: None, not NaN
+
+
+def test_n_a_reasons_are_named_once_and_columns_say_which_way_is_better() -> None:
+    rng = np.random.default_rng(2)
+    results = _evaluate([_segments(25, "s0", rng), _segments(25, "s1", rng)], rng)
+    absent = {"fgd": "no FGD: no feature autoencoder", "beat_consistency": "no BC: no onsets"}
+    notes = footnotes(results, absent)
+    # 2 subjects × 5 systems with n/a cells, yet each reason is one line
+    assert len(notes.lines) == 4, notes.lines
+    cca, every, fgd, _ = notes.lines
+    assert cca.startswith("¹ LCCA, CCA, FCCA not computable: no stretch of whole known poses")
+    assert cca.endswith(f" — MLP, {NATURAL}, {MEAN_POSE}, {SHUFFLED} of every subject")
+    assert every.startswith("² every measure not computable: ") and SHIFTED in every
+    assert fgd == "³ no FGD: no feature autoencoder"
+    console = Console(record=True, width=300)
+    for columns in (TABLE_5_1, SEED_MEASURES, FIELD_MEASURES):
+        console.print(table(results, "t", columns, notes))
+    text = console.export_text()
+    assert "Loss L ↓" in text and "LCCA_Θ ↑" in text and "Jerk (rad/s³) ≈" in text
+    marks = re.findall(r"n/a(\S*)", text)
+    assert marks and all(marks), "an n/a without the mark of its reason"
+    assert "n/a¹" in text and "n/a²" in text and "n/a³" in text and "n/a⁴" in text
+    assert "≈ closer to natural motion's value is better" in LEGEND
+
+
+def test_each_measure_has_one_name_and_one_direction() -> None:
+    columns = [*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES]
+    keys = [c.key for c in columns]
+    assert len(keys) == len(set(keys)) and len({c.header for c in columns}) == len(keys)
+    assert all(c.better in (LOWER, HIGHER, NEAR_NATURAL) for c in columns)
+    assert set(COMPARE_COLUMNS) <= set(columns)  # compare says it as evaluate does
+    assert "H vel" not in {c.header for c in columns}
 
 
 def test_long_enough_splits_are_scored_without_warnings() -> None:

@@ -16,7 +16,7 @@ from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.train.commands import train_command
 from gesturebank.train.compare import COLUMNS, compare_command
-from gesturebank.train.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
+from gesturebank.train.evaluate import LEGEND, MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
 
 BASELINES = [NATURAL, MEAN_POSE, SHUFFLED, SHIFTED]
 
@@ -54,7 +54,8 @@ def test_compare_prints_one_table_and_writes_csv_and_markdown(
     assert [r["system"] for r in rows] == list(report["systems"])
     assert {r["fgd_version"] for r in rows} == {version}
     assert float(rows[0]["loss_l"]) == pytest.approx(report["systems"]["mlp"]["loss_l"])
-    assert set(rows[0]) == {"system", "fgd_version", *(k for k, *_ in COLUMNS)}
+    assert set(rows[0]) == {"system", "fgd_version", *(c.key for c in COLUMNS)}
+    assert "H speed ↓" in text and "H vel" not in text  # one measure, one name
 
     result = CliRunner().invoke(
         app, ["compare", *map(str, two_models), "--out", str(tmp_path / "t.md")]
@@ -62,7 +63,9 @@ def test_compare_prints_one_table_and_writes_csv_and_markdown(
     assert result.exit_code == 0, result.output
     md = (tmp_path / "t.md").read_text().splitlines()
     assert f"FGD autoencoder {version}" in md[0]  # the same autoencoder, reused
-    assert md[2].startswith("| System | Loss L") and len(md) == 4 + len(report["systems"])
+    assert md[2].startswith("| System | Loss L ↓ | RMSE (°) ↓")
+    assert sum(line.startswith("| ") for line in md) == 1 + len(report["systems"])
+    assert LEGEND in md  # what ↑, ↓ and ≈ mean, under the table
 
 
 def test_compare_refuses_models_of_other_splits_and_bad_outputs(

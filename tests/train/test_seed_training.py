@@ -20,7 +20,7 @@ from gesturebank.train.commands import train_command
 from gesturebank.train.export import OnnxModel
 from gesturebank.train.model_folder import MODEL_ONNX, load, load_model
 from gesturebank.train.models import build_model, predict
-from gesturebank.train.trainer import validation_loss
+from gesturebank.train.trainer import EARLY_STOP, validation_loss
 from tests.train.test_trainer import mean_pose_val_loss
 
 # Tiny sizes and few epochs: seconds per model; the relation is simple enough.
@@ -82,7 +82,7 @@ def test_seed_004_schedule_visits_three_rates_then_stops(
     rates = [h["lr"] for h in r.history]
     visited = [rate for i, rate in enumerate(rates) if i == 0 or rate != rates[i - 1]]
     assert visited == pytest.approx([1e-3, 1e-4, 1e-5])
-    assert r.epochs < 200  # stopped by the schedule, not the bound
+    assert r.epochs < 200 and r.stopped == EARLY_STOP  # stopped by the schedule, not the bound
     # the stop comes one patience after the drop to 1e-5 or the best epoch, whichever is later
     dropped = int(next(h["epoch"] for h in r.history if h["lr"] == rates[-1])) - 1
     assert r.epochs - max(dropped, r.best_epoch) == 1
