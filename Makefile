@@ -61,8 +61,8 @@ demo: samples
 test: samples lint typecheck docs pytest
 
 lint: setup
-	$(VENV)/bin/ruff check gesturebank tests benchmarks
-	$(VENV)/bin/ruff format --check gesturebank tests benchmarks
+	$(VENV)/bin/ruff check gesturebank tests benchmarks docs/hooks
+	$(VENV)/bin/ruff format --check gesturebank tests benchmarks docs/hooks
 
 typecheck: setup
 	$(VENV)/bin/mypy
@@ -70,7 +70,7 @@ typecheck: setup
 # the site in site/ (mkdocs.yml); --strict: a warning (a broken link, a docstring griffe cannot
 # read, a page outside the nav) fails the build
 docs: setup
-	$(VENV)/bin/mkdocs build --strict --quiet
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
 
 pytest: setup
 	GESTUREBANK_SAMPLES=$(MEDIA) $(VENV)/bin/pytest
