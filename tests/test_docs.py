@@ -110,3 +110,15 @@ def test_every_cited_architecture_section_exists() -> None:
     assert len(cited) >= 5
     unknown = {s: sorted(p) for s, p in cited.items() if s not in headings}
     assert not unknown, f"sections cited but not in docs/architecture.md: {unknown}"
+
+
+def test_the_layout_names_everything_in_the_package() -> None:
+    """docs/architecture.md "Layout" lists every module and folder of `ls gesturebank/`."""
+    text = (DOCS / "architecture.md").read_text(encoding="utf-8")
+    layout = text.partition("\n## Layout\n")[2].partition("\n## ")[0]
+    package = REPO / "gesturebank"
+    entries = [p.name + "/" if p.is_dir() else p.name for p in sorted(package.iterdir())]
+    shown = [e for e in entries if e.endswith((".py", "/")) and e != "__pycache__/"]
+    assert len(shown) > 15
+    missing = [e for e in shown if not re.search(rf"(^|\s){re.escape(e)}(\s|$)", layout, re.M)]
+    assert not missing, f"docs/architecture.md Layout lacks: {missing}"
