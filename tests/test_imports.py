@@ -1,4 +1,5 @@
-"""No import cycles inside gesturebank, and no stage module that reaches for the CLI.
+"""No import cycles inside gesturebank, no stage module that reaches for the CLI, and no import
+up a floor (the floors: docs/architecture.md "Floors").
 
 Imports are read with `ast` from the source (module level and inside functions; those under
 `if TYPE_CHECKING:` never run and are left out). `from a import b` where `a/b.py` exists counts
