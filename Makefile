@@ -1,7 +1,7 @@
 # gesturebank — the two commands that do everything on a fresh machine:
 #   make demo   set up .venv, fetch real sample media, build a dataset, write the QC dashboard
 #   make test   set up .venv with dev tools, fetch test media, run lint + type checks, build the
-#               docs site + the suite
+#               docs site (strict), run the suite
 #
 # Run as root on Debian/Ubuntu, `make` also installs the system packages it needs with apt-get
 # (espeak-ng, sox: speech test media; libusb-1.0-0: open3d; chromium: dashboard tests).
