@@ -1,6 +1,7 @@
 # gesturebank — the two commands that do everything on a fresh machine:
 #   make demo   set up .venv, fetch real sample media, build a dataset, write the QC dashboard
-#   make test   set up .venv with dev tools, fetch test media, run lint + type checks + the suite
+#   make test   set up .venv with dev tools, fetch test media, run lint + type checks, build the
+#               docs site (strict), run the suite
 #
 # Run as root on Debian/Ubuntu, `make` also installs the system packages it needs with apt-get
 # (espeak-ng, sox: speech test media; libusb-1.0-0: open3d; chromium: dashboard tests).
@@ -10,14 +11,14 @@ PYTHON     ?= python3.11
 VENV       ?= .venv
 PY         := $(VENV)/bin/python
 PIP        := $(PY) -m pip
-EXTRAS     ?= dev,train,robot,multiview,distributed
+EXTRAS     ?= dev,train,robot,multiview,distributed,docs
 MEDIA      ?= $(or $(XDG_CACHE_HOME),$(HOME)/.cache)/gesturebank/samples
 DEMO_OUT   ?= demo-out
 APT_PKGS   := espeak-ng sox libusb-1.0-0 chromium
 MEDIAPIPE  := mediapipe==0.10.14
 SCENEDETECT := scenedetect==0.7.2
 
-.PHONY: demo test lint typecheck pytest setup system-deps samples clean help
+.PHONY: demo test lint typecheck pytest docs setup system-deps samples clean help
 
 help:
 	@sed -n '2,8p' Makefile
@@ -57,17 +58,22 @@ demo: samples
 	@echo "Demo finished. Sample media: $(MEDIA)   Dataset: $(DEMO_OUT)/"
 	@test -f $(DEMO_OUT)/qc/index.html && echo "QC dashboard: $(DEMO_OUT)/qc/index.html" || true
 
-test: samples lint typecheck pytest
+test: samples lint typecheck docs pytest
 
 lint: setup
-	$(VENV)/bin/ruff check gesturebank tests benchmarks
-	$(VENV)/bin/ruff format --check gesturebank tests benchmarks
+	$(VENV)/bin/ruff check gesturebank tests benchmarks docs/hooks
+	$(VENV)/bin/ruff format --check gesturebank tests benchmarks docs/hooks
 
 typecheck: setup
 	$(VENV)/bin/mypy
+
+# the site in site/ (mkdocs.yml); --strict: a warning (a broken link, a docstring griffe cannot
+# read, a page outside the nav) fails the build
+docs: setup
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet
 
 pytest: setup
 	GESTUREBANK_SAMPLES=$(MEDIA) $(VENV)/bin/pytest
 
 clean:
-	rm -rf $(VENV) $(DEMO_OUT) .pytest_cache .mypy_cache .ruff_cache build *.egg-info
+	rm -rf $(VENV) $(DEMO_OUT) site .pytest_cache .mypy_cache .ruff_cache build *.egg-info

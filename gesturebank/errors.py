@@ -1,4 +1,4 @@
-"""One exception family for the whole toolkit (DESIGN.md "Errors").
+"""One exception family for the whole toolkit (docs/architecture.md "Errors").
 
 Every message is meant to be shown to a user as one line: it names the file or key and the problem.
 """

@@ -1,4 +1,5 @@
-"""Signal processing shared by the dataset builder and the robot side (DESIGN.md "Data flow").
+"""Signal processing shared by the dataset builder and the robot side
+(docs/architecture.md "Data flow").
 
 Pure functions over arrays, radians and seconds inside:
 

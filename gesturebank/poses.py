@@ -1,4 +1,5 @@
-"""Pose2D / MultiPose2D / Pose3D: the arrays that travel between stages (DESIGN.md "Contracts").
+"""Pose2D / MultiPose2D / Pose3D: the arrays that travel between stages
+(docs/architecture.md "Contracts").
 
 Pose2D is one person's 2D keypoints, MultiPose2D everybody a detector saw (unordered slots, the
 input of tracking), Pose3D one person's 3D joints. They validate shapes and dtypes on

@@ -2,7 +2,7 @@
 
 Every skeleton names its joints with one shared vocabulary (COCO's snake_case names where the joint
 is the same), so mapping between skeletons is a lookup by name, not a hand-written index table.
-COCO-17 is the canonical set of Pose3D (DESIGN.md "Contracts").
+COCO-17 is the canonical set of Pose3D (docs/architecture.md "Contracts").
 """
 
 from __future__ import annotations

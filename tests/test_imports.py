@@ -1,4 +1,5 @@
-"""No import cycles inside gesturebank, and no stage module that reaches for the CLI.
+"""No import cycles inside gesturebank, no stage module that reaches for the CLI, and no import
+up a floor (the floors: docs/architecture.md "Floors").
 
 Imports are read with `ast` from the source (module level and inside functions; those under
 `if TYPE_CHECKING:` never run and are left out). `from a import b` where `a/b.py` exists counts
@@ -8,6 +9,7 @@ as importing `a.b`; relative imports are resolved against the importing module's
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import gesturebank
@@ -134,3 +136,124 @@ def test_a_cycle_is_found(tmp_path: Path) -> None:
     assert graph["pkg.sub.b"] == {"pkg.sub.c"}
     assert graph["pkg.sub.c"] == {"pkg.a"}
     assert cycles(graph) == [["pkg.a", "pkg.sub.b", "pkg.sub.c"]]
+
+
+# --------------------------------------------------------------------------------------------------
+# Floors: a module imports only from its own floor or below. The floors are written once, in the
+# table of docs/architecture.md "Floors"; this test reads them from there.
+
+ARCHITECTURE = ROOT.parent / "docs" / "architecture.md"
+
+# Imports that run up a floor today, (importer, imported) module by module, each with the issue
+# that removes it. A new upward import fails; so does an entry here that no longer occurs.
+KNOWN_UPWARD = {
+    # issue 34, item 1: repair becomes a stage below lift, and the dashboard a report the CLI calls
+    ("gesturebank.datasets.build", "gesturebank.qc.dashboard"): 34,
+    ("gesturebank.datasets.pipeline", "gesturebank.qc.checks"): 34,
+    ("gesturebank.datasets.pipeline", "gesturebank.qc.metrics"): 34,
+    ("gesturebank.datasets.pipeline", "gesturebank.qc.repair"): 34,
+    ("gesturebank.datasets.refresh", "gesturebank.qc.checks"): 34,
+    ("gesturebank.datasets.refresh", "gesturebank.qc.metrics"): 34,
+    # issue 34, item 2: robot/online.py takes a FrameModel; timeline.from_clip moves up
+    ("gesturebank.robot.online", "gesturebank.train.model_folder"): 34,
+    ("gesturebank.robot.timeline", "gesturebank.datasets"): 34,
+}
+
+
+def floors_from_doc(text: str, package: str = "gesturebank") -> dict[str, int]:
+    """Module prefix → floor, from the table under the heading "## Floors" of `text`: rows
+    `| N | `name` `name` … | … |`, where `name` stands for `package.name` and `__init__` for the
+    package itself."""
+    section = text.partition("\n## Floors\n")[2].partition("\n## ")[0]
+    floors: dict[str, int] = {}
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) < 2 or not cells[0].isdigit():
+            continue
+        for name in re.findall(r"`([\w.]+)`", cells[1]):
+            prefix = package if name == "__init__" else f"{package}.{name}"
+            assert prefix not in floors, f"{prefix} is on two floors"
+            floors[prefix] = int(cells[0])
+    return floors
+
+
+def floor_of(module: str, floors: dict[str, int]) -> int | None:
+    """The floor of the longest prefix of `module` in `floors` (the package itself matches only
+    itself), None when it has none."""
+    best: tuple[int, int] | None = None
+    for prefix, floor in floors.items():
+        inside = module.startswith(prefix + ".") and "." in prefix
+        if (module == prefix or inside) and (best is None or len(prefix) > best[0]):
+            best = (len(prefix), floor)
+    return None if best is None else best[1]
+
+
+def upward_imports(
+    graph: dict[str, set[str]], floors: dict[str, int]
+) -> tuple[list[str], dict[tuple[str, str], str]]:
+    """(modules without a floor, {(importer, imported): 'floor a -> floor b'} for every import
+    that runs up a floor)."""
+    homeless = sorted(m for m in graph if floor_of(m, floors) is None)
+    upward = {}
+    for importer, targets in graph.items():
+        low = floor_of(importer, floors)
+        for imported in targets:
+            high = floor_of(imported, floors)
+            if low is not None and high is not None and high > low:
+                upward[(importer, imported)] = f"floor {low} -> floor {high}"
+    return homeless, upward
+
+
+def test_the_floor_table_is_read() -> None:
+    floors = floors_from_doc(ARCHITECTURE.read_text(encoding="utf-8"))
+    assert floors["gesturebank"] == 0 and floors["gesturebank.errors"] == 0
+    assert floors["gesturebank.poses"] < floors["gesturebank.extract"] < floors["gesturebank.lift"]
+    assert floors["gesturebank.robot"] < floors["gesturebank.datasets"] < floors["gesturebank.qc"]
+    assert floors["gesturebank.qc"] < floors["gesturebank.cli"]
+
+
+def test_no_module_imports_a_higher_floor() -> None:
+    floors = floors_from_doc(ARCHITECTURE.read_text(encoding="utf-8"))
+    homeless, upward = upward_imports(import_graph(ROOT), floors)
+    assert not homeless, f"modules on no floor (add them to {ARCHITECTURE.name}): {homeless}"
+    new = {edge: how for edge, how in upward.items() if edge not in KNOWN_UPWARD}
+    assert not new, "imports up a floor:\n" + "\n".join(
+        f"{a} -> {b} ({how})" for (a, b), how in sorted(new.items())
+    )
+
+
+def test_every_known_upward_import_still_occurs() -> None:
+    """An exception that was fixed leaves KNOWN_UPWARD, so that it cannot come back unseen."""
+    floors = floors_from_doc(ARCHITECTURE.read_text(encoding="utf-8"))
+    _, upward = upward_imports(import_graph(ROOT), floors)
+    gone = sorted(set(KNOWN_UPWARD) - set(upward))
+    assert not gone, f"fixed, remove from KNOWN_UPWARD: {gone}"
+
+
+def test_an_upward_import_is_found(tmp_path: Path) -> None:
+    """The floor check on a small package: a function-level import up a floor is found, an
+    import down or sideways is not, a submodule gets its own floor, and a module that no table
+    row covers is reported."""
+    pkg = tmp_path / "pkg"
+    for folder in ("base", "stage", "top"):
+        (pkg / folder).mkdir(parents=True)
+        (pkg / folder / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("")
+    (pkg / "base" / "a.py").write_text("def f():\n    from pkg.stage import b\n")
+    (pkg / "stage" / "b.py").write_text("from pkg.base import a\nfrom pkg.stage import c\n")
+    (pkg / "stage" / "c.py").write_text("import pkg.top.d\n")
+    (pkg / "top" / "d.py").write_text("from pkg.stage import b\n")
+    (pkg / "loose.py").write_text("")
+    table = (
+        "# x\n\n## Floors\n\n| floor | modules | what |\n|---|---|---|\n"
+        "| 0 | `__init__` `base` | ground |\n| 1 | `stage` | |\n| 2 | `top` `stage.c` | |\n"
+        "\n## Next\n\n| 9 | `loose` | not the floor table |\n"
+    )
+    floors = floors_from_doc(table, package="pkg")
+    assert floors == {"pkg": 0, "pkg.base": 0, "pkg.stage": 1, "pkg.top": 2, "pkg.stage.c": 2}
+    homeless, upward = upward_imports(import_graph(pkg), floors)
+    assert homeless == ["pkg.loose"]
+    assert upward == {
+        ("pkg.base.a", "pkg.stage.b"): "floor 0 -> floor 1",
+        ("pkg.stage.b", "pkg.stage.c"): "floor 1 -> floor 2",  # c has a floor of its own
+    }

@@ -1,4 +1,5 @@
-"""`Clip`: the unit of the dataset (DESIGN.md "Dataset on disk") — one contiguous span of a take,
+"""`Clip`: the unit of the dataset (docs/architecture.md "The dataset on disk") — one contiguous
+span of a take,
 one shot, one main speaker — with the arrays of one `takes/<take_id>/<clip_id>.npz`.
 
 Every clip is on its own clock: `times` (the 100 Hz frame clock of angles and audio features)

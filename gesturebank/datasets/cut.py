@@ -1,4 +1,4 @@
-"""Where a take is cut into clips (DESIGN.md "Data flow", `clips`).
+"""Where a take is cut into clips (docs/architecture.md "Data flow": cut).
 
 A clip is a run of video frames that lies in one shot, follows one main speaker, has a usable
 pose at its first and last frame, contains no unusable stretch longer than `clips.max_gap_s`

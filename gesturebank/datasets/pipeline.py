@@ -1,4 +1,4 @@
-"""One take through the whole pipeline into clips (DESIGN.md "Data flow").
+"""One take through the whole pipeline into clips (docs/architecture.md "Data flow").
 
 extract (decode, detect everybody + shot cuts — cached —, the main speaker per shot, audio) →
 repair the main speaker's keypoints → cut the take into clips (shots, speaker changes, absences

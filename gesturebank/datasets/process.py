@@ -1,5 +1,5 @@
-"""Raw Pepper angles at the video's timestamps → the dataset's 100 Hz angles (DESIGN.md "Data
-flow", `datasets (process)`): interpolated onto the clip's frame clock (short gaps only), the
+"""Raw Pepper angles at the video's timestamps → the dataset's 100 Hz angles (docs/architecture.md
+"Data flow": process): interpolated onto the clip's frame clock (short gaps only), the
 zero-phase Butterworth low-pass of §4.2.3, clamped to the robot's limits, normalised to [0, 1]
 (Eq. 3.13–3.14). The builder and the QC's corruption benchmark use this one function.
 """

@@ -1,4 +1,5 @@
-"""The dataset on disk (DESIGN.md "Dataset on disk"), schema 2: clips, written take by take.
+"""The dataset on disk (docs/architecture.md "The dataset on disk"), schema 2: clips, written take
+by take.
 
     out/dataset.json              `DatasetInfo`: schema version, tool version, resolved config,
                                   joints, limits, rates, audio features, normalisation, per-take

@@ -1,6 +1,7 @@
 """What a take is: finding the videos under VIDEOS_DIR and naming their ids and subjects.
 
-DESIGN.md "What a take is": every video file under VIDEOS_DIR (recursive) is a single-view take;
+docs/architecture.md "What a take is": every video file under VIDEOS_DIR (recursive) is a
+single-view take;
 its id is its relative path with separators made safe and accents transliterated. A folder
 holding a calibration file (`calibration.toml` or a Qualisys `*.qca.txt`, itself or in
 `calibration/`) and two or more videos (itself or in `videos/`) is one multi-camera take instead,
@@ -196,7 +197,7 @@ def _files(root: Path, skip: Path | None = None) -> list[Path]:
 
 
 def find_calibration(folder: str | os.PathLike[str]) -> Path:
-    """The calibration file of a multi-camera take folder (DESIGN.md "What a take is"):
+    """The calibration file of a multi-camera take folder (docs/architecture.md "What a take is"):
     `calibration.toml` or a Qualisys `*.qca.txt`, in the folder or its `calibration/` subfolder."""
     root = Path(folder)
     for where in (root, root / "calibration"):

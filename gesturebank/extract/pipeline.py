@@ -254,7 +254,8 @@ def preview_times(info: VideoInfo, config: Config, n: int = N_PREVIEW) -> np.nda
 
 
 def _audio(path: Path, sample_rate: int) -> tuple[Audio | None, str | None]:
-    """A `<stem>.wav` beside the video replaces its track (DESIGN.md "What a take is")."""
+    """A `<stem>.wav` beside the video replaces its track
+    (docs/architecture.md "What a take is")."""
     wav = path.with_suffix(".wav")
     source = wav if wav.is_file() and wav != path else path
     audio = read_audio(source, sample_rate=sample_rate)

@@ -1,4 +1,5 @@
-"""QC metrics of one clip: pure functions over its arrays (DESIGN.md "Dataset on disk").
+"""QC metrics of one clip: pure functions over its arrays
+(docs/architecture.md "The dataset on disk").
 
 Radians and seconds inside; the reasons and plots convert to degrees. Every metric is
 independent of the frame rate: shares of time, seconds, values on the analysis clock, or sizes

@@ -1,4 +1,4 @@
-"""Repair of the main speaker's keypoints before they are judged (DESIGN.md "Data flow": repair).
+"""Repair of the main speaker's keypoints before they are judged (docs/architecture.md "Data flow").
 
 Runs per take, at the video's own (possibly variable) timestamps, before clips are cut, so every
 function copes with long NaN stretches (the person absent). Three repairs, in this order:

@@ -1,7 +1,8 @@
 """Pepper: the 11 controlled joints, robot profiles (limits as data), and forward kinematics.
 
 Angles are `(N, 11)` arrays in radians, columns in the dissertation's order (`JOINTS`), with
-NAOqi's signs and zeros (DESIGN.md "Pepper angles"). Everything here is a pure function over arrays;
+NAOqi's signs and zeros (docs/architecture.md "Pepper angles").
+Everything here is a pure function over arrays;
 NaN (a missing angle) passes through unchanged.
 
 Robot frame (URDF): x forward, y to the robot's left, z up, origin at the HipRoll pivot.

@@ -1,4 +1,5 @@
-"""Retargeting: COCO-17 3D joints `(T, 17, 3)` → Pepper's 11 angles `(T, 11)` (DESIGN.md).
+"""Retargeting: COCO-17 3D joints `(T, 17, 3)` → Pepper's 11 angles `(T, 11)`
+(docs/architecture.md "Contracts").
 
 Same joints, signs and zero pose as the dissertation (seed 000, §3.1), but every angle is a signed
 `atan2` in a local frame instead of `acos(|·|)` plus orientation branches, so angles are continuous

@@ -1,4 +1,5 @@
-"""Multi-camera takes (DESIGN.md "What a take is"): found as one take, lifted by triangulation."""
+"""Multi-camera takes (docs/architecture.md "What a take is"): found as one take, lifted by
+triangulation."""
 
 from pathlib import Path
 

@@ -1,6 +1,7 @@
 """2D detectors: the `Detector` contracts and the registry.
 
-A detector turns frames into keypoints (DESIGN.md "Contracts"): `detect(frames) -> Pose2D`, one
+A detector turns frames into keypoints (docs/architecture.md "Contracts"):
+`detect(frames) -> Pose2D`, one
 person. Detectors that can see several people also implement `detect_people(frames) ->
 MultiPose2D` (both types in `gesturebank.poses`); `extract.tracking` then picks the main speaker.
 Detectors are created by name:
