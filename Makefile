@@ -60,8 +60,8 @@ demo: samples
 test: samples lint typecheck pytest
 
 lint: setup
-	$(VENV)/bin/ruff check gesturebank tests benchmarks
-	$(VENV)/bin/ruff format --check gesturebank tests benchmarks
+	$(VENV)/bin/ruff check gesturebank tests benchmarks examples
+	$(VENV)/bin/ruff format --check gesturebank tests benchmarks examples
 
 typecheck: setup
 	$(VENV)/bin/mypy
