@@ -17,6 +17,7 @@ check that both halves show the same moment.
 from __future__ import annotations
 
 import difflib
+import logging
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -32,11 +33,13 @@ from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open
 from gesturebank.robot import pepper
 
+log = logging.getLogger(__name__)
+
 PathLike = str | os.PathLike[str]
 CODE_BITS = 16  # frame indices up to 65535: 18 min of 60 fps video, 11 min of 100 Hz frames
 _MARGIN = 0.12  # of the keypoints' box height, added on every side: the top of the head, the hands
 _BACKGROUND = (40, 40, 40)  # RGB, around a crop that does not fill its half
-_BONE, _JOINT, _TEXT = (255, 200, 0), (255, 80, 40), (20, 20, 20)
+BONE, _JOINT, _TEXT = (255, 200, 0), (255, 80, 40), (20, 20, 20)  # RGB; BONE: tests find it
 
 
 # --------------------------------------------------------------------------------------------------
@@ -74,6 +77,7 @@ class ClipSource:
     clip: Clip
     video: Path
     status: str
+    reasons: tuple[str, ...]
 
 
 def clip_source(dataset: PathLike, clip_id: str) -> ClipSource:
@@ -89,7 +93,8 @@ def clip_source(dataset: PathLike, clip_id: str) -> ClipSource:
     video = Path(ds.info.videos_dir) / row["source"]  # sources are relative to the videos folder
     if not video.is_file():
         raise InputError(f"{video}: the source video of clip {clip_id} is gone")
-    return ClipSource(ds.load(clip_id), video, row["qc_status"])
+    reasons = tuple(row["qc_reasons"] or ())
+    return ClipSource(ds.load(clip_id), video, row["qc_status"], reasons)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -209,7 +214,7 @@ def _draw_keypoints(panel: np.ndarray, xy: np.ndarray, valid: np.ndarray, scale:
         i, j = COCO17.index[a], COCO17.index[b]
         if valid[i] and valid[j]:
             p, q = np.round(xy[[i, j]]).astype(int)
-            cv2.line(panel, tuple(p), tuple(q), _BONE, max(2, thick), cv2.LINE_AA)
+            cv2.line(panel, tuple(p), tuple(q), BONE, max(2, thick), cv2.LINE_AA)
     for k in np.flatnonzero(valid):
         cv2.circle(panel, tuple(np.round(xy[k]).astype(int)), max(3, thick + 1), _JOINT, -1)
 
@@ -239,6 +244,8 @@ def preview_clip(
 
     src = clip_source(dataset, clip_id)
     clip, fps = src.clip, render.frame_rate
+    if src.status != "accepted":  # shown all the same: seeing why is what a preview is for
+        log.warning("clip %s was %s by the QC: %s", clip_id, src.status, "; ".join(src.reasons))
     n_frames = max(1, round(clip.duration_s * fps))
     clock = np.arange(n_frames) / fps  # clip time of every output frame
 

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from gesturebank import datasets
 from gesturebank.config import PlaybackConfig, RenderConfig, RobotConfig
 from gesturebank.datasets.preview import (
+    BONE,
     CODE_BITS,
     crop_box,
     draw_frame_code,
@@ -25,7 +26,7 @@ from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import read_audio
 
 BIN = Path(sys.executable).parent
-RENDER = RenderConfig(width_px=320, height_px=240, frame_rate=25)  # small: a fast test
+RENDER = RenderConfig(width_px=320, height_px=240, frame_rate=12)  # small and few: a fast test
 
 
 def _write(dataset: Path, clip_id: str, out: Path) -> Path:
@@ -56,7 +57,7 @@ def test_preview_shows_person_and_robot_on_one_clock_with_audio(
     out = _write(demo_dataset, row["clip_id"], tmp_path / "clip.mp4")
 
     fps = RENDER.frame_rate
-    codes = []
+    codes, drawn = [], []
     with av.open(str(out)) as container:
         assert container.streams.audio, "no audio stream in the preview"
         for frame in container.decode(video=0):
@@ -64,9 +65,15 @@ def test_preview_shows_person_and_robot_on_one_clock_with_audio(
             assert img.shape == (RENDER.height_px, 2 * RENDER.width_px, 3)
             half = RENDER.width_px
             codes.append((read_frame_code(img[:, :half]), read_frame_code(img[:, half:])))
+            bone = np.abs(img.astype(int) - BONE).max(axis=-1) < 40  # the skeleton's colour
+            drawn.append((bone[:, :half].sum(), bone[:, half:].sum()))
     with av.open(str(out)) as container:
         sound = np.concatenate([f.to_ndarray()[0] for f in container.decode(audio=0)])
         audio_rate = container.streams.audio[0].rate
+
+    # the speaker's keypoints are drawn on the left, never on the robot
+    left_px, right_px = np.array(drawn).T
+    assert np.mean(left_px > 100) > 0.9 and right_px.max() == 0, (left_px.min(), right_px.max())
 
     # the durations agree within one frame
     assert abs(len(codes) / fps - clip.duration_s) <= 1 / fps
