@@ -36,7 +36,7 @@ from gesturebank.robot import pepper
 log = logging.getLogger(__name__)
 
 PathLike = str | os.PathLike[str]
-CODE_BITS = 16  # frame indices up to 65535: 18 min of 60 fps video, 11 min of 100 Hz frames
+CODE_BITS = 24  # frame indices below 2**24: 77 h of 60 fps video
 _MARGIN = 0.12  # of the keypoints' box height, added on every side: the top of the head, the hands
 _BACKGROUND = (40, 40, 40)  # RGB, around a crop that does not fill its half
 BONE, _JOINT, _TEXT = (255, 200, 0), (255, 80, 40), (20, 20, 20)  # RGB; BONE: tests find it
@@ -128,8 +128,9 @@ def crop_box(
     )
 
 
-def _code_square(height: int) -> int:
-    return max(8, height // 40)
+def _code_square(height: int, width: int) -> int:
+    """Side of one square, px: the code spans at most half the panel's width."""
+    return max(2, min(height // 30, width // (2 * CODE_BITS)))
 
 
 def draw_frame_code(img: np.ndarray, value: int) -> None:
@@ -137,7 +138,7 @@ def draw_frame_code(img: np.ndarray, value: int) -> None:
     the bottom-left edge of `img (H, W, 3)`, in place, most significant bit first."""
     if not 0 <= value < 2**CODE_BITS:
         raise ValueError(f"frame code {value} outside 0..{2**CODE_BITS - 1}")
-    s = _code_square(img.shape[0])
+    s = _code_square(*img.shape[:2])
     y = img.shape[0] - s
     for i in range(CODE_BITS):
         bit = (value >> (CODE_BITS - 1 - i)) & 1
@@ -147,7 +148,7 @@ def draw_frame_code(img: np.ndarray, value: int) -> None:
 def read_frame_code(img: np.ndarray) -> int:
     """The value `draw_frame_code` drew on `img (H, W, 3)` (read at each square's centre, so a
     lossy video keeps it)."""
-    s = _code_square(img.shape[0])
+    s = _code_square(*img.shape[:2])
     y = img.shape[0] - s // 2 - 1
     grey = np.asarray(img, np.float64).mean(axis=-1)
     value = 0
