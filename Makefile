@@ -61,8 +61,8 @@ demo: samples
 test: samples lint typecheck docs pytest
 
 lint: setup
-	$(VENV)/bin/ruff check gesturebank tests benchmarks docs/hooks
-	$(VENV)/bin/ruff format --check gesturebank tests benchmarks docs/hooks
+	$(VENV)/bin/ruff check gesturebank tests benchmarks examples docs/hooks
+	$(VENV)/bin/ruff format --check gesturebank tests benchmarks examples docs/hooks
 
 typecheck: setup
 	$(VENV)/bin/mypy

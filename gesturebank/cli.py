@@ -578,6 +578,32 @@ def replay(
 
 
 @app.command()
+def preview(
+    dataset: DatasetArg,
+    out_path: Annotated[
+        Path, typer.Option("--out", help="--clip: the MP4 to write; --take: a folder for them.")
+    ],
+    clip: Annotated[str | None, typer.Option(help="The clip to show.")] = None,
+    take: Annotated[str | None, typer.Option(help="Every clip of this take, one MP4 each.")] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """A clip's speaker beside the robot doing the same, on one clock, with the clip's audio.
+
+    Left: the source video cropped to the speaker, their 2D keypoints drawn. Right: the robot as
+    `replay --clip --backend sim` shows the clip ([render] sets the size and frame rate). A
+    frame code in each half's corner names the source frame and the clip frame shown.
+    """
+    from gesturebank.datasets.preview import preview_command
+
+    with user_errors():
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        written = preview_command(dataset, clip=clip, take=take, out=out_path, config=config)
+    for path in written:
+        out.print(f"wrote {path}", highlight=False, soft_wrap=True)
+
+
+@app.command()
 def live(
     model_dir: ModelDirArg,
     backend: BackendOption,

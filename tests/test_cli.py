@@ -37,6 +37,7 @@ COMMANDS = [
     "evaluate",
     "synthesize",
     "replay",
+    "preview",
     "live",
     "calibrate",
     "export",

@@ -152,12 +152,13 @@ def _encode(
             container.mux(packet)
     container.mux(vstream.encode(None))
     if astream is not None and sound is not None:
-        _mux_audio(container, astream, sound)
+        mux_audio(container, astream, sound)
 
 
-def _mux_audio(
+def mux_audio(
     container: av.container.OutputContainer, stream: av.AudioStream, x: np.ndarray
 ) -> None:
+    """Encode the mono signal `x` (float32 at AUDIO_RATE) into `stream` of `container`."""
     step = 1024  # AAC frame size
     for start in range(0, len(x), step):
         chunk = np.ascontiguousarray(x[start : start + step], dtype=np.float32)[None, :]
