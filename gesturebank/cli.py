@@ -63,7 +63,10 @@ BackendOption = Annotated[
     str, typer.Option(help=f"{_one_of(BACKENDS)} (naoqi: a robot, sim: an MP4, record: JSONL).")
 ]
 OutFileOption = Annotated[
-    Path | None, typer.Option("--out", help="sim: video.mp4; record: timeline.jsonl.")
+    Path | None,
+    typer.Option(
+        "--out", help="sim: video.mp4; record: calls.jsonl, or timeline.csv (an angle timeline)."
+    ),
 ]
 SplitPart = Literal["test", "val", "train"]
 
@@ -465,7 +468,8 @@ def synthesize(
     """Offline synthesis: speech → the 11 Pepper angles at 100 Hz, as a CSV for `replay`.
 
     Audio features → model → inverse normalisation → Butterworth post-smoothing (§4.4.1) →
-    clamp; the CSV has a time_s column and one column per joint.
+    clamp; the CSV is an angle timeline: a `#` line naming the robot profile, unit and reach
+    mode, then a time_s column and one column per joint (radians).
     """
     from gesturebank.train.commands import synthesize_command
 
@@ -479,7 +483,11 @@ def synthesize(
 @app.command()
 def replay(
     angles: Annotated[
-        Path, typer.Argument(help="Angle CSV (from `synthesize`), or a dataset folder with --clip.")
+        Path,
+        typer.Argument(
+            help="Angle timeline (.csv from synthesize, export or record; a record .jsonl), "
+            "or a dataset folder with --clip."
+        ),
     ],
     backend: BackendOption,
     url: Annotated[
@@ -552,6 +560,14 @@ def live(
         str, typer.Option(help="Audio z-norm stats: '*' (whole training set) or a subject.")
     ] = "*",
     seconds: Annotated[float | None, typer.Option(help="Stop after this many seconds.")] = None,
+    as_csv: Annotated[
+        bool,
+        typer.Option(
+            "--csv",
+            help="record: write the poses sent as an angle-timeline CSV (replay/export read it) "
+            "instead of the JSON lines of every call.",
+        ),
+    ] = False,
     config_file: ConfigOption = None,
     sets: SetOption = None,
 ) -> None:
@@ -576,6 +592,7 @@ def live(
             render=config.render,
             max_seconds=seconds,
             znorm=znorm,
+            csv=as_csv,
         )
     p50, p99 = result.latency_ms()
     out.print(

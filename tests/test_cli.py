@@ -151,8 +151,16 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     csv = tmp_path / "angles.csv"
     r = run("gesturebank", "synthesize", str(model), str(wav), "--out", str(csv), "--znorm", "lab")
     assert r.returncode == 0, r.stderr
-    header = csv.read_text().splitlines()[0].split(",")
-    assert header[0] == "time_s" and len(header) == 12
+    comment, head = csv.read_text().splitlines()[:2]
+    assert comment.startswith("# gesturebank angle timeline; robot profile: pepper-")
+    assert head.split(",")[:2] == ["time_s", "HeadPitch"] and len(head.split(",")) == 12
+    # issue 33: what export writes, replay and export read back (no `_rad` dialect of their own)
+    exported = tmp_path / "angles.angles.csv"
+    r = run("gesturebank", "export", str(csv), "--format", "csv", "--out", str(exported))
+    assert r.returncode == 0, r.stderr
+    r = run("gesturebank", "replay", str(exported), "--backend", "record",
+            "--out", str(tmp_path / "x.csv"))  # fmt: skip
+    assert r.returncode == 0, r.stderr
     sent = tmp_path / "sent.jsonl"
     r = run("gesturebank", "replay", str(csv), "--backend", "record", "--out", str(sent))
     assert r.returncode == 0, r.stderr
@@ -164,6 +172,13 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     assert "0 skipped" in r.stdout
     first = json.loads(live.read_text().splitlines()[0])
     assert first  # a real command was recorded
+    for recorded in (live, sent):  # a record file replays and exports as a timeline
+        r = run("gesturebank", "replay", str(recorded), "--backend", "record",
+                "--out", str(tmp_path / "again.jsonl"))  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        r = run("gesturebank", "export", str(recorded), "--format", "naoqi",
+                "--out", str(tmp_path / "r.naoqi.json"))  # fmt: skip
+        assert r.returncode == 0, r.stderr
     r = run("gesturebank", "replay", str(csv), "--backend", "naoqi", "--url", "tcp://127.0.0.1:1")
     assert r.returncode == 1  # the robot failed: one line, no traceback
     assert len([ln for ln in r.stderr.splitlines() if ln.strip()]) == 1

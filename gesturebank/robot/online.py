@@ -33,8 +33,8 @@ from gesturebank.errors import InputError, RobotError
 from gesturebank.extract.audio_features import apply_znorm, frame_features, frame_length, frame_step
 from gesturebank.filters import KalmanConstAcc
 from gesturebank.robot import pepper
-from gesturebank.robot.backends import Backend, Command
 from gesturebank.robot.audio_out import PORTAUDIO_HINT
+from gesturebank.robot.backends import Backend, Command
 from gesturebank.robot.clock import Clock, RealClock, VirtualClock
 from gesturebank.robot.playback import Player
 from gesturebank.robot.safety import SafetyFilter, safe_pose, speed_profile

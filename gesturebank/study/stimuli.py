@@ -58,7 +58,7 @@ from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.robot import pepper
 from gesturebank.robot.safety import safe_angles, speed_profile
-from gesturebank.robot.timeline import Timeline, from_clip, read_csv
+from gesturebank.robot.timeline import Timeline, from_clip, read_timeline
 
 PathLike = str | os.PathLike[str]
 Anchor = Literal["mean-pose", "random-clip"]
@@ -210,7 +210,7 @@ def stimuli_command(
             for name, model_dir in zip(names, model_dirs, strict=True):
                 csv = Path(tmp) / f"{len(key) + len(conditions)}.csv"
                 synthesize_command(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
-                conditions.append((name, "model", os.fspath(model_dir), read_csv(csv)))
+                conditions.append((name, "model", os.fspath(model_dir), read_timeline(csv)))
             if src.dataset is not None and src.clip_id is not None:
                 truth = from_clip(src.dataset, src.clip_id)
                 conditions.append(("ground-truth", "reference", None, truth))
