@@ -69,6 +69,7 @@ OutFileOption = Annotated[
     ),
 ]
 SplitPart = Literal["test", "val", "train"]
+Status = Literal["accepted", "rejected"]  # a clip's QC verdict (datasets.store.STATUSES)
 
 app = typer.Typer(
     name="gesturebank",
@@ -498,8 +499,16 @@ def replay(
         Path | None, typer.Option(help="Speech to play (naoqi: here; sim: muxed into the video).")
     ] = None,
     clip: Annotated[
-        str | None, typer.Option(help="Play this clip of the dataset folder ANGLES instead.")
+        str | None,
+        typer.Option(
+            help="Play this clip of the dataset folder ANGLES instead (a clip id, or a take id "
+            "when the take has one clip; `gesturebank clips` lists them), with its source "
+            "audio unless --audio or --no-audio."
+        ),
     ] = None,
+    no_audio: Annotated[
+        bool, typer.Option("--no-audio", help="--clip: play without the clip's source audio.")
+    ] = False,
     compare: Annotated[
         list[Path] | None,
         typer.Option(help="sim: another CSV rendered side by side, with its name (repeatable)."),
@@ -518,10 +527,24 @@ def replay(
     playback with a one-line error. A timeline that looks wrong is refused: angles far outside
     the limits (degrees?) unless --clamp, a gap in its times, a first frame long after 0 s.
     """
+    import tempfile
+
     from gesturebank.robot.commands import replay_command
 
-    with user_errors():
+    with user_errors(), tempfile.TemporaryDirectory(prefix="gesturebank-replay-") as scratch:
         config = resolve_config(config_file=config_file, sets=sets, flags={})
+        if clip is not None:
+            from gesturebank.datasets.listing import clip_to_play
+
+            chosen = clip_to_play(
+                angles,
+                clip,
+                scratch=Path(scratch),
+                with_audio=audio is None and not no_audio and backend != "record",
+            )
+            for warning in chosen.warnings:
+                typer.echo(f"warning: {warning}", err=True)
+            clip, audio = chosen.clip_id, audio or chosen.audio
         try:
             result = replay_command(
                 angles_csv=angles,
@@ -545,6 +568,34 @@ def replay(
     out.print(f"replay {status} on {backend}{where}", highlight=False, soft_wrap=True)
     if status == "interrupted":
         raise typer.Exit(130)
+
+
+@app.command()
+def clips(
+    out_dir: DatasetArg,
+    status: Annotated[
+        Status | None, typer.Option(help="Only clips the QC accepted or rejected.")
+    ] = None,
+    subject: Annotated[str | None, typer.Option(help="Only this subject's clips.")] = None,
+    take: Annotated[str | None, typer.Option(help="Only this take's clips.")] = None,
+    as_csv: Annotated[
+        bool, typer.Option("--csv", help="CSV on stdout instead of a table.")
+    ] = False,
+) -> None:
+    """List a dataset's clips: id, take, subject, where in the source video (start–end, s),
+    seconds, QC status and reasons, and the body parts unknown in some frames (masked).
+
+    A clip id (or a take id, when the take has one clip) is what `replay OUT_DIR --clip` takes.
+    """
+    from gesturebank import datasets
+    from gesturebank.datasets.listing import clips_table, list_clips, rows_csv
+
+    with user_errors():
+        rows = list_clips(datasets.open(out_dir), status=status, subject=subject, take=take)
+    if as_csv:
+        typer.echo(rows_csv(rows), nl=False)
+        return
+    out.print(clips_table(rows, title=f"{out_dir}: {len(rows)} clips"))
 
 
 @app.command()
