@@ -204,7 +204,14 @@ def _without_none(data: dict[str, Any]) -> dict[str, Any]:
 
 
 def build_dataset(
-    videos_dir: Annotated[Path, typer.Argument(help="Folder of videos (searched recursively).")],
+    inputs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="A folder of videos (searched recursively), or one or more video files.",
+            metavar="VIDEOS...",
+            show_default=False,
+        ),
+    ],
     out_dir: Annotated[Path, typer.Argument(help="Dataset folder to create or resume.")],
     config_file: ConfigOption = None,
     detector: Annotated[
@@ -233,17 +240,17 @@ def build_dataset(
 ) -> None:
     """Build a dataset of Pepper angles and audio features from videos.
 
-    Every video under VIDEOS_DIR becomes a take of aligned 100 Hz Pepper angles and audio
-    features in OUT_DIR. Re-running resumes: built takes are skipped, and the QC thresholds
-    and splits OUT_DIR was last judged with (see `gesturebank qc`) stay unless --config or
-    --set change them.
+    Every video under the folder (or each video file given) becomes a take of aligned 100 Hz
+    Pepper angles and audio features in OUT_DIR. Re-running resumes: built takes are skipped,
+    and the QC thresholds and splits OUT_DIR was last judged with (see `gesturebank qc`) stay
+    unless --config or --set change them.
 
     Exit code 0 when every take built, 1 when some failed (see the summary), 2 on a usage or
     configuration error.
     """
     from gesturebank.datasets.pipeline import check_names
     from gesturebank.datasets.refresh import judged_with
-    from gesturebank.datasets.takes import discover_takes
+    from gesturebank.datasets.takes import find_inputs
 
     with user_errors():
         config = resolve_config(
@@ -262,7 +269,7 @@ def build_dataset(
             base=judged_with(out_dir),
         )
         check_names(config)
-        takes = discover_takes(videos_dir, config.build, out_dir=out_dir)
+        videos_dir, takes = find_inputs(inputs, config.build, out_dir=out_dir)
         if not takes:
             exts = ", ".join(config.build.video_extensions)
             raise InputError(f"{videos_dir}: no videos found ({exts})")
@@ -311,14 +318,22 @@ def build_dataset(
     raise typer.Exit(EXIT_FAILED if summary.failed else EXIT_OK)
 
 
-def _print_summary(console: Console, summary: BuildSummary) -> None:
+def _print_summary(console: Console, summary: BuildSummary, *, built: bool = True) -> None:
+    """The kept/rejected table and a line per take; `built` False: after `qc` (no build ran,
+    so takes are counted, not built/skipped)."""
     table = Table(title=f"dataset {summary.out}")
-    columns = ("takes built", "skipped", "failed", "clips kept", "rejected", "usable s", "seen s")
+    takes = ("takes built", "skipped", "failed") if built else ("takes", "failed")
+    columns = (*takes, "clips kept", "rejected", "usable s", "seen s")
     for name in (*columns, "kept"):
         table.add_column(name, justify="right")
     visible = summary.visible_s
+    counts = (
+        [str(summary.count(n)) for n in ("built", "skipped", "failed")]
+        if built
+        else [str(len(summary.takes)), str(sum(bool(r.failed) for r in summary.takes))]
+    )
     table.add_row(
-        *(str(summary.count(n)) for n in ("built", "skipped", "failed")),
+        *counts,
         *(str(summary.clip_count(s)) for s in ("accepted", "rejected")),
         f"{summary.usable_s:.1f}",
         f"{visible:.1f}",
@@ -680,6 +695,7 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
     differs (the [qc] and [splits] sections; the clips stay as built).
     """
     from gesturebank.datasets import store
+    from gesturebank.datasets.build import BuildSummary
     from gesturebank.datasets.lock import dataset_lock
     from gesturebank.datasets.pipeline import CONTENT_SECTIONS
     from gesturebank.datasets.refresh import refresh
@@ -697,10 +713,11 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
             )
         # one writer per dataset: not while a build or another qc writes it
         with dataset_lock(out_dir), output_errors(out_dir, "the QC results"):
-            for note in refresh(out_dir, config):
-                out.print(f"note: {note}", highlight=False, soft_wrap=True)
+            notes = refresh(out_dir, config)
             index = write_dashboard(out_dir)
-    out.print(f"QC dashboard: {index}", highlight=False, soft_wrap=True)
+        records = store.take_records(out_dir)
+    summary = BuildSummary(out_dir, notes=list(notes), dashboard=index, takes=records)
+    _print_summary(out, summary, built=False)
 
 
 @app.command()

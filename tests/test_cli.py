@@ -78,7 +78,7 @@ def test_usage_errors_exit_2_with_one_line(tmp_path: Path) -> None:
     blocker.write_text("x")
     cases = [
         (("config", "--config", str(bad)), "detector.nmae: unknown key"),
-        (("build-dataset", str(tmp_path / "nope"), str(tmp_path / "o")), "not a directory"),
+        (("build-dataset", str(tmp_path / "nope"), str(tmp_path / "o")), "no such file or folder"),
         (("build-dataset", str(videos), str(tmp_path / "o")), "no videos found"),
         (("build-dataset", str(videos), str(tmp_path / "o"), "--set", "audio.nfilt=0"), "nfilt"),
         (("config", "--set", "qc.outlier_z=-1"), "qc.outlier_z"),
@@ -231,3 +231,21 @@ def test_qc_thresholds_survive_the_next_build(
             "--set", "qc.max_people=5")  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert "accepted" in statuses() and saved() == 5  # the command line still wins
+
+
+def test_build_dataset_of_one_video_file_and_the_qc_summary(samples: Path, tmp_path: Path) -> None:
+    """Issue 33 item 7: a single video file is a valid input; `qc` prints the build's summary."""
+    video = samples / "talking" / "lab" / "cam01_arctic.mp4"
+    out = tmp_path / "one"
+    cmd = [str(BIN / "gesturebank"), "build-dataset", str(video), str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+    assert r.returncode == 0, r.stderr
+    built = [ln for ln in r.stdout.splitlines() if ln.startswith("cam01_arctic: ")]
+    assert len(built) == 1 and "clips kept" in built[0], r.stdout
+    r = run("gesturebank", "clips", str(out), "--csv")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.splitlines()[1].startswith("cam01_arctic__c000,cam01_arctic,lab,")
+    r = run("gesturebank", "qc", str(out))
+    assert r.returncode == 0, r.stderr
+    assert [ln for ln in r.stdout.splitlines() if ln.startswith("cam01_arctic: ")] == built
+    assert "clips kept" in r.stdout and "rejected" in r.stdout and "QC dashboard:" in r.stdout
