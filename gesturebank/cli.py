@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from gesturebank import __version__
@@ -34,7 +33,6 @@ from gesturebank.train.registry import MODELS
 
 if TYPE_CHECKING:
     from gesturebank.datasets.build import BuildSummary
-    from gesturebank.datasets.take_job import TakeResult
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -275,40 +273,19 @@ def build_dataset(
             raise InputError(f"{videos_dir}: no videos found ({exts})")
         ensure_writable(out_dir)
     from gesturebank.datasets.build import build_dataset as build
+    from gesturebank.datasets.progress import BuildProgress
 
     console = Console(quiet=quiet)
-    progress = Progress(
-        TextColumn("[bold]build[/bold]"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TextColumn("{task.description}"),
-        console=console,
-        transient=False,
-    )
-    colour = {"built": "green", "skipped": "cyan", "failed": "red"}
-    with progress:
-        task = progress.add_task("", total=len(takes))
-
-        def show(result: TakeResult) -> None:
-            c = colour[result.outcome]
-            progress.update(
-                task, advance=1, description=f"[{c}]{result.outcome}[/{c}] {result.take_id}"
-            )
-
-        def show_chunk(take_id: str, done: int, total: int) -> None:
-            progress.update(task, description=f"{take_id}: chunk {done}/{total} detected")
-
-        with user_errors():
-            summary = build(
-                takes=takes,
-                videos_dir=videos_dir,
-                out=out_dir,
-                config=config,
-                force=force,
-                on_result=show,
-                on_chunk=show_chunk,
-            )
+    with BuildProgress(takes, console) as progress, user_errors():
+        summary = build(
+            takes=takes,
+            videos_dir=videos_dir,
+            out=out_dir,
+            config=config,
+            force=force,
+            on_result=progress.result,
+            on_chunk=progress.chunk,
+        )
     _print_summary(console, summary)
     if summary.error:
         typer.echo(f"error: {summary.error}", err=True)
