@@ -172,7 +172,12 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     assert "0 skipped" in r.stdout
     first = json.loads(live.read_text().splitlines()[0])
     assert first  # a real command was recorded
-    for recorded in (live, sent):  # a record file replays and exports as a timeline
+    live_csv = tmp_path / "live.csv"  # live --csv: the poses sent, as an angle timeline
+    r = run("gesturebank", "live", str(model), "--backend", "record", "--input", str(wav),
+            "--out", str(live_csv), "--csv", "--znorm", "lab")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert live_csv.read_text().startswith("# gesturebank angle timeline; robot profile: pepper-")
+    for recorded in (live, sent, live_csv):  # a record file replays and exports as a timeline
         r = run("gesturebank", "replay", str(recorded), "--backend", "record",
                 "--out", str(tmp_path / "again.jsonl"))  # fmt: skip
         assert r.returncode == 0, r.stderr

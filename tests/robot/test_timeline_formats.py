@@ -234,3 +234,11 @@ def test_export_reads_it(
     (js, _) = export_command(src=path, fmt="naoqi", out=tmp_path / "a.naoqi.json", config=Config())
     sent = np.array(json.loads(js.read_text())["angleLists"]).T
     np.testing.assert_allclose(sent, _played(_held(want)).angles, atol=2e-6)
+
+
+def test_live_csv_is_the_record_backend_s(model: Path, tmp_path: Path) -> None:
+    from gesturebank.errors import InputError
+
+    wav = _write_wav(tmp_path / "s.wav", 0.2)
+    with pytest.raises(InputError, match="--csv writes the record backend's file"):
+        live_command(model, "sim", str(wav), out=tmp_path / "x.mp4", config=FAST, csv=True)
