@@ -53,6 +53,13 @@ def replay_command(
     robot = pepper.load_profile(profile or RobotConfig().profile)
     timeline = from_clip(angles_csv, clip) if clip else read_timeline(angles_csv)
     name = f"{os.fspath(angles_csv)} clip {clip}" if clip else os.fspath(angles_csv)
+    if timeline.profile and timeline.profile != robot.name:  # the file's header says so
+        log.warning(
+            "%s: angles made for %s, played within the %s limits (robot.profile)",
+            name,
+            timeline.profile,
+            robot.name,
+        )
     check_timeline(timeline, name=name, profile=robot, config=cfg, clamp=clamp)
     others = (
         [] if compare is None else [compare] if isinstance(compare, str | os.PathLike) else compare
@@ -77,7 +84,7 @@ def replay_command(
         )
     extra = (
         {"render": render} if backend == "sim"
-        else {"profile": timeline.profile or robot.name, "reach": timeline.reach}
+        else {"profile": robot.name, "reach": timeline.reach}  # the limits it was played in
         if backend == "record"
         else {}
     )  # fmt: skip

@@ -3,7 +3,7 @@
 The format (written by `synthesize`, `export --format csv`, `live/replay --backend record` as CSV):
 
     # gesturebank angle timeline; robot profile: pepper-1.7; unit: rad; reach: clamp
-    time_s,HeadPitch,HeadYaw,LShoulderPitch,…,HipRoll
+    time_s,HeadPitch,HeadYaw,LShoulderRoll,…,HipRoll
     0.0125,0.012345,…
 
 one row per frame: time in seconds on the audio's clock (0 = first audio sample), the 11 joints of

@@ -83,3 +83,21 @@ def test_from_clip_reads_angles_and_holds_unknown_ones(tmp_path: Path) -> None:
     assert np.isfinite(tl.angles).all()
     held = pepper.denormalise(np.full((400, 11), 0.25), profile)  # every value is this one
     np.testing.assert_allclose(tl.angles, held, atol=1e-6)
+
+
+def test_header_unit_and_reach(tmp_path: Path) -> None:
+    from gesturebank.robot.timeline import read_timeline
+
+    row = "0.5," + ",".join(["90"] * 11)
+    path = tmp_path / "deg.csv"
+    path.write_text("# robot profile: pepper-1.8; unit: deg; reach: soft\n"
+                    f"time_s,{','.join(JOINTS)}\n{row}\n")  # fmt: skip
+    tl = read_timeline(path)
+    np.testing.assert_allclose(tl.angles, np.full((1, 11), np.pi / 2), atol=1e-6)
+    assert (tl.profile, tl.reach) == ("pepper-1.8", "soft")
+    path.write_text(f"time_s,{','.join(j + '_deg' for j in JOINTS)}\n{row}\n")
+    np.testing.assert_allclose(read_timeline(path).angles, np.full((1, 11), np.pi / 2), atol=1e-6)
+    for header, needle in (("# unit: grad", "angles in 'grad'"), ("# reach: far", "reach 'far'")):
+        path.write_text(f"{header}\ntime_s,{','.join(JOINTS)}\n{row}\n")
+        with pytest.raises(InputError, match=needle):
+            read_timeline(path)
