@@ -238,6 +238,8 @@ def clip_to_play(
     `scratch`; warn about a clip the QC rejected and about audio that cannot be found."""
     from gesturebank import datasets
 
+    if not Path(dataset_dir).is_dir():
+        raise InputError(f"{dataset_dir}: --clip plays a clip of a dataset folder; this is none")
     data = datasets.open(dataset_dir)
     row = resolve_clip(data, name)
     warnings = []

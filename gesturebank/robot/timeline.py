@@ -161,6 +161,11 @@ def read_timeline(path: str | os.PathLike[str]) -> Timeline:
     """Read an angle timeline (any dialect of the module docstring, or a record backend's JSON
     lines); InputError naming the file (and line) on any problem."""
     name = os.fspath(path)
+    if os.path.isdir(name):
+        raise InputError(
+            f"{name}: a folder, not an angle timeline (a dataset's clip: --clip CLIP_ID; "
+            "`gesturebank clips` lists them)"
+        )
     try:
         with open(name, newline="", encoding="utf-8") as f:
             text = f.read()
@@ -267,7 +272,10 @@ def _from_record(name: str, text: str) -> Timeline:
                     times.append(float(obj["t"]) + float(dt))
                     rows.append([float(col[i]) for col in lists])
         except (ValueError, KeyError, IndexError, TypeError):
-            raise InputError(f"{name}: line {number}: not a record backend's JSON line") from None
+            raise InputError(
+                f"{name}: line {number}: not a record backend's JSON line (an angle timeline is "
+                "a CSV, or the .jsonl of a record backend)"
+            ) from None
     if not rows:
         raise InputError(f"{name}: no {' or '.join(RECORD_PHASES)} frames in this record file")
     t = np.asarray(times)

@@ -151,3 +151,15 @@ def test_sim_replay_of_a_clip_has_its_source_audio(demo_dataset: Path, tmp_path:
     assert r.returncode == 0, r.stderr
     with av.open(str(silent)) as container:
         assert not container.streams.audio
+
+
+def test_clip_of_something_not_a_dataset_is_one_line(tmp_path: Path) -> None:
+    from gesturebank.datasets.listing import clip_to_play
+    from gesturebank.robot.timeline import read_timeline
+
+    csv_file = tmp_path / "a.csv"
+    csv_file.write_text("time_s\n")
+    with pytest.raises(InputError, match="a.csv: --clip plays a clip of a dataset folder"):
+        clip_to_play(csv_file, "x", scratch=tmp_path, with_audio=False)
+    with pytest.raises(InputError, match="a folder, not an angle timeline .*--clip CLIP_ID"):
+        read_timeline(tmp_path)
