@@ -759,7 +759,7 @@ def export(
         Path,
         typer.Argument(
             help="A dataset folder (every accepted clip), one clip's .npz in a dataset, or an "
-            "angles CSV (as synthesize writes it)."
+            "angle timeline (.csv from synthesize, export or record; a record .jsonl)."
         ),
     ],
     fmt: Annotated[
@@ -767,8 +767,9 @@ def export(
         typer.Option(
             "--format",
             help="bvh: Pepper's upper body (and, for a clip, the person as NAME_person.bvh); "
-            "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: angles with units "
-            "in the header; naoqi: ALMotion.angleInterpolation arguments (.json) and a script.",
+            "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: the angle timeline "
+            "replay reads (profile, unit, reach in a # line; masked angles empty); naoqi: "
+            "ALMotion.angleInterpolation arguments (.json) and a script.",
         ),
     ],
     out_path: Annotated[

@@ -148,7 +148,7 @@ def format_timeline(timeline: Timeline) -> str:
 def write_timeline(path: str | os.PathLike[str], timeline: Timeline) -> Path:
     """Write `timeline` in the format of the module docstring (atomically); returns the path."""
     out = Path(path)
-    with output_errors(out, "the angle timeline"):
+    with output_errors(out, "the angle CSV"):
         write_bytes_atomic(out, format_timeline(timeline).encode("utf-8"))
     return out
 
