@@ -4,7 +4,8 @@
 #               docs site (strict), run the suite
 #
 # Run as root on Debian/Ubuntu, `make` also installs the system packages it needs with apt-get
-# (espeak-ng, sox: speech test media; libusb-1.0-0: open3d; chromium: dashboard tests).
+# (espeak-ng, sox: speech test media; libusb-1.0-0: open3d; chromium: dashboard tests;
+# libportaudio2: `live --input mic` and replay's audio on this computer).
 # As another user it only tells you which ones are missing.
 
 PYTHON     ?= python3.11
@@ -14,7 +15,7 @@ PIP        := $(PY) -m pip
 EXTRAS     ?= dev,train,robot,multiview,distributed,docs
 MEDIA      ?= $(or $(XDG_CACHE_HOME),$(HOME)/.cache)/gesturebank/samples
 DEMO_OUT   ?= demo-out
-APT_PKGS   := espeak-ng sox libusb-1.0-0 chromium
+APT_PKGS   := espeak-ng sox libusb-1.0-0 chromium libportaudio2
 MEDIAPIPE  := mediapipe==0.10.14
 SCENEDETECT := scenedetect==0.7.2
 

@@ -418,7 +418,7 @@ def angles_csv(path: Path, *, scale: float = 1.0, times: np.ndarray | None = Non
 
     t = np.arange(0, 2, 0.01) if times is None else times
     angles = pepper.clamp(pepper.neutral_pose() + 0.2 * np.sin(t)[:, None]) * scale
-    return timeline.write_csv(path, timeline.Timeline.of(t, angles))
+    return timeline.write_timeline(path, timeline.Timeline.of(t, angles))
 
 
 def replay(

@@ -18,7 +18,6 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from gesturebank import __version__
@@ -34,7 +33,6 @@ from gesturebank.train.registry import MODELS
 
 if TYPE_CHECKING:
     from gesturebank.datasets.build import BuildSummary
-    from gesturebank.datasets.take_job import TakeResult
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -63,9 +61,13 @@ BackendOption = Annotated[
     str, typer.Option(help=f"{_one_of(BACKENDS)} (naoqi: a robot, sim: an MP4, record: JSONL).")
 ]
 OutFileOption = Annotated[
-    Path | None, typer.Option("--out", help="sim: video.mp4; record: timeline.jsonl.")
+    Path | None,
+    typer.Option(
+        "--out", help="sim: video.mp4; record: calls.jsonl, or timeline.csv (an angle timeline)."
+    ),
 ]
 SplitPart = Literal["test", "val", "train"]
+Status = Literal["accepted", "rejected"]  # a clip's QC verdict (datasets.store.STATUSES)
 
 app = typer.Typer(
     name="gesturebank",
@@ -221,7 +223,14 @@ def _without_none(data: dict[str, Any]) -> dict[str, Any]:
 
 
 def build_dataset(
-    videos_dir: Annotated[Path, typer.Argument(help="Folder of videos (searched recursively).")],
+    inputs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="A folder of videos (searched recursively), or one or more video files.",
+            metavar="VIDEOS...",
+            show_default=False,
+        ),
+    ],
     out_dir: Annotated[Path, typer.Argument(help="Dataset folder to create or resume.")],
     config_file: ConfigOption = None,
     detector: Annotated[
@@ -250,17 +259,17 @@ def build_dataset(
 ) -> None:
     """Build a dataset of Pepper angles and audio features from videos.
 
-    Every video under VIDEOS_DIR becomes a take of aligned 100 Hz Pepper angles and audio
-    features in OUT_DIR. Re-running resumes: built takes are skipped, and the QC thresholds
-    and splits OUT_DIR was last judged with (see `gesturebank qc`) stay unless --config or
-    --set change them.
+    Every video under the folder (or each video file given) becomes a take of aligned 100 Hz
+    Pepper angles and audio features in OUT_DIR. Re-running resumes: built takes are skipped,
+    and the QC thresholds and splits OUT_DIR was last judged with (see `gesturebank qc`) stay
+    unless --config or --set change them.
 
     Exit code 0 when every take built, 1 when some failed (see the summary), 2 on a usage or
     configuration error.
     """
     from gesturebank.datasets.pipeline import check_names
     from gesturebank.datasets.refresh import judged_with
-    from gesturebank.datasets.takes import discover_takes
+    from gesturebank.datasets.takes import find_inputs
 
     with user_errors():
         config = resolve_config(
@@ -279,46 +288,25 @@ def build_dataset(
             base=judged_with(out_dir),
         )
         check_names(config)
-        takes = discover_takes(videos_dir, config.build, out_dir=out_dir)
+        videos_dir, takes = find_inputs(inputs, config.build, out_dir=out_dir)
         if not takes:
             exts = ", ".join(config.build.video_extensions)
             raise InputError(f"{videos_dir}: no videos found ({exts})")
         ensure_writable(out_dir)
     from gesturebank.datasets.build import build_dataset as build
+    from gesturebank.datasets.progress import BuildProgress
 
     console = Console(quiet=quiet)
-    progress = Progress(
-        TextColumn("[bold]build[/bold]"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TextColumn("{task.description}"),
-        console=console,
-        transient=False,
-    )
-    colour = {"built": "green", "skipped": "cyan", "failed": "red"}
-    with progress:
-        task = progress.add_task("", total=len(takes))
-
-        def show(result: TakeResult) -> None:
-            c = colour[result.outcome]
-            progress.update(
-                task, advance=1, description=f"[{c}]{result.outcome}[/{c}] {result.take_id}"
-            )
-
-        def show_chunk(take_id: str, done: int, total: int) -> None:
-            progress.update(task, description=f"{take_id}: chunk {done}/{total} detected")
-
-        with user_errors():
-            summary = build(
-                takes=takes,
-                videos_dir=videos_dir,
-                out=out_dir,
-                config=config,
-                force=force,
-                on_result=show,
-                on_chunk=show_chunk,
-            )
+    with BuildProgress(takes, console) as progress, user_errors():
+        summary = build(
+            takes=takes,
+            videos_dir=videos_dir,
+            out=out_dir,
+            config=config,
+            force=force,
+            on_result=progress.result,
+            on_chunk=progress.chunk,
+        )
     _print_summary(console, summary)
     if summary.error:
         typer.echo(f"error: {summary.error}", err=True)
@@ -328,14 +316,22 @@ def build_dataset(
     raise typer.Exit(EXIT_FAILED if summary.failed else EXIT_OK)
 
 
-def _print_summary(console: Console, summary: BuildSummary) -> None:
+def _print_summary(console: Console, summary: BuildSummary, *, built: bool = True) -> None:
+    """The kept/rejected table and a line per take; `built` False: after `qc` (no build ran,
+    so takes are counted, not built/skipped)."""
     table = Table(title=f"dataset {summary.out}")
-    columns = ("takes built", "skipped", "failed", "clips kept", "rejected", "usable s", "seen s")
+    takes = ("takes built", "skipped", "failed") if built else ("takes", "failed")
+    columns = (*takes, "clips kept", "rejected", "usable s", "seen s")
     for name in (*columns, "kept"):
         table.add_column(name, justify="right")
     visible = summary.visible_s
+    counts = (
+        [str(summary.count(n)) for n in ("built", "skipped", "failed")]
+        if built
+        else [str(len(summary.takes)), str(sum(bool(r.failed) for r in summary.takes))]
+    )
     table.add_row(
-        *(str(summary.count(n)) for n in ("built", "skipped", "failed")),
+        *counts,
         *(str(summary.clip_count(s)) for s in ("accepted", "rejected")),
         f"{summary.usable_s:.1f}",
         f"{visible:.1f}",
@@ -503,7 +499,8 @@ def synthesize(
     """Offline synthesis: speech → the 11 Pepper angles at 100 Hz, as a CSV for `replay`.
 
     Audio features → model → inverse normalisation → Butterworth post-smoothing (§4.4.1) →
-    clamp; the CSV has a time_s column and one column per joint.
+    clamp; the CSV is an angle timeline: a `#` line naming the robot profile, unit and reach
+    mode, then a time_s column and one column per joint (radians).
     """
     from gesturebank.train.commands import synthesize_command
 
@@ -517,7 +514,11 @@ def synthesize(
 @app.command()
 def replay(
     angles: Annotated[
-        Path, typer.Argument(help="Angle CSV (from `synthesize`), or a dataset folder with --clip.")
+        Path,
+        typer.Argument(
+            help="Angle timeline (.csv from synthesize, export or record; a record .jsonl), "
+            "or a dataset folder with --clip."
+        ),
     ],
     backend: BackendOption,
     url: Annotated[
@@ -528,8 +529,16 @@ def replay(
         Path | None, typer.Option(help="Speech to play (naoqi: here; sim: muxed into the video).")
     ] = None,
     clip: Annotated[
-        str | None, typer.Option(help="Play this clip of the dataset folder ANGLES instead.")
+        str | None,
+        typer.Option(
+            help="Play this clip of the dataset folder ANGLES instead (a clip id, or a take id "
+            "when the take has one clip; `gesturebank clips` lists them), with its source "
+            "audio unless --audio or --no-audio."
+        ),
     ] = None,
+    no_audio: Annotated[
+        bool, typer.Option("--no-audio", help="--clip: play without the clip's source audio.")
+    ] = False,
     compare: Annotated[
         list[Path] | None,
         typer.Option(help="sim: another CSV rendered side by side, with its name (repeatable)."),
@@ -548,10 +557,24 @@ def replay(
     playback with a one-line error. A timeline that looks wrong is refused: angles far outside
     the limits (degrees?) unless --clamp, a gap in its times, a first frame long after 0 s.
     """
+    import tempfile
+
     from gesturebank.robot.commands import replay_command
 
-    with user_errors():
+    with user_errors(), tempfile.TemporaryDirectory(prefix="gesturebank-replay-") as scratch:
         config = resolve_config(config_file=config_file, sets=sets, flags={})
+        if clip is not None:
+            from gesturebank.datasets.listing import clip_to_play
+
+            chosen = clip_to_play(
+                angles,
+                clip,
+                scratch=Path(scratch),
+                with_audio=audio is None and not no_audio and backend != "record",
+            )
+            for warning in chosen.warnings:
+                typer.echo(f"warning: {warning}", err=True)
+            clip, audio = chosen.clip_id, audio or chosen.audio
         try:
             result = replay_command(
                 angles_csv=angles,
@@ -604,6 +627,34 @@ def preview(
 
 
 @app.command()
+def clips(
+    out_dir: DatasetArg,
+    status: Annotated[
+        Status | None, typer.Option(help="Only clips the QC accepted or rejected.")
+    ] = None,
+    subject: Annotated[str | None, typer.Option(help="Only this subject's clips.")] = None,
+    take: Annotated[str | None, typer.Option(help="Only this take's clips.")] = None,
+    as_csv: Annotated[
+        bool, typer.Option("--csv", help="CSV on stdout instead of a table.")
+    ] = False,
+) -> None:
+    """List a dataset's clips: id, take, subject, where in the source video (start–end, s),
+    seconds, QC status and reasons, and the body parts unknown in some frames (masked).
+
+    A clip id (or a take id, when the take has one clip) is what `replay OUT_DIR --clip` takes.
+    """
+    from gesturebank import datasets
+    from gesturebank.datasets.listing import clips_table, list_clips, rows_csv
+
+    with user_errors():
+        rows = list_clips(datasets.open(out_dir), status=status, subject=subject, take=take)
+    if as_csv:
+        typer.echo(rows_csv(rows), nl=False)
+        return
+    out.print(clips_table(rows, title=f"{out_dir}: {len(rows)} clips"))
+
+
+@app.command()
 def live(
     model_dir: ModelDirArg,
     backend: BackendOption,
@@ -616,6 +667,14 @@ def live(
         str, typer.Option(help="Audio z-norm stats: '*' (whole training set) or a subject.")
     ] = "*",
     seconds: Annotated[float | None, typer.Option(help="Stop after this many seconds.")] = None,
+    as_csv: Annotated[
+        bool,
+        typer.Option(
+            "--csv",
+            help="record: write the poses sent as an angle-timeline CSV (replay/export read it) "
+            "instead of the JSON lines of every call.",
+        ),
+    ] = False,
     config_file: ConfigOption = None,
     sets: SetOption = None,
 ) -> None:
@@ -640,6 +699,7 @@ def live(
             render=config.render,
             max_seconds=seconds,
             znorm=znorm,
+            csv=as_csv,
         )
     p50, p99 = result.latency_ms()
     out.print(
@@ -676,6 +736,7 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
     differs (the [qc] and [splits] sections; the clips stay as built).
     """
     from gesturebank.datasets import store
+    from gesturebank.datasets.build import BuildSummary
     from gesturebank.datasets.lock import dataset_lock
     from gesturebank.datasets.pipeline import CONTENT_SECTIONS
     from gesturebank.datasets.refresh import refresh
@@ -693,10 +754,11 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
             )
         # one writer per dataset: not while a build or another qc writes it
         with dataset_lock(out_dir), output_errors(out_dir, "the QC results"):
-            for note in refresh(out_dir, config):
-                out.print(f"note: {note}", highlight=False, soft_wrap=True)
+            notes = refresh(out_dir, config)
             index = write_dashboard(out_dir)
-    out.print(f"QC dashboard: {index}", highlight=False, soft_wrap=True)
+        records = store.take_records(out_dir)
+    summary = BuildSummary(out_dir, notes=list(notes), dashboard=index, takes=records)
+    _print_summary(out, summary, built=False)
 
 
 @app.command()
@@ -761,7 +823,7 @@ def export(
         Path,
         typer.Argument(
             help="A dataset folder (every accepted clip), one clip's .npz in a dataset, or an "
-            "angles CSV (as synthesize writes it)."
+            "angle timeline (.csv from synthesize, export or record; a record .jsonl)."
         ),
     ],
     fmt: Annotated[
@@ -769,8 +831,9 @@ def export(
         typer.Option(
             "--format",
             help="bvh: Pepper's upper body (and, for a clip, the person as NAME_person.bvh); "
-            "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: angles with units "
-            "in the header; naoqi: ALMotion.angleInterpolation arguments (.json) and a script.",
+            "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: the angle timeline "
+            "replay reads (profile, unit, reach in a # line; masked angles empty); naoqi: "
+            "ALMotion.angleInterpolation arguments (.json) and a script.",
         ),
     ],
     out_path: Annotated[

@@ -79,7 +79,7 @@ def test_usage_errors_exit_2_with_one_line(tmp_path: Path) -> None:
     blocker.write_text("x")
     cases = [
         (("config", "--config", str(bad)), "detector.nmae: unknown key"),
-        (("build-dataset", str(tmp_path / "nope"), str(tmp_path / "o")), "not a directory"),
+        (("build-dataset", str(tmp_path / "nope"), str(tmp_path / "o")), "no such file or folder"),
         (("build-dataset", str(videos), str(tmp_path / "o")), "no videos found"),
         (("build-dataset", str(videos), str(tmp_path / "o"), "--set", "audio.nfilt=0"), "nfilt"),
         (("config", "--set", "qc.outlier_z=-1"), "qc.outlier_z"),
@@ -152,8 +152,16 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     csv = tmp_path / "angles.csv"
     r = run("gesturebank", "synthesize", str(model), str(wav), "--out", str(csv), "--znorm", "lab")
     assert r.returncode == 0, r.stderr
-    header = csv.read_text().splitlines()[0].split(",")
-    assert header[0] == "time_s" and len(header) == 12
+    comment, head = csv.read_text().splitlines()[:2]
+    assert comment.startswith("# gesturebank angle timeline; robot profile: pepper-")
+    assert head.split(",")[:2] == ["time_s", "HeadPitch"] and len(head.split(",")) == 12
+    # issue 33: what export writes, replay and export read back (no `_rad` dialect of their own)
+    exported = tmp_path / "angles.angles.csv"
+    r = run("gesturebank", "export", str(csv), "--format", "csv", "--out", str(exported))
+    assert r.returncode == 0, r.stderr
+    r = run("gesturebank", "replay", str(exported), "--backend", "record",
+            "--out", str(tmp_path / "x.csv"))  # fmt: skip
+    assert r.returncode == 0, r.stderr
     sent = tmp_path / "sent.jsonl"
     r = run("gesturebank", "replay", str(csv), "--backend", "record", "--out", str(sent))
     assert r.returncode == 0, r.stderr
@@ -165,6 +173,18 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     assert "0 skipped" in r.stdout
     first = json.loads(live.read_text().splitlines()[0])
     assert first  # a real command was recorded
+    live_csv = tmp_path / "live.csv"  # live --csv: the poses sent, as an angle timeline
+    r = run("gesturebank", "live", str(model), "--backend", "record", "--input", str(wav),
+            "--out", str(live_csv), "--csv", "--znorm", "lab")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert live_csv.read_text().startswith("# gesturebank angle timeline; robot profile: pepper-")
+    for recorded in (live, sent, live_csv):  # a record file replays and exports as a timeline
+        r = run("gesturebank", "replay", str(recorded), "--backend", "record",
+                "--out", str(tmp_path / "again.jsonl"))  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        r = run("gesturebank", "export", str(recorded), "--format", "naoqi",
+                "--out", str(tmp_path / "r.naoqi.json"))  # fmt: skip
+        assert r.returncode == 0, r.stderr
     r = run("gesturebank", "replay", str(csv), "--backend", "naoqi", "--url", "tcp://127.0.0.1:1")
     assert r.returncode == 1  # the robot failed: one line, no traceback
     assert len([ln for ln in r.stderr.splitlines() if ln.strip()]) == 1
@@ -217,3 +237,21 @@ def test_qc_thresholds_survive_the_next_build(
             "--set", "qc.max_people=5")  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert "accepted" in statuses() and saved() == 5  # the command line still wins
+
+
+def test_build_dataset_of_one_video_file_and_the_qc_summary(samples: Path, tmp_path: Path) -> None:
+    """Issue 33 item 7: a single video file is a valid input; `qc` prints the build's summary."""
+    video = samples / "talking" / "lab" / "cam01_arctic.mp4"
+    out = tmp_path / "one"
+    cmd = [str(BIN / "gesturebank"), "build-dataset", str(video), str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, check=False)
+    assert r.returncode == 0, r.stderr
+    built = [ln for ln in r.stdout.splitlines() if ln.startswith("cam01_arctic: ")]
+    assert len(built) == 1 and "clips kept" in built[0], r.stdout
+    r = run("gesturebank", "clips", str(out), "--csv")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.splitlines()[1].startswith("cam01_arctic__c000,cam01_arctic,lab,")
+    r = run("gesturebank", "qc", str(out))
+    assert r.returncode == 0, r.stderr
+    assert [ln for ln in r.stdout.splitlines() if ln.startswith("cam01_arctic: ")] == built
+    assert "clips kept" in r.stdout and "rejected" in r.stdout and "QC dashboard:" in r.stdout

@@ -20,6 +20,7 @@ import logging
 import os
 import re
 import unicodedata
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -228,20 +229,52 @@ def _camera_folders(videos: list[Path]) -> dict[Path, tuple[Path, list[Path]]]:
     return found
 
 
+def _extensions(config: BuildConfig) -> set[str]:
+    return {e.lower() if e.startswith(".") else f".{e.lower()}" for e in config.video_extensions}
+
+
+def find_inputs(
+    inputs: Sequence[str | Path], config: BuildConfig, *, out_dir: str | Path | None = None
+) -> tuple[Path, list[Take]]:
+    """The takes `build-dataset` is given: one folder (`discover_takes`), or video (and .bvh)
+    files, each a single-view take named by its path from their common folder, which is
+    returned as the root the dataset's sources are relative to."""
+    paths = [Path(p) for p in inputs]
+    if len(paths) == 1 and paths[0].is_dir():
+        return paths[0], discover_takes(paths[0], config, out_dir=out_dir)
+    known = _extensions(config) | set(MOCAP_EXTENSIONS)
+    for path in paths:
+        if path.is_dir():
+            raise InputError(f"{path}: a folder among files; give one folder or only files")
+        if not path.is_file():
+            raise InputError(f"{path}: no such file or folder")
+        if path.suffix.lower() not in known:
+            raise InputError(f"{path}: not a video ({', '.join(sorted(known))})")
+    root = Path(os.path.commonpath([p.resolve().parent for p in paths]))
+    return root, discover_takes(root, config, files=[p.resolve() for p in paths])
+
+
 def discover_takes(
-    videos_dir: str | Path, config: BuildConfig | None = None, *, out_dir: str | Path | None = None
+    videos_dir: str | Path,
+    config: BuildConfig | None = None,
+    *,
+    out_dir: str | Path | None = None,
+    files: Sequence[Path] | None = None,
 ) -> list[Take]:
     """Every take under `videos_dir` (module docstring), sorted by id, leaving out the dataset
-    folder `out_dir` when it lies inside. InputError if the folder is missing."""
+    folder `out_dir` when it lies inside. InputError if the folder is missing. `files`: only
+    these files under it, each its own take (no multi-camera folders; a file right in
+    `videos_dir` takes its folder's name as subject)."""
     config = config or BuildConfig()
     root = Path(videos_dir)
     if not root.is_dir():
-        raise InputError(f"{root}: not a directory")
-    exts = {e.lower() if e.startswith(".") else f".{e.lower()}" for e in config.video_extensions}
+        raise InputError(f"{root}: not a directory; give a folder of videos or video files")
+    exts = _extensions(config)
     table = _subjects_csv(root)
     skip = Path(out_dir) if out_dir is not None else None
-    videos = sorted(p for p in _files(root, skip) if p.suffix.lower() in exts)
-    cameras = _camera_folders(videos)
+    candidates = _files(root, skip) if files is None else list(files)
+    videos = sorted(p for p in candidates if p.suffix.lower() in exts)
+    cameras = _camera_folders(videos) if files is None else {}
     in_camera_take = {v for _, members in cameras.values() for v in members}
     takes: list[Take] = []
     seen: dict[str, Path] = {}
@@ -255,6 +288,8 @@ def discover_takes(
             raise InputError(f"{path}: same take id {tid!r} as {seen[tid]}; rename one of them")
         seen[tid] = path
         parent = rel.name if is_folder else rel.parent.name  # the folder holding the videos
+        if files is not None and not parent:
+            parent = path.parent.name
         rows = [table[n] for n in _names(rel, tid) if n in table]
         if len(rows) > 1:
             log.warning(
@@ -272,7 +307,7 @@ def discover_takes(
         if path not in in_camera_take:
             wav = path.with_suffix(".wav")
             add(path, path.relative_to(root), audio=wav if wav.is_file() else None)
-    for path in sorted(p for p in _files(root, skip) if p.suffix.lower() in MOCAP_EXTENSIONS):
+    for path in sorted(p for p in candidates if p.suffix.lower() in MOCAP_EXTENSIONS):
         wav = path.with_suffix(".wav")
         add(path, path.relative_to(root), audio=wav if wav.is_file() else None)
         listed = takes[-1].traits.get(AUDIO_COLUMN)

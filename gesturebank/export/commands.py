@@ -1,9 +1,10 @@
 """`gesturebank export SRC --format bvh|trc|csv|naoqi [--out F]`: the glue.
 
 SRC is a dataset folder (every accepted clip, one file set per clip into the folder `--out`),
-one clip's `.npz` inside a dataset, or an angles CSV as `synthesize` writes it (angles only:
-bvh, csv and naoqi). The 3D joints are turned upright first (their mean hips → shoulders
-direction is up, their mean facing direction forward), so viewers show the person standing.
+one clip's `.npz` inside a dataset, or an angle timeline (`robot.timeline`: the CSV `synthesize`
+writes, an older dialect of it, or a record backend's JSONL; angles only: bvh, csv and naoqi).
+The 3D joints are turned upright first (their mean hips → shoulders direction is up, their mean
+facing direction forward), so viewers show the person standing.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from gesturebank.skeletons import COCO17
 Format = Literal["bvh", "trc", "csv", "naoqi"]
 SUFFIX = {"bvh": ".bvh", "trc": ".trc", "csv": ".angles.csv", "naoqi": ".naoqi.json"}
 PERSON_SUFFIX = "_person.bvh"
+TIMELINE_SUFFIXES = (".csv", ".jsonl")  # angle timelines: robot.timeline reads both
 
 
 @dataclass(frozen=True)
@@ -28,10 +30,11 @@ class _Source:
     """What one export is made of: a name, angles on their clock, maybe the 3D joints."""
 
     name: str
-    times: np.ndarray  # (N,) s from the start
+    times: np.ndarray  # (N,) s (a clip: from its start; a timeline: on its audio's clock)
     angles: np.ndarray  # (N, 11) rad, NaN where unknown
     held: np.ndarray  # (N, 11) rad, finite (unknown angles hold the last known one)
     profile: str
+    reach: str
     joints: np.ndarray | None = None  # (T, 17, 3) metres
     joint_times: np.ndarray | None = None  # (T,) s
 
@@ -62,24 +65,9 @@ def uniform(times: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return clock - clock[0], out.reshape(len(clock), *np.shape(values)[1:]), 1.0 / period
 
 
-def _held(angles: np.ndarray) -> np.ndarray:
-    """NaN angles hold the last known value (the first known one before it; neutral if none)."""
-    from gesturebank.robot.pepper import neutral_pose
-
-    a = np.array(angles, dtype=np.float64)
-    for j in range(a.shape[1]):
-        col = a[:, j]
-        known = np.isfinite(col)
-        if not known.any():
-            col[:] = neutral_pose()[j]
-            continue
-        last = np.maximum.accumulate(np.where(known, np.arange(len(col)), -1))
-        col[:] = np.where(last >= 0, col[np.maximum(last, 0)], col[np.flatnonzero(known)[0]])
-    return a
-
-
 def _clip_sources(src: Path) -> list[_Source]:
     from gesturebank import datasets
+    from gesturebank.robot.timeline import hold, reach_of
 
     if src.is_dir():
         data = datasets.open(src)
@@ -90,7 +78,7 @@ def _clip_sources(src: Path) -> list[_Source]:
         root = src.parents[2] if len(src.parents) > 2 else src.parent
         data = datasets.open(root)
         ids = [src.stem]
-    profile = data.info.robot_profile
+    profile, reach = data.info.robot_profile, reach_of(data.info.config)
     out = []
     for clip_id in ids:
         clip = data.load(clip_id)
@@ -99,8 +87,9 @@ def _clip_sources(src: Path) -> list[_Source]:
                 clip_id,
                 clip.times,
                 clip.angles,
-                _held(clip.angles),
+                hold(clip.angles),
                 profile,
+                reach,
                 np.asarray(clip.pose3d.joints, np.float64),
                 clip.pose3d.timestamps,
             )
@@ -113,13 +102,16 @@ def _sources(src: Path, config: Config) -> list[_Source]:
         if not (src.exists()):
             raise InputError(f"{src}: no such file or folder")
         return _clip_sources(src)
-    if src.suffix.lower() == ".csv":
-        from gesturebank.robot.timeline import read_csv
+    if src.suffix.lower() in TIMELINE_SUFFIXES:
+        from gesturebank.robot.timeline import reach_of, read_timeline
 
-        line = read_csv(src)
-        times = line.times - line.times[0]
-        return [_Source(src.stem, times, line.angles, _held(line.angles), config.robot.profile)]
-    raise InputError(f"{src}: expected a dataset folder, a clip .npz or an angles .csv")
+        line = read_timeline(src)
+        profile = line.profile or config.robot.profile
+        reach = line.reach or reach_of(config)
+        return [_Source(src.stem, line.times, line.masked, line.angles, profile, reach)]
+    raise InputError(
+        f"{src}: expected a dataset folder, a clip .npz or an angle timeline (.csv, .jsonl)"
+    )
 
 
 def _write(source: _Source, fmt: Format, out: Path, config: Config) -> list[Path]:
@@ -128,11 +120,10 @@ def _write(source: _Source, fmt: Format, out: Path, config: Config) -> list[Path
     from gesturebank.robot.timeline import Timeline
 
     if fmt == "csv":
-        from gesturebank.export.angles_csv import write_angles_csv
+        from gesturebank.robot.timeline import write_timeline
 
-        return [
-            write_angles_csv(out, times=source.times, angles=source.angles, profile=source.profile)
-        ]
+        line = Timeline.of(source.times, source.angles, profile=source.profile, reach=source.reach)
+        return [write_timeline(out, line)]
     if fmt == "trc":
         from gesturebank.export.trc import write_trc
 

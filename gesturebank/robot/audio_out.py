@@ -9,6 +9,9 @@ from gesturebank.errors import RobotError
 
 PathLike = str | os.PathLike[str]
 
+# sounddevice loads the system's PortAudio at import; without it the import raises OSError
+PORTAUDIO_HINT = "install the PortAudio library: apt-get install libportaudio2"
+
 
 class AudioOut(Protocol):
     def start(self) -> None: ...
@@ -33,8 +36,9 @@ class DeviceAudio:
             sounddevice.check_output_settings(samplerate=self.rate, channels=1)
         except Exception as exc:  # OSError: no PortAudio; PortAudioError: no device
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            hint = f"; {PORTAUDIO_HINT}" if "PortAudio library" in reason else ""
             raise RobotError(
-                f"{name}: cannot play audio here: no output device ({reason})"
+                f"{name}: cannot play audio here: no output device ({reason}){hint}"
             ) from None
         self._sd = sounddevice
 

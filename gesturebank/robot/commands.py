@@ -11,13 +11,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gesturebank.config import AudioConfig, PlaybackConfig, RenderConfig, RobotConfig
-from gesturebank.errors import RobotError
+from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.audio_out import DeviceAudio
 from gesturebank.robot.backends import create
 from gesturebank.robot.playback import PlaybackResult, play
 from gesturebank.robot.safety import check_timeline
-from gesturebank.robot.timeline import Timeline, from_clip, read_csv
+from gesturebank.robot.timeline import Timeline, from_clip, read_timeline
 
 if TYPE_CHECKING:
     from gesturebank.robot.online import Chunks, LiveResult
@@ -51,8 +51,15 @@ def replay_command(
     """
     cfg = config or PlaybackConfig()
     robot = pepper.load_profile(profile or RobotConfig().profile)
-    timeline = from_clip(angles_csv, clip) if clip else read_csv(angles_csv)
+    timeline = from_clip(angles_csv, clip) if clip else read_timeline(angles_csv)
     name = f"{os.fspath(angles_csv)} clip {clip}" if clip else os.fspath(angles_csv)
+    if timeline.profile and timeline.profile != robot.name:  # the file's header says so
+        log.warning(
+            "%s: angles made for %s, played within the %s limits (robot.profile)",
+            name,
+            timeline.profile,
+            robot.name,
+        )
     check_timeline(timeline, name=name, profile=robot, config=cfg, clamp=clamp)
     others = (
         [] if compare is None else [compare] if isinstance(compare, str | os.PathLike) else compare
@@ -62,7 +69,7 @@ def replay_command(
             raise RobotError("--compare needs --backend sim and --out VIDEO.mp4")
         timelines = [timeline]
         for path in others:
-            other = read_csv(path)
+            other = read_timeline(path)
             check_timeline(other, name=os.fspath(path), profile=robot, config=cfg, clamp=clamp)
             timelines.append(other)
         label = f"{Path(angles_csv).name} {clip}" if clip else Path(angles_csv).stem
@@ -75,7 +82,12 @@ def replay_command(
             config=cfg,
             render=render,
         )
-    extra = {"render": render} if backend == "sim" else {}
+    extra = (
+        {"render": render} if backend == "sim"
+        else {"profile": robot.name, "reach": timeline.reach}  # the limits it was played in
+        if backend == "record"
+        else {}
+    )  # fmt: skip
     be = create(backend, url=url, out=out, audio=audio, config=cfg, **extra)
     try:
         sound = DeviceAudio(audio) if audio is not None and be.realtime else None
@@ -151,8 +163,12 @@ def live_command(
     render: RenderConfig | None = None,
     max_seconds: float | None = None,
     znorm: str = "*",
+    csv: bool = False,
 ) -> LiveResult:
-    """`gesturebank live MODEL_DIR --backend naoqi|sim|record [--input mic|FILE.wav]`."""
+    """`gesturebank live MODEL_DIR --backend naoqi|sim|record [--input mic|FILE.wav]`.
+
+    `csv` (record only; also when `out` ends in .csv): write the poses sent as an angle
+    timeline that `replay` and `export` read, instead of the JSON lines of every call."""
     # imported here: the audio-feature stack costs seconds that `replay` need not wait
     from gesturebank.robot.online import (
         LiveSynth,
@@ -163,6 +179,8 @@ def live_command(
     )
 
     cfg = config or PlaybackConfig()
+    if csv and backend != "record":
+        raise InputError(f"--csv writes the record backend's file; not with --backend {backend}")
     model = load_frame_model(model_dir, znorm)
     synth = LiveSynth(model, audio=audio_config, config=cfg)
     rate = synth.audio.sample_rate
@@ -172,8 +190,14 @@ def live_command(
         source: Chunks = _prepend(next_chunk, chunks)
     else:
         source = wav_chunks(input, synth.hop, rate)
+    extra: dict[str, object] = (
+        {"render": render} if backend == "sim"
+        else {"csv": csv, "profile": synth.profile.name, "reach": _reach(model_dir)}
+        if backend == "record"
+        else {}
+    )  # fmt: skip
     be = create(backend, url=url, out=out, audio=None if input == "mic" else input, config=cfg,
-                **({"render": render} if backend == "sim" else {}))  # fmt: skip
+                **extra)  # fmt: skip
     try:
         result = run_live(synth, source, be, config=cfg)
     finally:
@@ -187,6 +211,14 @@ def live_command(
         p99,
     )
     return result
+
+
+def _reach(model_dir: PathLike) -> str | None:
+    """The reach mode of the angles a model was trained on (None: the folder does not say)."""
+    from gesturebank.train import model_folder
+
+    reach = model_folder.load(model_dir).info.get("reach")
+    return reach if isinstance(reach, str) else None
 
 
 def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:

@@ -33,6 +33,7 @@ from gesturebank.errors import InputError, RobotError
 from gesturebank.extract.audio_features import apply_znorm, frame_features, frame_length, frame_step
 from gesturebank.filters import KalmanConstAcc
 from gesturebank.robot import pepper
+from gesturebank.robot.audio_out import PORTAUDIO_HINT
 from gesturebank.robot.backends import Backend, Command
 from gesturebank.robot.clock import Clock, RealClock, VirtualClock
 from gesturebank.robot.playback import Player
@@ -220,7 +221,9 @@ def mic_chunks(hop: int, sample_rate: int, *, max_seconds: float | None = None) 
     try:
         import sounddevice
     except OSError as exc:  # the PortAudio library itself is missing
-        raise InputError(f"microphone: no audio input available ({_first_line(exc)})") from None
+        raise InputError(
+            f"microphone: no audio input available ({_first_line(exc)}); {PORTAUDIO_HINT}"
+        ) from None
     chunks: queue.Queue[tuple[np.ndarray, float]] = queue.Queue()
 
     def callback(indata: np.ndarray, frames: int, time_info: Any, status: Any) -> None:

@@ -45,7 +45,6 @@ import json
 import os
 import secrets
 import tempfile
-import wave
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,7 +57,7 @@ from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.robot import pepper
 from gesturebank.robot.safety import safe_angles, speed_profile
-from gesturebank.robot.timeline import Timeline, from_clip, read_csv
+from gesturebank.robot.timeline import Timeline, from_clip, read_timeline
 
 PathLike = str | os.PathLike[str]
 Anchor = Literal["mean-pose", "random-clip"]
@@ -87,30 +86,20 @@ def parse_clip(spec: str) -> tuple[Path, str]:
     return Path(folder), clip
 
 
-def _clip_audio(dataset: Path, clip_id: str, out: Path) -> Path:
-    """Cut the clip's span of its source's audio into `out` (16 kHz mono WAV)."""
+def _clip_audio(dataset: Path, clip_id: str, out: Path) -> tuple[str, Path]:
+    """Cut the clip's stretch of its source's audio into `out` (16 kHz mono WAV), as `replay
+    --clip` plays it; returns the clip id (`clip_id` may name a take of one clip) and `out`."""
     from gesturebank import datasets
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.datasets.listing import resolve_clip, source_media, write_clip_audio
 
     ds = datasets.open(dataset)
-    row = next((r for r in ds.clips(None) if r["clip_id"] == clip_id), None)
-    if row is None:
-        raise InputError(f"{dataset}: no clip {clip_id!r} in the manifest")
-    source = Path(ds.info.videos_dir) / row["source"]  # sources are relative to the videos
-    if not source.is_file():
-        raise InputError(f"{source}: the source of clip {clip_id} is gone; its audio is needed")
-    track = read_audio(source, sample_rate=_RATE)
-    if track is None:
-        raise InputError(f"{source}: no audio track (clip {clip_id})")
-    cut = track.signal[round(row["start_s"] * _RATE) : round(row["end_s"] * _RATE)]
-    pcm = (np.clip(cut, -1, 1) * 32767).astype("<i2")
+    row = resolve_clip(ds, clip_id)
     out.parent.mkdir(parents=True, exist_ok=True)
-    with wave.open(os.fspath(out), "wb") as w:
-        w.setnchannels(1)
-        w.setsampwidth(2)
-        w.setframerate(_RATE)
-        w.writeframes(pcm.tobytes())
-    return out
+    wav = write_clip_audio(ds, row, out, sample_rate=_RATE)
+    if wav is None:
+        source = source_media(ds, row) or Path(ds.info.videos_dir) / row.source
+        raise InputError(f"{source}: no audio for clip {row.clip_id} (gone, or no audio track)")
+    return row.clip_id, wav
 
 
 def _duration(audio: Path) -> float:
@@ -130,8 +119,8 @@ def _sources(audios: Sequence[PathLike], clips: Sequence[str], out: Path) -> lis
             raise InputError(f"{path}: no such audio file")
         found.append(Source(path.stem, path, os.fspath(path)))
     for spec in clips:
-        dataset, clip_id = parse_clip(spec)
-        wav = _clip_audio(dataset, clip_id, out / "audio" / f"{clip_id}.wav")
+        dataset, name = parse_clip(spec)
+        clip_id, wav = _clip_audio(dataset, name, out / "audio" / f"{name}.wav")
         found.append(Source(clip_id, wav, spec, dataset, clip_id))
     names = [s.name for s in found]
     clash = sorted({n for n in names if names.count(n) > 1})
@@ -210,7 +199,7 @@ def stimuli_command(
             for name, model_dir in zip(names, model_dirs, strict=True):
                 csv = Path(tmp) / f"{len(key) + len(conditions)}.csv"
                 synthesize_command(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
-                conditions.append((name, "model", os.fspath(model_dir), read_csv(csv)))
+                conditions.append((name, "model", os.fspath(model_dir), read_timeline(csv)))
             if src.dataset is not None and src.clip_id is not None:
                 truth = from_clip(src.dataset, src.clip_id)
                 conditions.append(("ground-truth", "reference", None, truth))

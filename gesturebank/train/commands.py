@@ -5,8 +5,6 @@ The model folder they write and read is `model_folder`'s (its docstring lists th
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 from pathlib import Path
 from typing import Any
@@ -19,8 +17,6 @@ from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import apply_znorm, features
-from gesturebank.fileio import output_errors, write_bytes_atomic
-from gesturebank.robot import pepper
 from gesturebank.train import model_folder
 from gesturebank.train.evaluate import (
     FIELD_MEASURES,
@@ -192,10 +188,12 @@ def synthesize_command(
 
     Features with the training audio config → z-norm (`znorm`: "*" = whole-dataset stats, as the
     dissertation's synthesis; a subject name = that subject's; "self" = the file's own) → ONNX
-    model → ν⁻¹ → Butterworth post-smoothing → clamp. CSV columns: time_s (centre of each
-    feature window, seconds from the first sample) and the 11 joint names.
+    model → ν⁻¹ → Butterworth post-smoothing → clamp. Written as an angle timeline
+    (`robot.timeline`): time_s (centre of each feature window, seconds from the first sample)
+    and the 11 joint names, under a header naming the model's robot profile and reach mode.
     """
     from gesturebank.extract.audio_io import read_audio
+    from gesturebank.robot.timeline import Timeline, write_timeline
 
     folder = model_folder.load(model_dir)
     info, cfg, audio_cfg = folder.info, folder.train_config, folder.audio
@@ -213,11 +211,9 @@ def synthesize_command(
     )
     angles = postprocess(pred01, folder.profile, float(info["rate_hz"]), cfg)
     times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
-    text = io.StringIO(newline="")
-    writer = csv.writer(text)
-    writer.writerow(["time_s", *pepper.JOINTS])
-    for t, row in zip(times, angles, strict=True):
-        writer.writerow([f"{t:.4f}", *(f"{v:.6f}" for v in row)])
-    with output_errors(out_csv, "the angle CSV"):
-        write_bytes_atomic(out_csv, text.getvalue().encode("utf-8"))
+    reach = info.get("reach")  # older model folders do not say
+    line = Timeline.of(
+        times, angles, profile=folder.profile.name, reach=reach if isinstance(reach, str) else None
+    )
+    write_timeline(out_csv, line)
     return angles

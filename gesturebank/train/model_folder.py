@@ -91,6 +91,7 @@ def write(
     `writing`; the ONNX graphs go there too, through `export.export_onnx`)."""
     import torch
 
+    from gesturebank.robot.timeline import reach_of
     from gesturebank.train.models import architecture
 
     torch.save(net.state_dict(), folder / WEIGHTS)
@@ -107,6 +108,7 @@ def write(
             "train_config": config.model_dump(mode="json"),
             "audio": dataset.info.config.audio.model_dump(mode="json"),
             "rate_hz": dataset.info.rates.pose_hz,
+            "reach": reach_of(dataset.info.config),  # the angles' reach mode, for synthesize
             "result": {
                 "best_epoch": result.best_epoch,
                 "best_val_loss": result.best_val_loss,

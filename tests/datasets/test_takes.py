@@ -129,3 +129,27 @@ def test_a_row_naming_several_takes_is_warned(
     with caplog.at_level(logging.WARNING):
         discover_takes(tmp_path)
     assert any("row 2: 'story' names 2 takes (a__story, b__story)" in w for w in warnings(caplog))
+
+
+def test_video_files_as_input(tmp_path: Path) -> None:
+    """Issue 33 item 7: one video file, or several, instead of a folder."""
+    from gesturebank.datasets.takes import find_inputs
+
+    touch(tmp_path, "anna/talk.mp4", "anna/talk.wav", "bob/x.mp4", "bob/y.mp4", "notes.txt")
+    cfg = BuildConfig()
+    root, takes = find_inputs([tmp_path / "anna/talk.mp4"], cfg)
+    assert root == (tmp_path / "anna").resolve()
+    assert [(t.take_id, t.subject) for t in takes] == [("talk", "anna")]
+    assert takes[0].audio == (tmp_path / "anna/talk.wav").resolve()
+    root, takes = find_inputs([tmp_path / "bob/y.mp4", tmp_path / "anna/talk.mp4"], cfg)
+    assert root == tmp_path.resolve()  # only the files given, not bob/x.mp4
+    assert [(t.take_id, t.subject) for t in takes] == [("anna__talk", "anna"), ("bob__y", "bob")]
+    root, takes = find_inputs([tmp_path], cfg)  # a folder: as before
+    assert root == tmp_path and len(takes) == 3
+    for bad, message in (
+        ([tmp_path / "notes.txt"], "notes.txt: not a video"),
+        ([tmp_path / "nope.mp4"], "nope.mp4: no such file or folder"),
+        ([tmp_path / "bob/x.mp4", tmp_path / "anna"], "anna: a folder among files"),
+    ):
+        with pytest.raises(InputError, match=re.escape(message)):
+            find_inputs(bad, cfg)

@@ -195,7 +195,8 @@ def test_cli_exports_every_format(dataset: Path, tmp_path: Path) -> None:
     person = read_bvh(tmp_path / "bvh" / f"{clip_id}_person.bvh")
     assert "left_wrist" in person.names
     lines = (tmp_path / "csv" / f"{clip_id}.angles.csv").read_text().splitlines()
-    assert "pepper-1.7" in lines[0] and lines[1].startswith("time_s,HeadPitch_rad,HeadYaw_rad,")
+    assert "pepper-1.7" in lines[0] and "reach: clamp" in lines[0]
+    assert lines[1].startswith("time_s,HeadPitch,HeadYaw,")
     data = json.loads((tmp_path / "naoqi" / f"{clip_id}.naoqi.json").read_text())
     assert data["names"] == list(pepper.JOINTS) and data["isAbsolute"] is True
     times = np.array(data["timeLists"][0])
@@ -209,10 +210,10 @@ def test_cli_exports_every_format(dataset: Path, tmp_path: Path) -> None:
 
 
 def test_cli_export_of_an_angles_csv(tmp_path: Path) -> None:
-    from gesturebank.robot.timeline import Timeline, write_csv
+    from gesturebank.robot.timeline import Timeline, write_timeline
 
     angles = _poses(200).astype(np.float32)
-    write_csv(tmp_path / "angles.csv", Timeline.of(np.arange(200) / 100, angles))
+    write_timeline(tmp_path / "angles.csv", Timeline.of(np.arange(200) / 100, angles))
     r = subprocess.run(
         [
             str(BIN / "gesturebank"),

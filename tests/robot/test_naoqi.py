@@ -18,7 +18,7 @@ from gesturebank.robot import pepper
 from gesturebank.robot.backends.naoqi import NaoqiBackend
 from gesturebank.robot.commands import replay_command
 from gesturebank.robot.playback import play
-from gesturebank.robot.timeline import Timeline, write_csv
+from gesturebank.robot.timeline import Timeline, write_timeline
 from gesturebank.testing.naoqi_server import PEPPER_JOINTS, NaoqiServer
 from tests.robot.test_playback import ARMS_UP, LOWER, NEUTRAL, UPPER, VELOCITY, wild_timeline
 
@@ -110,7 +110,9 @@ def test_killed_session_mid_playback_stops_with_one_line(server: NaoqiServer) ->
 
 def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_path: Path) -> None:
     n = 1000  # a sound 10 s timeline: the one line on stderr must be the lost connection
-    csv = write_csv(tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1))))
+    csv = write_timeline(
+        tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1)))
+    )
     script = (
         "import sys\n"
         "from gesturebank.errors import GesturebankError\n"
@@ -141,7 +143,7 @@ def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_p
 def test_replay_command_naoqi(server: NaoqiServer, tmp_path: Path) -> None:
     n = 50
     times = np.arange(n) * 0.01
-    csv = write_csv(tmp_path / "a.csv", Timeline.of(times, np.tile(NEUTRAL, (n, 1))))
+    csv = write_timeline(tmp_path / "a.csv", Timeline.of(times, np.tile(NEUTRAL, (n, 1))))
     result = replay_command(csv, "naoqi", url=server.url, config=FAST)
     assert not isinstance(result, Path) and result.status == "completed"
     assert sum(c["call"] == "setAngles" for c in server.calls()) >= n + 60

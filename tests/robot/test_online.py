@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -111,6 +112,21 @@ def test_missing_microphone_is_one_line(tmp_path: Path) -> None:
     msg = str(info.value)
     assert msg.startswith("microphone:") and "\n" not in msg
     assert not (tmp_path / "x.jsonl").exists()  # failed before touching the robot
+
+
+def test_missing_portaudio_names_the_package(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a stand-in that fails as sounddevice does on a machine without PortAudio
+    (tmp_path / "sounddevice.py").write_text("raise OSError('PortAudio library not found')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "sounddevice", raising=False)
+    folder = write_model_dir(tmp_path / "m")
+    with pytest.raises(InputError) as info:
+        live_command(folder, "record", "mic", out=tmp_path / "x.jsonl", max_seconds=0.5)
+    msg = str(info.value)
+    assert "PortAudio library not found" in msg and "apt-get install libportaudio2" in msg
+    assert "\n" not in msg
 
 
 @pytest.mark.parametrize("kind", ["mlp", "lstm"])

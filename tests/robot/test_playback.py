@@ -18,7 +18,7 @@ from gesturebank.robot.clock import adaptive_sleep
 from gesturebank.robot.commands import replay_command
 from gesturebank.robot.playback import play
 from gesturebank.robot.safety import SafetyFilter, ramp
-from gesturebank.robot.timeline import Timeline, write_csv
+from gesturebank.robot.timeline import Timeline, write_timeline
 
 PROFILE = pepper.load_profile("pepper-1.7")
 # Table 3.1 of the dissertation, typed in independently of the profile file (rad).
@@ -153,7 +153,7 @@ def test_safety_filter_clamps_and_limits_speed() -> None:
 
 
 def test_replay_command_record(tmp_path: Path) -> None:
-    csv = write_csv(tmp_path / "a.csv", wild_timeline(30))
+    csv = write_timeline(tmp_path / "a.csv", wild_timeline(30))
     result = replay_command(csv, "record", out=tmp_path / "r.jsonl", config=FAST, clamp=True)
     assert not isinstance(result, Path) and result.n_frames == 30
     assert sum(c["phase"] == "timeline" for c in read_record(tmp_path / "r.jsonl")) == 30
@@ -164,7 +164,7 @@ OPTION_ERRORS = [("record", "--out"), ("sim", "--out"), ("naoqi", "--url"), ("na
 
 @pytest.mark.parametrize(("backend", "needle"), OPTION_ERRORS)
 def test_replay_command_options(tmp_path: Path, backend: str, needle: str) -> None:
-    csv = write_csv(tmp_path / "a.csv", wild_timeline(5))
+    csv = write_timeline(tmp_path / "a.csv", wild_timeline(5))
     with pytest.raises(Exception, match=needle):
         replay_command(csv, backend, clamp=True)
 
@@ -193,7 +193,7 @@ def refused(path: Path, out: Path) -> str:
 @pytest.mark.parametrize("scale", [180 / np.pi, 1e9])
 def test_replay_refuses_degrees_unless_clamp(tmp_path: Path, scale: float) -> None:
     tl = gesture()
-    csv = write_csv(tmp_path / "deg.csv", Timeline.of(tl.times, tl.angles * scale))
+    csv = write_timeline(tmp_path / "deg.csv", Timeline.of(tl.times, tl.angles * scale))
     out = tmp_path / "r.jsonl"
     assert "looks like degrees?" in refused(csv, out)
     result = replay_command(csv, "record", out=out, config=FAST, clamp=True)
@@ -209,7 +209,7 @@ def test_replay_refuses_many_frames_beyond_the_limits(tmp_path: Path, caplog) ->
         tl = gesture()
         angles = tl.angles.copy()
         angles[: int(share * len(tl)), 0] = 1.0
-        csv = write_csv(tmp_path / f"head{share}.csv", Timeline.of(tl.times, angles))
+        csv = write_timeline(tmp_path / f"head{share}.csv", Timeline.of(tl.times, angles))
         if not ok:
             msg = refused(csv, out)
             assert "20% of the frames" in msg and "HeadPitch = 1 rad" in msg
@@ -219,7 +219,7 @@ def test_replay_refuses_many_frames_beyond_the_limits(tmp_path: Path, caplog) ->
         assert "2.0% of the frames beyond" in caplog.text
     # A sound timeline passes without a word.
     caplog.clear()
-    replay_command(write_csv(tmp_path / "ok.csv", gesture()), "record", out=out, config=FAST)
+    replay_command(write_timeline(tmp_path / "ok.csv", gesture()), "record", out=out, config=FAST)
     assert "beyond" not in caplog.text
 
 
@@ -228,11 +228,11 @@ def test_replay_refuses_gaps_and_far_starts(tmp_path: Path) -> None:
     out = tmp_path / "r.jsonl"
     gap = tl.times.copy()
     gap[100:] += 5.0  # 5 s without a frame, then a jump
-    gap_csv = write_csv(tmp_path / "gap.csv", Timeline.of(gap, tl.angles))
+    gap_csv = write_timeline(tmp_path / "gap.csv", Timeline.of(gap, tl.angles))
     assert "playback.max_gap_s" in refused(gap_csv, out)
-    late_csv = write_csv(tmp_path / "late.csv", Timeline.of(tl.times + 1000, tl.angles))
+    late_csv = write_timeline(tmp_path / "late.csv", Timeline.of(tl.times + 1000, tl.angles))
     assert "playback.max_start_s" in refused(late_csv, out)
-    early_csv = write_csv(tmp_path / "early.csv", Timeline.of(tl.times - 1, tl.angles))
+    early_csv = write_timeline(tmp_path / "early.csv", Timeline.of(tl.times - 1, tl.angles))
     assert "playback.max_start_s" in refused(early_csv, out)
     # The bounds are the config's: raised, the same files play.
     loose = FAST.model_copy(update={"max_gap_s": 6.0, "max_start_s": 2000.0})
@@ -274,7 +274,7 @@ def test_old_speed_fraction_key_still_loads(tmp_path: Path) -> None:
 
 def test_cli_replay_degrees_exit_2_and_clamp(tmp_path: Path) -> None:
     tl = gesture()
-    csv = write_csv(tmp_path / "deg.csv", Timeline.of(tl.times, np.degrees(tl.angles)))
+    csv = write_timeline(tmp_path / "deg.csv", Timeline.of(tl.times, np.degrees(tl.angles)))
     cmd = [str(BIN / "gesturebank"), "replay", str(csv), "--backend", "record"]
     cmd += ["--out", str(tmp_path / "r.jsonl"), "--set", "playback.start_s=0.3"]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)

@@ -19,7 +19,7 @@ from gesturebank.robot import pepper
 from gesturebank.robot.backends import BACKENDS, Command
 from gesturebank.robot.backends.sim import SimBackend
 from gesturebank.robot.commands import replay_command
-from gesturebank.robot.timeline import Timeline, write_csv
+from gesturebank.robot.timeline import Timeline, write_timeline
 
 RATE = 16000
 # Left arm raised sideways (LShoulderRoll 1.3), right arm hanging; Table 3.1 conventions.
@@ -56,7 +56,7 @@ def decode(path: Path) -> tuple[list[np.ndarray], float, float, int]:
 
 
 def test_sim_renders_5s_with_audio(tmp_path: Path, artifacts: Path) -> None:
-    csv = write_csv(tmp_path / "a.csv", five_seconds(POSE))
+    csv = write_timeline(tmp_path / "a.csv", five_seconds(POSE))
     out = tmp_path / "sim.mp4"
     render = RenderConfig(frame_rate=25, width_px=320, height_px=240, ramps=False)
     wav = tone_wav(tmp_path / "a.wav", 5.0)
@@ -73,7 +73,7 @@ def test_sim_renders_5s_with_audio(tmp_path: Path, artifacts: Path) -> None:
 def test_sim_shows_the_safety_moves_with_the_audio_delayed(tmp_path: Path) -> None:
     # Start move (≥ start_s) + lead + 5 s + return (≥ return_s): the video covers all of it, and
     # the audio starts where the timeline does, so it ends before the video.
-    csv = write_csv(tmp_path / "a.csv", five_seconds(POSE))
+    csv = write_timeline(tmp_path / "a.csv", five_seconds(POSE))
     out = tmp_path / "ramps.mp4"
     render = RenderConfig(frame_rate=25, width_px=160, height_px=120)
     cfg = PlaybackConfig(start_s=1.0, return_s=1.0)
@@ -92,8 +92,10 @@ def test_sim_shows_the_safety_moves_with_the_audio_delayed(tmp_path: Path) -> No
 
 
 def test_sim_side_by_side(tmp_path: Path) -> None:
-    a = write_csv(tmp_path / "pred.csv", five_seconds(POSE))
-    b = write_csv(tmp_path / "truth.csv", five_seconds(POSE[[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]]))
+    a = write_timeline(tmp_path / "pred.csv", five_seconds(POSE))
+    b = write_timeline(
+        tmp_path / "truth.csv", five_seconds(POSE[[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]])
+    )
     render = RenderConfig(width_px=200, height_px=150, ramps=False)
     out = replay_command(a, "sim", out=tmp_path / "sbs.mp4", compare=[b], render=render)
     assert isinstance(out, Path)
@@ -120,7 +122,7 @@ def neutral(seconds: float, rate_hz: float = 100.0) -> Timeline:
 
 @pytest.mark.parametrize("where", ["under_a_file", "is_a_folder"])
 def test_sim_unwritable_output_is_one_line_naming_it(tmp_path: Path, where: str) -> None:
-    csv = write_csv(tmp_path / "a.csv", neutral(0.5))
+    csv = write_timeline(tmp_path / "a.csv", neutral(0.5))
     (tmp_path / "afile").write_text("not a folder")
     out = tmp_path / "afile" / "v.mp4" if where == "under_a_file" else tmp_path / "v.mp4"
     if where == "is_a_folder":
@@ -136,7 +138,7 @@ def test_sim_unwritable_output_is_one_line_naming_it(tmp_path: Path, where: str)
 
 
 def test_cli_sim_unwritable_output_exit_2(tmp_path: Path) -> None:
-    csv = write_csv(tmp_path / "a.csv", neutral(0.5))
+    csv = write_timeline(tmp_path / "a.csv", neutral(0.5))
     (tmp_path / "afile").write_text("not a folder")
     out = tmp_path / "afile" / "v.mp4"
     cmd = [str(BIN / "gesturebank"), "replay", str(csv), "--backend", "sim", "--out", str(out)]
@@ -159,7 +161,7 @@ def test_interrupted_sim_replay_writes_no_video(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setitem(BACKENDS._factories, "sim", lambda *, out, **_: InterruptedSim(out))
-    csv = write_csv(tmp_path / "a.csv", neutral(2.0))
+    csv = write_timeline(tmp_path / "a.csv", neutral(2.0))
     out = tmp_path / "out" / "v.mp4"
     result = replay_command(csv, "sim", out=out, config=PlaybackConfig(start_s=0.1))
     assert not isinstance(result, Path) and result.status == "interrupted"
@@ -168,7 +170,7 @@ def test_interrupted_sim_replay_writes_no_video(
 
 def test_ctrl_c_during_sim_render_leaves_nothing(tmp_path: Path) -> None:
     # 10 minutes of timeline: the render takes long enough to be interrupted while it writes.
-    csv = write_csv(tmp_path / "long.csv", neutral(600.0, rate_hz=10.0))
+    csv = write_timeline(tmp_path / "long.csv", neutral(600.0, rate_hz=10.0))
     folder = tmp_path / "out"
     folder.mkdir()
     cmd = [str(BIN / "gesturebank"), "replay", str(csv), "--backend", "sim"]

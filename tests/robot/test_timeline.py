@@ -9,14 +9,14 @@ import pytest
 
 from gesturebank.errors import InputError
 from gesturebank.robot.pepper import JOINTS
-from gesturebank.robot.timeline import Timeline, from_clip, read_csv, write_csv
+from gesturebank.robot.timeline import Timeline, from_clip, read_timeline, write_timeline
 
 
 def test_round_trip(tmp_path: Path) -> None:
     rng = np.random.default_rng(0)
     times = np.arange(7) * 0.01 + 0.0125
     angles = rng.uniform(-1, 1, (7, 11)).astype(np.float32)
-    back = read_csv(write_csv(tmp_path / "a.csv", Timeline.of(times, angles)))
+    back = read_timeline(write_timeline(tmp_path / "a.csv", Timeline.of(times, angles)))
     np.testing.assert_allclose(back.times, times, atol=1e-4)
     np.testing.assert_allclose(back.angles, angles, atol=1e-6)
     assert back.angles.dtype == np.float32 and back.angles.shape == (7, 11)
@@ -27,7 +27,7 @@ def test_columns_in_any_order_come_back_in_joint_order(tmp_path: Path) -> None:
     rows = ["0.0," + ",".join(str(k) for k in range(11, 0, -1)), "0.5," + ",".join(["0"] * 11)]
     path = tmp_path / "shuffled.csv"
     path.write_text(",".join(header) + "\n" + "\n".join(rows) + "\n")
-    tl = read_csv(path)
+    tl = read_timeline(path)
     # Reversed header + values 11..1 → HeadPitch (first joint, last column) holds 1.
     np.testing.assert_array_equal(tl.angles[0], np.arange(1, 12))
     assert tl.period == pytest.approx(0.5) and tl.end == pytest.approx(1.0)
@@ -57,14 +57,14 @@ def test_bad_csv_is_one_line_naming_the_file(tmp_path: Path, text: str, needle: 
     path = tmp_path / "bad.csv"
     path.write_text(text)
     with pytest.raises(InputError) as info:
-        read_csv(path)
+        read_timeline(path)
     msg = str(info.value)
     assert str(path) in msg and needle in msg and "\n" not in msg
 
 
 def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="no such file"):
-        read_csv(tmp_path / "nope.csv")
+        read_timeline(tmp_path / "nope.csv")
 
 
 def test_from_clip_reads_angles_and_holds_unknown_ones(tmp_path: Path) -> None:
@@ -83,3 +83,21 @@ def test_from_clip_reads_angles_and_holds_unknown_ones(tmp_path: Path) -> None:
     assert np.isfinite(tl.angles).all()
     held = pepper.denormalise(np.full((400, 11), 0.25), profile)  # every value is this one
     np.testing.assert_allclose(tl.angles, held, atol=1e-6)
+
+
+def test_header_unit_and_reach(tmp_path: Path) -> None:
+    from gesturebank.robot.timeline import read_timeline
+
+    row = "0.5," + ",".join(["90"] * 11)
+    path = tmp_path / "deg.csv"
+    path.write_text("# robot profile: pepper-1.8; unit: deg; reach: soft\n"
+                    f"time_s,{','.join(JOINTS)}\n{row}\n")  # fmt: skip
+    tl = read_timeline(path)
+    np.testing.assert_allclose(tl.angles, np.full((1, 11), np.pi / 2), atol=1e-6)
+    assert (tl.profile, tl.reach) == ("pepper-1.8", "soft")
+    path.write_text(f"time_s,{','.join(j + '_deg' for j in JOINTS)}\n{row}\n")
+    np.testing.assert_allclose(read_timeline(path).angles, np.full((1, 11), np.pi / 2), atol=1e-6)
+    for header, needle in (("# unit: grad", "angles in 'grad'"), ("# reach: far", "reach 'far'")):
+        path.write_text(f"{header}\ntime_s,{','.join(JOINTS)}\n{row}\n")
+        with pytest.raises(InputError, match=needle):
+            read_timeline(path)

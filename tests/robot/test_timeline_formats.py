@@ -1,0 +1,244 @@
+"""Issue 33 item 1: every writer of an angle timeline through every reader, on real files.
+
+Writers: `write_timeline`, `export --format csv` (of a dataset clip with masked angles),
+`synthesize`, `replay`/`live` on the record backend (CSV and JSONL), and the two older dialects
+(no comment line; `HeadPitch_rad` columns). Readers: `read_timeline`, `replay`, `export` (csv and
+naoqi). Each writer says what the file must give back; each reader is checked against it.
+"""
+
+from __future__ import annotations
+
+import json
+import wave
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gesturebank.config import Config, PlaybackConfig, TrainConfig
+from gesturebank.export.commands import export_command
+from gesturebank.robot import pepper
+from gesturebank.robot.backends.record import read_record
+from gesturebank.robot.commands import live_command, replay_command
+from gesturebank.robot.safety import safe_angles, speed_profile
+from gesturebank.robot.timeline import Timeline, from_clip, read_timeline, write_timeline
+
+FAST = PlaybackConfig(start_s=0.2, return_s=0.2)
+N = 150
+
+
+def _truth() -> Timeline:
+    """1.5 s of slow motion inside the limits; the left arm unknown for 0.3 s and the hip roll
+    never known (the left arm is still meanwhile, so holding it is exact)."""
+    t = 0.0125 + np.arange(N) / 100
+    neutral = pepper.neutral_pose().astype(np.float64)
+    lo, hi = pepper.load_profile().lower, pepper.load_profile().upper
+    a = lo + (hi - lo) * (0.5 + 0.1 * np.sin(2 * np.pi * 0.5 * t)[:, None])
+    left = [pepper.JOINTS.index(j) for j in ("LShoulderPitch", "LShoulderRoll", "LElbowYaw")]
+    a[:, left] = neutral[left]  # still
+    a[40:70, left] = np.nan
+    a[:, pepper.JOINTS.index("HipRoll")] = np.nan
+    return Timeline.of(t, a, profile="pepper-1.7", reach="soft")
+
+
+def _old_synthesize(path: Path, line: Timeline) -> Path:
+    """What `synthesize` wrote before: a bare header, no comment, no empty cells."""
+    rows = [",".join(["time_s", *pepper.JOINTS])]
+    for t, a in zip(line.times, line.angles, strict=True):
+        rows.append(f"{t:.4f}," + ",".join(f"{v:.6f}" for v in a))
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def _old_export(path: Path, line: Timeline) -> Path:
+    """What `export --format csv` wrote before: a comment, `_rad` columns, empty unknown cells."""
+    rows = [
+        "# robot profile: pepper-1.7; angles in radians, NAOqi signs and zeros; time in seconds "
+        "from the start",
+        ",".join(["time_s", *(f"{j}_rad" for j in pepper.JOINTS)]),
+    ]
+    for t, a in zip(line.times, line.masked, strict=True):
+        rows.append(f"{t:.4f}," + ",".join("" if np.isnan(v) else f"{v:.6f}" for v in a))
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def _played(line: Timeline) -> Timeline:
+    """The frames replay sends for `line` (the player's safety applied)."""
+    robot = speed_profile(pepper.load_profile(), FAST.max_speed_fraction)
+    return Timeline.of(line.times, safe_angles(line, robot), profile=line.profile, reach=line.reach)
+
+
+def _write_wav(path: Path, seconds: float, sr: int = 16000) -> Path:
+    t = np.arange(int(seconds * sr)) / sr
+    sound = 0.3 * np.sin(2 * np.pi * 220 * t) * (np.sin(2 * np.pi * 3 * t) > 0)
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(sr)
+        w.writeframes((sound * 32767).astype("<i2").tobytes())
+    return path
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A one-epoch MLP on a small generated dataset (a causal model: `live` runs it too)."""
+    from gesturebank.testing.speech_motion import write_speech_motion_dataset
+    from gesturebank.train.commands import train_command
+
+    root = tmp_path_factory.mktemp("model")
+    data = write_speech_motion_dataset(root / "ds", subjects=3, takes_per_subject=1, seconds=4.0)
+    one = TrainConfig.model_validate({"mlp": {"max_epochs": 1}})
+    train_command(data, "mlp", "si", 0, None, root / "mlp", one, quiet=True)
+    return root / "mlp"
+
+
+def _from_dataset(folder: Path) -> tuple[Path, Timeline]:
+    from gesturebank.testing.clips import clip_from_targets, write_dataset
+
+    angles01 = np.full((N, 11), 0.5)
+    angles01[:, 4] = np.linspace(0.3, 0.7, N)
+    angles01[30:60, 7] = np.nan  # an unseen right arm joint
+    clip = clip_from_targets(
+        angles01, np.zeros((N, 26)), clip_id="s1_t__c000", profile=pepper.load_profile()
+    )
+    write_dataset(folder / "ds", {"s1_t": [clip]})
+    config = Config()
+    out = export_command(src=folder / "ds", fmt="csv", out=folder / "csv", config=config)
+    return out[0], from_clip(folder / "ds", "s1_t__c000")
+
+
+def _synthesized(folder: Path, model: Path) -> tuple[Path, Timeline]:
+    from gesturebank.train.commands import synthesize_command
+
+    wav = _write_wav(folder / "speech.wav", 1.0)
+    angles = synthesize_command(model, wav, folder / "synth.csv")
+    audio = json.loads((model / "model.json").read_text())["audio"]
+    times = np.arange(len(angles)) * audio["winstep_s"] + audio["winlen_s"] / 2
+    return folder / "synth.csv", Timeline.of(times, angles, profile="pepper-1.7", reach="clamp")
+
+
+def _replayed(folder: Path, suffix: str, mode: str = "stream") -> tuple[Path, Timeline]:
+    truth = _truth()
+    src = write_timeline(folder / "src.csv", truth)
+    config = FAST.model_copy(update={"mode": mode})  # interpolate: one angleInterpolation call
+    replay_command(src, "record", out=folder / f"played{suffix}", config=config)
+    played = _played(truth)
+    if mode == "interpolate":  # the robot holds frame 0 (the start move's end) when called
+        played = Timeline.of(
+            played.times[1:], played.angles[1:], profile="pepper-1.7", reach="soft"
+        )
+    return folder / f"played{suffix}", played
+
+
+def _live(folder: Path, model: Path, csv: bool) -> tuple[Path, Timeline]:
+    """Live on the same speech twice: the JSONL's calls (read as JSON) are what both must give
+    (the angles: the times are when each chunk arrived)."""
+    wav = _write_wav(folder / "speech.wav", 0.5)
+    jsonl = folder / "live.jsonl"
+    live_command(model, "record", str(wav), out=jsonl, config=FAST)
+    calls = [c for c in read_record(jsonl) if c["phase"] == "live"]
+    expected = Timeline.of(
+        [c["t"] for c in calls], [c["angles"] for c in calls], profile="pepper-1.7", reach="clamp"
+    )
+    if not csv:
+        return jsonl, expected
+    out = folder / "live.csv"
+    live_command(model, "record", str(wav), out=out, config=FAST, csv=True)
+    return out, expected
+
+
+WRITERS: dict[str, Callable[[Path, Path], tuple[Path, Timeline]]] = {
+    "write_timeline": lambda d, m: (write_timeline(d / "a.csv", _truth()), _truth()),
+    "export-csv": lambda d, m: _from_dataset(d),
+    "synthesize": _synthesized,
+    "replay-record-csv": lambda d, m: _replayed(d, ".csv"),
+    "replay-record-jsonl": lambda d, m: _replayed(d, ".jsonl"),
+    "replay-interpolate-csv": lambda d, m: _replayed(d, ".csv", "interpolate"),
+    "replay-interpolate-jsonl": lambda d, m: _replayed(d, ".jsonl", "interpolate"),
+    "live-jsonl": lambda d, m: _live(d, m, csv=False),
+    "live-csv": lambda d, m: _live(d, m, csv=True),
+    "old-synthesize": lambda d, m: (_old_synthesize(d / "old.csv", _truth()), _held(_truth())),
+    "old-export": lambda d, m: (_old_export(d / "old.angles.csv", _truth()), _unnamed(_truth())),
+}
+
+
+def _held(line: Timeline) -> Timeline:
+    """`line` with nothing unknown (a format with no empty cells carries the held values) and
+    no profile or reach named."""
+    return Timeline.of(line.times, line.angles)
+
+
+def _unnamed(line: Timeline) -> Timeline:
+    """`line` naming no reach (the old export's comment line named only the profile)."""
+    return Timeline.of(line.times, line.masked, profile=line.profile)
+
+
+@pytest.fixture(scope="module")
+def written(
+    model: Path, tmp_path_factory: pytest.TempPathFactory
+) -> dict[str, tuple[Path, Timeline]]:
+    root = tmp_path_factory.mktemp("writers")
+    out = {}
+    for name in WRITERS:
+        folder = root / name
+        folder.mkdir()
+        out[name] = WRITERS[name](folder, model)
+    return out
+
+
+def _same(got: Timeline, want: Timeline, *, mask: bool = True, angles_only: bool = False) -> None:
+    if not angles_only:
+        np.testing.assert_allclose(got.times, want.times, atol=1e-4)
+    np.testing.assert_allclose(got.angles, want.angles, atol=2e-6)
+    if mask:
+        want_known = np.ones(want.angles.shape, bool) if want.known is None else want.known
+        got_known = np.ones(got.angles.shape, bool) if got.known is None else got.known
+        np.testing.assert_array_equal(got_known, want_known)
+
+
+@pytest.mark.parametrize("writer", list(WRITERS))
+def test_read_timeline(written: dict[str, tuple[Path, Timeline]], writer: str) -> None:
+    path, want = written[writer]
+    got = read_timeline(path)
+    _same(got, want, angles_only=writer == "live-csv")
+    if writer in ("write_timeline", "synthesize", "export-csv", "live-csv", "replay-record-csv"):
+        assert path.read_text().startswith("# gesturebank angle timeline; robot profile: pepper-")
+        assert got.profile == "pepper-1.7" and got.reach in ("clamp", "soft")
+    if writer in ("write_timeline", "old-export"):  # masked cells: empty in the file, held here
+        assert got.known is not None and not got.known[:, pepper.JOINTS.index("HipRoll")].any()
+        assert np.isfinite(got.angles).all()
+
+
+@pytest.mark.parametrize("writer", list(WRITERS))
+def test_replay_plays_it(
+    written: dict[str, tuple[Path, Timeline]], writer: str, tmp_path: Path
+) -> None:
+    path, want = written[writer]
+    replay_command(path, "record", out=tmp_path / "out.csv", config=FAST)
+    got = read_timeline(tmp_path / "out.csv")
+    _same(got, _played(_held(want)), mask=False, angles_only=writer == "live-csv")
+    assert got.known is None  # what a robot was sent is always known
+
+
+@pytest.mark.parametrize("writer", list(WRITERS))
+def test_export_reads_it(
+    written: dict[str, tuple[Path, Timeline]], writer: str, tmp_path: Path
+) -> None:
+    path, want = written[writer]
+    (csv,) = export_command(src=path, fmt="csv", out=tmp_path / "again.csv", config=Config())
+    again = read_timeline(csv)
+    _same(again, want, angles_only=writer == "live-csv")  # masked cells stay masked
+    assert again.reach == (want.reach or "clamp")  # what the file says, else the default
+    (js, _) = export_command(src=path, fmt="naoqi", out=tmp_path / "a.naoqi.json", config=Config())
+    sent = np.array(json.loads(js.read_text())["angleLists"]).T
+    np.testing.assert_allclose(sent, _played(_held(want)).angles, atol=2e-6)
+
+
+def test_live_csv_is_the_record_backend_s(model: Path, tmp_path: Path) -> None:
+    from gesturebank.errors import InputError
+
+    wav = _write_wav(tmp_path / "s.wav", 0.2)
+    with pytest.raises(InputError, match="--csv writes the record backend's file"):
+        live_command(model, "sim", str(wav), out=tmp_path / "x.mp4", config=FAST, csv=True)
