@@ -38,6 +38,7 @@ COMMANDS = [
     "synthesize",
     "replay",
     "preview",
+    "clips",
     "live",
     "calibrate",
     "export",
