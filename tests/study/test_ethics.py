@@ -208,3 +208,56 @@ def test_analysis_gives_holm_beside_raw_p_per_question(study: Path) -> None:
     smallest = min(tests, key=lambda t: t["p"])
     assert smallest["p_holm"] == pytest.approx(min(1.0, 6 * raw[0]))
     assert all(t["p_holm"] >= t["p"] for t in tests)
+
+
+def test_cli_analyse_says_who_counts_and_prints_holm(study: Path) -> None:
+    import os
+    import subprocess
+    import sys
+
+    client = create_app(study).test_client()
+    for n in (1, 2):
+        _answer_all(client, _join(client), RATINGS[n], {a: "lstm" for a in RATINGS[n]})
+    _join(client)  # consented, nothing more
+    gesturebank = str(Path(sys.executable).parent / "gesturebank")
+    env = {**os.environ, "COLUMNS": "200"}
+    for flag, used in (([], "2 (finished only)"), (["--include-partial"], "2 (finished and")):
+        r = subprocess.run(
+            [gesturebank, "study", "analyse", str(study), *flag],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+            env=env,
+        )
+        assert r.returncode == 0, r.stderr
+        assert "2 finished, 0 partial (stopped half-way), 1 consented without" in r.stdout
+        assert f"analysed: {used}" in r.stdout
+        assert "p (Holm)" in r.stdout
+
+
+def test_cli_serve_takes_allow_host(study: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+
+    gesturebank = str(Path(sys.executable).parent / "gesturebank")
+    args = [gesturebank, "study", "serve", str(study), "--port", "0"]
+    proc = subprocess.Popen(
+        [*args, "--allow-host", "study.example", "--allow-host", "other.example"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stdout is not None
+        url = proc.stdout.readline().split("participants: ", 1)[1].strip()
+        port = int(url.rstrip("/").rsplit(":", 1)[1])
+        for host, expected in (("study.example", 200), ("other.example", 200), ("x.test", 403)):
+            con = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+            con.request("GET", "/", headers={"Host": f"{host}:{port}"})
+            assert con.getresponse().status == expected, host
+            con.close()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=30)
