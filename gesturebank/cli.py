@@ -487,7 +487,11 @@ def replay(
     ] = None,
     out_file: OutFileOption = None,
     audio: Annotated[
-        Path | None, typer.Option(help="Speech to play (naoqi: here; sim: muxed into the video).")
+        Path | None,
+        typer.Option(
+            help="Speech to play (naoqi: on the robot, the motion timed from its sound; "
+            "sim: muxed into the video)."
+        ),
     ] = None,
     clip: Annotated[
         str | None, typer.Option(help="Play this clip of the dataset folder ANGLES instead.")

@@ -63,8 +63,8 @@ class DesignFile(BaseModel):
     )
     data_use: str = Field(
         "We store only your answers, with a random number in place of your name; no name, "
-        "e-mail or IP address is kept. The answers are analysed for research and may be "
-        "published in anonymous form.",
+        "e-mail or IP address is stored with them. The answers are analysed for research and "
+        "may be published in anonymous form.",
         min_length=1,
     )
     ab: bool = True
