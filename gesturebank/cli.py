@@ -526,7 +526,11 @@ def replay(
     ] = None,
     out_file: OutFileOption = None,
     audio: Annotated[
-        Path | None, typer.Option(help="Speech to play (naoqi: here; sim: muxed into the video).")
+        Path | None,
+        typer.Option(
+            help="Speech to play (naoqi: on the robot, the motion timed from its sound; "
+            "sim: muxed into the video)."
+        ),
     ] = None,
     clip: Annotated[
         str | None,
@@ -844,6 +848,13 @@ def export(
             "suffix (.bvh, .trc, .angles.csv, .naoqi.json) here, or the folder DATASET-FORMAT.",
         ),
     ] = None,
+    audio: Annotated[
+        Path | None,
+        typer.Option(
+            help="naoqi: speech the script plays on the robot, in step with the motion "
+            "(one clip or angles CSV)."
+        ),
+    ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
 ) -> None:
@@ -857,7 +868,7 @@ def export(
 
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
-        written = export_command(src=src, fmt=fmt, out=out_path, config=config)
+        written = export_command(src=src, fmt=fmt, out=out_path, config=config, audio=audio)
     for path in written:
         out.print(f"wrote {path}", highlight=False, soft_wrap=True)
 
@@ -928,6 +939,13 @@ def study_serve(
     port: Annotated[int, typer.Option(min=0, max=65535, help="Port (0: a free one).")] = (
         DEFAULT_STUDY_PORT
     ),
+    allow_host: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Another name participants reach the study by (repeatable); other Host "
+            "headers than these and --host are refused (DNS rebinding)."
+        ),
+    ] = None,
 ) -> None:
     """Serve the study's web app: consent, instructions, A/B and MUSHRA-style rating pages in a
     random, counterbalanced order per participant, answers in STUDY_DIR/responses.sqlite.
@@ -938,18 +956,26 @@ def study_serve(
     from gesturebank.study.commands import serve_command
 
     with user_errors():
-        serve_command(folder=study_dir, host=host, port=port, console=out)
+        serve_command(
+            folder=study_dir, host=host, port=port, console=out, allow_hosts=allow_host or []
+        )
 
 
 @study_app.command("analyse")
-def study_analyse(study_dir: StudyArg) -> None:
-    """Tables of the answers: mean rating per condition with 95 % confidence intervals, paired
-    Wilcoxon signed-rank or t-tests per question, A/B shares with a binomial test; and a plot
-    (STUDY_DIR/analysis/ratings.png)."""
+def study_analyse(
+    study_dir: StudyArg,
+    include_partial: Annotated[
+        bool, typer.Option(help="Also analyse participants who stopped half-way.")
+    ] = False,
+) -> None:
+    """Tables of the answers of participants who finished: mean rating per condition with 95 %
+    confidence intervals (within the 0–100 scale), paired Wilcoxon signed-rank or t-tests per
+    question and A/B shares with a binomial test, each with Holm-adjusted p beside the raw p;
+    and a plot (STUDY_DIR/analysis/ratings.png)."""
     from gesturebank.study.commands import analyse_command
 
     with user_errors():
-        analyse_command(folder=study_dir, console=out)
+        analyse_command(folder=study_dir, console=out, include_partial=include_partial)
 
 
 def main() -> None:

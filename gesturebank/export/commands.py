@@ -114,7 +114,9 @@ def _sources(src: Path, config: Config) -> list[_Source]:
     )
 
 
-def _write(source: _Source, fmt: Format, out: Path, config: Config) -> list[Path]:
+def _write(
+    source: _Source, fmt: Format, out: Path, config: Config, audio: Path | None = None
+) -> list[Path]:
     from gesturebank.mocap.bvh import write_bvh
     from gesturebank.robot import pepper, safety
     from gesturebank.robot.timeline import Timeline
@@ -146,6 +148,7 @@ def _write(source: _Source, fmt: Format, out: Path, config: Config) -> list[Path
                 angles=safe,
                 lead_s=config.playback.start_s,
                 profile=source.profile,
+                audio=audio,
             )
         )
     from gesturebank.export.pepper_bvh import pepper_motion
@@ -163,10 +166,14 @@ def _write(source: _Source, fmt: Format, out: Path, config: Config) -> list[Path
     return paths
 
 
-def export_command(*, src: Path, fmt: Format, out: Path | None, config: Config) -> list[Path]:
+def export_command(
+    *, src: Path, fmt: Format, out: Path | None, config: Config, audio: Path | None = None
+) -> list[Path]:
     """Export `src` as `fmt` into `out` (a file for one clip or CSV; a folder for a dataset;
     default: `<name><suffix>` in the working directory, or `<dataset>-<fmt>/`). Returns the
-    files written."""
+    files written. `audio` (naoqi, one clip or CSV): speech the script plays on the robot."""
+    if audio is not None and (fmt != "naoqi" or src.is_dir()):
+        raise InputError(f"{audio}: --audio goes with --format naoqi of one clip or angles CSV")
     sources = _sources(src, config)
     if src.is_dir():
         folder = out if out is not None else Path(f"{src.resolve().name}-{fmt}")
@@ -177,5 +184,5 @@ def export_command(*, src: Path, fmt: Format, out: Path | None, config: Config) 
         raise InputError(f"{src}: --out would overwrite the input; name another file")
     written: list[Path] = []
     for source, target in zip(sources, targets, strict=True):
-        written += _write(source, fmt, target, config)
+        written += _write(source, fmt, target, config, audio)
     return written

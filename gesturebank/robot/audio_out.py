@@ -1,9 +1,10 @@
-"""Audio out on this computer's default output device, started in step with a robot's playback."""
+"""Audio out, started in step with a robot's playback: on this computer's default output device,
+or on the robot itself (a backend that has a `speaker`, e.g. naoqi's ALAudioDevice)."""
 
 from __future__ import annotations
 
 import os
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 from gesturebank.errors import RobotError
 
@@ -14,9 +15,20 @@ PORTAUDIO_HINT = "install the PortAudio library: apt-get install libportaudio2"
 
 
 class AudioOut(Protocol):
-    def start(self) -> None: ...
+    def start(self) -> float | None:
+        """Start the sound; returns the time.monotonic() at which it started where the device
+        reports it (playback then times the motion from it), else None (it starts now)."""
+        ...
 
     def stop(self) -> None: ...
+
+
+@runtime_checkable
+class Speaking(Protocol):
+    """A backend that plays the audio itself, on the robot (None: it was given none)."""
+
+    @property
+    def speaker(self) -> AudioOut | None: ...
 
 
 class DeviceAudio:
@@ -43,7 +55,7 @@ class DeviceAudio:
         self._sd = sounddevice
 
     def start(self) -> None:
-        self._sd.play(self.signal, self.rate)
+        self._sd.play(self.signal, self.rate)  # no report of the start: motion runs from now
 
     def stop(self) -> None:
         self._sd.stop()

@@ -13,7 +13,7 @@ import numpy as np
 from gesturebank.config import AudioConfig, PlaybackConfig, RenderConfig, RobotConfig
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
-from gesturebank.robot.audio_out import DeviceAudio
+from gesturebank.robot.audio_out import DeviceAudio, Speaking
 from gesturebank.robot.backends import create
 from gesturebank.robot.playback import PlaybackResult, play
 from gesturebank.robot.safety import check_timeline
@@ -90,7 +90,10 @@ def replay_command(
     )  # fmt: skip
     be = create(backend, url=url, out=out, audio=audio, config=cfg, **extra)
     try:
-        sound = DeviceAudio(audio) if audio is not None and be.realtime else None
+        if isinstance(be, Speaking):  # the robot plays it (naoqi), not this computer
+            sound = be.speaker
+        else:
+            sound = DeviceAudio(audio) if audio is not None and be.realtime else None
         result = play(timeline, be, config=cfg, profile=robot, audio=sound)
         if result.status == "interrupted" and be.name == "sim":
             from gesturebank.robot.backends.sim import SimBackend

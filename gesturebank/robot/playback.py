@@ -7,7 +7,8 @@ Safety, on every backend (the backends only translate):
   and ends — normally, on Ctrl-C, or on an error — by moving smoothly back to the neutral pose;
 - a lost connection stops playback with one line (RobotError) instead of a traceback.
 
-Timing: frame i of the timeline is due at t0 + times[i], where t0 is the moment the audio starts.
+Timing: frame i of the timeline is due at t0 + times[i], where t0 is the moment the audio starts:
+as the audio output reports it when it can (the robot's own speaker), else when it was started.
 Two modes (`PlaybackConfig.mode`):
 - `stream`: one setAngles per frame, each preceded by the adaptive sleep of Eq. 4.1;
 - `interpolate`: one time-stamped call for the whole timeline (ALMotion angleInterpolation),
@@ -201,7 +202,9 @@ def play(
         n_start = run.calls
         clk.sleep(run.t0 - clk.now())
         if audio is not None:
-            audio.start()
+            started = audio.start()
+            if started is not None:  # the device reported when its sound began: time from it
+                run.t0 = started
         run.frames(timeline.times, frames)
     except KeyboardInterrupt:
         status = "interrupted"

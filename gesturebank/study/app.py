@@ -6,7 +6,9 @@ the key need the operator token (`Authorization: Bearer …`, stored 0600 in the
 Every field is checked against the participant's stored trial (known ids, ratings 0–100
 integers, bounded comment); anything else is a 4xx that changes nothing. Pages carry their CSS
 and JS inline under a nonce and a Content-Security-Policy that lets them load nothing but this
-server's videos.
+server's videos and posters. A request whose Host header names none of the allowed hosts (the
+address served on, `--allow-host`) gets a 403: a page on another site that rebinds its DNS name
+to this server (DNS rebinding) cannot use it, as its requests carry its own name.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import io
 import json
 import os
 import secrets
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -32,11 +34,26 @@ from gesturebank.study.pages import (
     instructions_page,
     mushra_page,
 )
+from gesturebank.study.posters import ensure_posters, poster_path
 
 OPERATOR_TOKEN = "operator-token"
 MAX_COMMENT = 500  # characters of a trial's free-text comment
 Row = tuple[str, str, int | None, int | None]  # question, stimulus, rating, chosen
 MAX_FORM_BYTES = 64 * 1024  # a whole submitted form; a trial's sliders need far less
+LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")  # names of this machine only: no rebinding
+
+
+def host_name(header: str) -> str | None:
+    """The name in a Host header, without port, lower case; None when malformed."""
+    text = header.strip().lower()
+    if text.startswith("["):  # [v6 address]:port
+        name, sep, rest = text[1:].partition("]")
+        ok = sep and (not rest or (rest[0] == ":" and rest[1:].isdigit()))
+        return name if ok and name else None
+    name, _, port = text.partition(":")
+    if not name or (port and not port.isdigit()) or any(c in name for c in "/@ \t"):
+        return None
+    return name.rstrip(".")
 
 
 def operator_token(folder: Path) -> str:
@@ -52,9 +69,12 @@ def operator_token(folder: Path) -> str:
     return token
 
 
-def create_app(folder: Path) -> Flask:
-    """The app serving the study in `folder` (its design read once, now)."""
+def create_app(folder: Path, *, allowed_hosts: Collection[str] = LOOPBACK_HOSTS) -> Flask:
+    """The app serving the study in `folder` (its design read once, now, and the videos'
+    posters made where missing). `allowed_hosts`: the names the Host header may carry."""
     design = load_design(folder)
+    ensure_posters(folder, {sid: s.file for sid, s in design.stimuli.items()})
+    allowed = {h.strip().lower().strip("[]").rstrip(".") for h in allowed_hosts}
     operator = operator_token(folder)
     database = folder / db.DATABASE
     with db.connect(database):
@@ -70,6 +90,11 @@ def create_app(folder: Path) -> Flask:
     @app.before_request
     def _nonce() -> None:
         g.nonce = secrets.token_urlsafe(16)
+        name = host_name(request.headers.get("Host", ""))
+        if name is None:
+            abort(400, "bad Host header")
+        if name not in allowed:
+            abort(403, f"this study is not served as {name!r}")
         if request.method == "POST" and _cross_site(request.headers):
             abort(403)  # a form posted from another site
 
@@ -103,7 +128,8 @@ def create_app(folder: Path) -> Flask:
 
     @app.get("/")
     def consent() -> Response:
-        return page(consent_page())
+        pages, minutes = len(design.trials), design.estimated_minutes()
+        return page(consent_page(about=design.about, pages=pages, minutes=minutes))
 
     @app.get("/favicon.ico")
     def favicon() -> Response:
@@ -181,6 +207,14 @@ def create_app(folder: Path) -> Flask:
             abort(404)
         return send_from_directory(folder, design.stimuli[stimulus].file, conditional=True)
 
+    @app.get("/p/<token>/poster/<stimulus>")
+    def poster(token: str, stimulus: str) -> Response:
+        me(token)
+        if stimulus not in design.stimuli:
+            abort(404)
+        path = poster_path(folder, stimulus)
+        return send_from_directory(path.parent, path.name, mimetype="image/jpeg")
+
     @app.get("/export.csv")
     def export() -> Response:
         _operator()
@@ -243,7 +277,7 @@ def export_csv(design: Design, rows: list[dict[str, Any]]) -> str:
     """The answers as CSV, one row per answer, with the key's model and audio beside it."""
     out = io.StringIO()
     fields = ["participant", "trial", "kind", "question", "stimulus", "model", "audio"]
-    fields += ["rating", "chosen", "comment", "submitted_at"]
+    fields += ["rating", "chosen", "comment", "submitted_at", "finished"]
     writer = csv.DictWriter(out, fieldnames=fields, lineterminator="\n")
     writer.writeheader()
     for r in rows:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ipaddress
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -15,15 +16,35 @@ from gesturebank.errors import InputError
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8000  # loopback: strangers only if the operator says
 
 
-def make_server(folder: Path, *, host: str, port: int) -> Any:
-    """A threaded werkzeug server of the study in `folder` (port 0: a free one)."""
+def allowed_hosts(host: str, extra: Sequence[str] = ()) -> list[str]:
+    """The Host names the app answers: the address served on (with this machine's own names
+    when that is loopback; none for a wildcard such as 0.0.0.0) and `extra` (`--allow-host`)."""
+    from gesturebank.study.app import LOOPBACK_HOSTS
+
+    names = list(LOOPBACK_HOSTS) if _loopback(host) else []
+    if not _wildcard(host):
+        names.append(host)
+    return names + [h for h in extra if h]
+
+
+def make_server(folder: Path, *, host: str, port: int, allow_hosts: Sequence[str] = ()) -> Any:
+    """A threaded werkzeug server of the study in `folder` (port 0: a free one), answering
+    requests for `allowed_hosts(host, allow_hosts)` only."""
     from werkzeug.serving import make_server as werkzeug_server
 
     from gesturebank.study.app import create_app
 
     if not folder.is_dir():
         raise InputError(f"{folder}: no such study folder")
-    return werkzeug_server(host, port, create_app(folder), threaded=True)
+    app = create_app(folder, allowed_hosts=allowed_hosts(host, allow_hosts))
+    return werkzeug_server(host, port, app, threaded=True)
+
+
+def _wildcard(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_unspecified
+    except ValueError:
+        return False
 
 
 def _loopback(host: str) -> bool:
@@ -33,11 +54,14 @@ def _loopback(host: str) -> bool:
         return host == "localhost"
 
 
-def serve_command(*, folder: Path, host: str, port: int, console: Console) -> None:
+def serve_command(
+    *, folder: Path, host: str, port: int, console: Console, allow_hosts: Sequence[str] = ()
+) -> None:
     """Serve until Ctrl-C, after printing the participants' address and the operator token."""
     from gesturebank.study.app import OPERATOR_TOKEN, operator_token
+    from gesturebank.study.design import DESIGN, read_design_file
 
-    server = make_server(folder, host=host, port=port)
+    server = make_server(folder, host=host, port=port, allow_hosts=allow_hosts)
     url = f"http://{host}:{server.server_port}/"
     console.print(f"participants: {url}", highlight=False, soft_wrap=True)
     token = operator_token(folder)
@@ -49,6 +73,19 @@ def serve_command(*, folder: Path, host: str, port: int, console: Console) -> No
     )
     if not _loopback(host):
         console.print(f"warning: listening on {host}, reachable from other machines")
+    if _wildcard(host) and not allow_hosts:
+        console.print(
+            f"warning: {host} is no name participants can use: give the address they type "
+            "with --allow-host (other Host headers are refused)"
+        )
+    missing = read_design_file(folder / DESIGN).missing()
+    if missing:
+        console.print(
+            f"note: {folder / DESIGN} gives no {', '.join(missing)}; the consent page "
+            "goes without (an ethics board will ask for them)",
+            highlight=False,
+            soft_wrap=True,
+        )
     try:
         server.serve_forever()
     except KeyboardInterrupt:
@@ -65,22 +102,29 @@ def _p(value: float) -> str:
     return "–" if not math.isfinite(value) else f"{value:.3g}"
 
 
-def analyse_command(*, folder: Path, console: Console) -> None:
+def analyse_command(*, folder: Path, console: Console, include_partial: bool = False) -> None:
     """Print the rating, paired-test and A/B tables, and where the plot went."""
     from gesturebank.study.analyse import analyse
 
-    result = analyse(folder)
-    console.print(f"{result.participants} participants", highlight=False)
+    result = analyse(folder, include_partial=include_partial)
+    used = "finished and partial" if include_partial else "finished only"
+    console.print(
+        f"participants: {result.finished} finished, {result.partial} partial (stopped "
+        f"half-way), {result.no_answer} consented without answering; analysed: "
+        f"{result.participants} ({used})",
+        highlight=False,
+        soft_wrap=True,
+    )
     for question in sorted({r["question"] for r in result.ratings}):
         table = Table(title=f"{question}: ratings 0–100")
-        for col in ("condition", "n", "mean", "95 % CI"):
+        for col in ("condition", "n", "mean", "95 % CI (within 0–100)"):
             table.add_column(col)
         for r in (r for r in result.ratings if r["question"] == question):
             ci = f"{_num(r['ci_low'])} – {_num(r['ci_high'])}"
             table.add_row(r["condition"], str(r["n"]), _num(r["mean"]), ci)
         console.print(table)
         tests = Table(title=f"{question}: paired tests")
-        for col in ("a", "b", "n", "mean a − b", "test", "statistic", "p"):
+        for col in ("a", "b", "n", "mean a − b", "test", "statistic", "p", "p (Holm)"):
             tests.add_column(col)
         for t in (t for t in result.tests if t["question"] == question):
             tests.add_row(
@@ -91,15 +135,16 @@ def analyse_command(*, folder: Path, console: Console) -> None:
                 t["test"],
                 _num(t["statistic"], 2),
                 _p(t["p"]),
+                _p(t["p_holm"]),
             )
         console.print(tests)
     if result.preferences:
         table = Table(title="A/B preferences (binomial test against 50 %)")
-        for col in ("a", "b", "n", "prefer a", "p"):
+        for col in ("a", "b", "n", "prefer a", "p", "p (Holm)"):
             table.add_column(col)
         for p in result.preferences:
             share = f"{p['wins_a']}/{p['n']} ({100 * p['share_a']:.0f} %)"
-            table.add_row(p["a"], p["b"], str(p["n"]), share, _p(p["p"]))
+            table.add_row(p["a"], p["b"], str(p["n"]), share, _p(p["p"]), _p(p["p_holm"]))
         console.print(table)
     if result.plot is not None:
         console.print(f"plot written to {result.plot}", highlight=False, soft_wrap=True)

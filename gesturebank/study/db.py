@@ -162,11 +162,27 @@ def own_answers(con: sqlite3.Connection, number: int) -> list[dict[str, Any]]:
 
 
 def all_answers(con: sqlite3.Connection) -> list[dict[str, Any]]:
-    """Every answer with its participant's number and the trial's comment (for export)."""
+    """Every answer with its participant's number, whether they finished (0/1) and the trial's
+    comment (for export)."""
     rows = con.execute(
-        "SELECT a.participant, a.trial, a.question, a.stimulus, a.rating, a.chosen,"
-        " s.comment, s.submitted_at FROM answers a JOIN submissions s"
-        " ON s.participant = a.participant AND s.trial = a.trial"
+        "SELECT a.participant, p.finished_at IS NOT NULL AS finished, a.trial, a.question,"
+        " a.stimulus, a.rating, a.chosen, s.comment, s.submitted_at FROM answers a"
+        " JOIN submissions s ON s.participant = a.participant AND s.trial = a.trial"
+        " JOIN participants p ON p.number = a.participant"
         " ORDER BY a.participant, a.trial, a.question, a.stimulus"
     )
     return [dict(r) for r in rows]
+
+
+def participant_counts(con: sqlite3.Connection) -> dict[str, int]:
+    """Participants who finished, who answered some pages but not all (partial), and who
+    consented and answered nothing."""
+    (finished, partial, none) = con.execute(
+        "SELECT COALESCE(SUM(finished_at IS NOT NULL), 0),"
+        " COALESCE(SUM(finished_at IS NULL AND EXISTS"
+        "  (SELECT 1 FROM submissions s WHERE s.participant = number)), 0),"
+        " COALESCE(SUM(finished_at IS NULL AND NOT EXISTS"
+        "  (SELECT 1 FROM submissions s WHERE s.participant = number)), 0)"
+        " FROM participants"
+    ).fetchone()
+    return {"finished": int(finished), "partial": int(partial), "no_answer": int(none)}

@@ -3,8 +3,11 @@
 A study folder is what `gesturebank stimuli … --out study/` writes (`gesturebank.study.stimuli`
 documents the formats): `stimuli.json`, the blind manifest (groups of videos by speech source),
 and `key.json`, the operator's (id → condition and role: model, reference, anchor). Optionally
-`design.toml`: `ab = true`, `mushra = true`, `ab_question = "…"`, and `[mushra_questions]`
-`id = "text"` (one slider per question and video; default one question, appropriateness).
+`design.toml` (`DesignFile`, checked: a wrong key or type is a one-line error naming the file):
+what the consent page tells participants (`title`, `researcher`, `contact`, `ethics_reference`,
+`consent_text`, `data_use`) and the trials: `ab = true`, `mushra = true`, `ab_question = "…"`,
+and `[mushra_questions]` `id = "text"` (one slider per question and video; default one
+question, appropriateness).
 
 Trials, derived from those: for each speech source, one MUSHRA page (the ground truth labelled
 as the reference on top when there is one, and every video of that source below it, the hidden
@@ -14,7 +17,9 @@ reference nor the anchor).
 
 from __future__ import annotations
 
+import difflib
 import json
+import math
 import random
 import tomllib
 from collections import defaultdict
@@ -22,6 +27,8 @@ from dataclasses import dataclass
 from itertools import combinations
 from pathlib import Path
 from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from gesturebank.errors import InputError
 from gesturebank.study.stimuli import FORMAT, KEY, KEY_FORMAT, MANIFEST
@@ -32,6 +39,68 @@ DEFAULT_AB_QUESTION = "Which robot's movements fit the speech better?"
 DEFAULT_MUSHRA_QUESTIONS = {
     "appropriate": "How appropriate are the movements for the speech?",
 }
+# The duration estimate the consent page gives (`estimated_minutes`), stated there as such.
+VIEWS_PER_VIDEO = 2  # each video played twice: once to see it, once to compare
+ANSWER_S = 10.0  # seconds to move one slider or pick one side
+READING_S = 60.0  # this page and the instructions
+
+
+class DesignFile(BaseModel):
+    """design.toml. What participants are told is the researcher's to write; the page leaves
+    out what is not given, and `study serve` says which of those an ethics board will ask for."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    title: str = Field("A study of robot movements", min_length=1)
+    researcher: str = Field("", description="who runs the study (name, institution)")
+    contact: str = Field("", description="where participants write with questions")
+    ethics_reference: str = Field("", description="the approval's reference number")
+    consent_text: str = Field(
+        "You will watch short videos of a robot moving while speech plays, and say which "
+        "movements fit the speech better, or rate them. Taking part is voluntary: you can stop "
+        "at any time by closing the page.",
+        min_length=1,
+    )
+    data_use: str = Field(
+        "We store only your answers, with a random number in place of your name; no name, "
+        "e-mail or IP address is stored with them. The answers are analysed for research and "
+        "may be published in anonymous form.",
+        min_length=1,
+    )
+    ab: bool = True
+    mushra: bool = True
+    ab_question: str = Field(DEFAULT_AB_QUESTION, min_length=1)
+    mushra_questions: dict[str, str] = Field(default_factory=lambda: dict(DEFAULT_MUSHRA_QUESTIONS))
+
+    def missing(self) -> list[str]:
+        """What an ethics board expects on the consent page and this file does not give."""
+        return [k for k in ("researcher", "contact", "ethics_reference") if not getattr(self, k)]
+
+
+def read_design_file(path: Path) -> DesignFile:
+    """design.toml checked (defaults when absent); InputError in one line naming the file."""
+    if not path.is_file():
+        return DesignFile()
+    try:
+        options = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path}: not valid TOML ({exc})") from None
+    try:
+        found = DesignFile.model_validate(options)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = ".".join(str(p) for p in err["loc"])
+        if err["type"] == "extra_forbidden":
+            near = difflib.get_close_matches(where, list(DesignFile.model_fields), n=1)
+            hint = f" (did you mean {near[0]}?)" if near else ""
+            raise InputError(f"{path}: unknown key {where!r}{hint}") from None
+        raise InputError(f"{path}: {where}: {err['msg']}") from None
+    for qid in found.mushra_questions:
+        if not qid or not all(c.isascii() and (c.isalnum() or c in "_-") for c in qid):
+            raise InputError(
+                f"{path}: mushra_questions: id {qid!r} must be letters, digits, _ or -"
+            )
+    return found
 
 
 @dataclass(frozen=True)
@@ -60,6 +129,18 @@ class Design:
     trials: dict[str, Trial]
     ab_question: str
     mushra_questions: dict[str, str]
+    about: DesignFile  # what the consent page says
+
+    def estimated_minutes(self) -> int:
+        """Minutes the study takes, rounded up: every video of every page played
+        VIEWS_PER_VIDEO times, ANSWER_S per answer, and READING_S for consent and instructions."""
+        seconds = READING_S
+        for trial in self.trials.values():
+            shown = list(trial.stimuli) + ([trial.reference] if trial.reference else [])
+            seconds += VIEWS_PER_VIDEO * sum(self.stimuli[s].duration_s for s in shown)
+            answers = 1 if trial.kind == "ab" else len(trial.stimuli) * len(self.mushra_questions)
+            seconds += ANSWER_S * answers
+        return max(1, math.ceil(seconds / 60))
 
 
 def _read_json(path: Path) -> Any:
@@ -103,13 +184,8 @@ def _stimuli(folder: Path) -> dict[str, Stimulus]:
 def load_design(folder: Path) -> Design:
     """The study in `folder`: its stimuli (with the key's models) and its trials."""
     stimuli = _stimuli(folder)
-    options: dict[str, Any] = {}
-    if (folder / DESIGN).is_file():
-        try:
-            options = tomllib.loads((folder / DESIGN).read_text(encoding="utf-8"))
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError(f"{folder / DESIGN}: not valid TOML ({exc})") from None
-    questions = dict(options.get("mushra_questions", DEFAULT_MUSHRA_QUESTIONS))
+    about = read_design_file(folder / DESIGN)
+    questions = dict(about.mushra_questions)
     trials: dict[str, Trial] = {}
     for audio in sorted({s.audio for s in stimuli.values()}):
         # by model: an A/B pair's first side is the same model for every audio
@@ -118,11 +194,11 @@ def load_design(folder: Path) -> Design:
         )
         models = [s.id for s in of_audio if s.role == "model"]
         refs = [s.id for s in of_audio if s.role == "reference"]
-        if options.get("mushra", True) and questions and len(of_audio) > 1:
+        if about.mushra and questions and len(of_audio) > 1:
             tid = f"mushra-{audio}"
             ref = refs[0] if refs else None
             trials[tid] = Trial(tid, "mushra", audio, tuple(s.id for s in of_audio), ref)
-        if options.get("ab", True):
+        if about.ab:
             for a, b in combinations(models, 2):
                 tid = f"ab-{audio}-{a}-{b}"
                 trials[tid] = Trial(tid, "ab", audio, (a, b))
@@ -132,8 +208,9 @@ def load_design(folder: Path) -> Design:
         folder=folder,
         stimuli=stimuli,
         trials=trials,
-        ab_question=str(options.get("ab_question", DEFAULT_AB_QUESTION)),
-        mushra_questions={str(k): str(v) for k, v in questions.items()},
+        ab_question=about.ab_question,
+        mushra_questions=questions,
+        about=about,
     )
 
 

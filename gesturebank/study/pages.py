@@ -6,6 +6,8 @@ from __future__ import annotations
 from html import escape
 from typing import Any
 
+from gesturebank.study.design import ANSWER_S, READING_S, VIEWS_PER_VIDEO, DesignFile
+
 MUSHRA_SCALE = ("Bad", "Poor", "Fair", "Good", "Excellent")  # ITU-R BS.1534 labels, 20 each
 
 STYLE = """
@@ -19,6 +21,7 @@ video { width: 100%; background: #000; }
 input[type=range] { width: 100%; }
 button { font-size: 1.1rem; padding: .4rem 1.2rem; margin-top: 1rem; }
 .progress { color: #555; }
+dl.who dt { font-weight: bold; }
 """
 
 # Sliders show their value, and the submit button waits until each one has been moved.
@@ -56,15 +59,36 @@ def _page(title: str, body: str) -> str:
     )
 
 
-def consent_page() -> str:
+def _paragraphs(text: str) -> str:
+    """The researcher's plain text: blank lines part paragraphs, everything escaped."""
+    parts = [p.strip() for p in text.replace("\r\n", "\n").split("\n\n") if p.strip()]
+    return "".join(f"<p>{escape(p)}</p>" for p in parts)
+
+
+def consent_page(*, about: DesignFile, pages: int, minutes: int) -> str:
+    """The study as design.toml describes it, with its real length and the estimate's basis."""
+    who = [
+        ("researcher", "Researcher", about.researcher),
+        ("contact", "Contact", about.contact),
+        ("ethics", "Ethics approval", about.ethics_reference),
+    ]
+    facts = "".join(
+        f"<dt>{label}</dt><dd id='{key}'>{escape(value)}</dd>" for key, label, value in who if value
+    )
+    basis = (
+        f"estimated from the videos' lengths: each video played {VIEWS_PER_VIDEO} times, "
+        f"{ANSWER_S:g} s per answer, and {READING_S / 60:g} minute to read this page and the "
+        "instructions"
+    )
     return _page(
         "Consent",
-        "<h1>A study of robot movements</h1>"
-        "<p>You will watch short videos of a robot moving while speech plays, and say which "
-        "movements fit the speech better, or rate them. It takes about 10 minutes. We store "
-        "only your answers, with a random number in place of your name; you can stop at any "
-        "time by closing the page.</p>"
-        "<form method='post' action='/start' id='consent'>"
+        f"<h1 id='title'>{escape(about.title)}</h1>"
+        f"<div id='consent-text'>{_paragraphs(about.consent_text)}</div>"
+        f"<p id='length'>The study has <b id='pages'>{pages}</b> pages and takes about "
+        f"<b id='minutes'>{minutes}</b> minutes ({basis}).</p>"
+        f"<h2>Your data</h2><div id='data-use'>{_paragraphs(about.data_use)}</div>"
+        + (f"<dl class='who'>{facts}</dl>" if facts else "")
+        + "<form method='post' action='/start' id='consent'>"
         "<label><input type='checkbox' name='consent' value='yes' id='agree' required> "
         "I have read the above and agree to take part.</label><br>"
         "<button type='submit' id='start'>Start</button></form>",
@@ -92,7 +116,8 @@ def done_page() -> str:
 
 def _video(token: str, stimulus: str) -> str:
     src = f"/p/{escape(token)}/video/{escape(stimulus)}"
-    return f"<video controls preload='metadata' src='{src}'></video>"
+    poster = f"/p/{escape(token)}/poster/{escape(stimulus)}"
+    return f"<video controls preload='metadata' poster='{poster}' src='{src}'></video>"
 
 
 def _form(token: str, shown: dict[str, Any], step: int, of: int, inner: str) -> str:

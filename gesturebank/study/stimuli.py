@@ -13,6 +13,7 @@ away; only the key says which is which.
 Layout of the study folder:
 
     videos/<id>.mp4     one stimulus (H.264 + AAC)
+    posters/<id>.jpg    its poster frame (the middle frame), shown before it is played
     audio/<name>.wav    the speech of each clip source (16 kHz mono), as muxed
     stimuli.json        the manifest, for the study app and participants' pages — no conditions
     key.json            id → condition, model folder, speech source: for the operator only
@@ -169,6 +170,7 @@ def stimuli_command(
     are random every run (`secrets`).
     """
     from gesturebank.robot.render import write_video
+    from gesturebank.study.posters import poster_path, write_poster
     from gesturebank.train import model_folder
     from gesturebank.train.commands import synthesize_command
     from gesturebank.train.compare import _names
@@ -220,6 +222,7 @@ def stimuli_command(
                     audio=src.audio,
                     render=cfg,
                 )
+                write_poster(root / "videos" / f"{vid}.mp4", poster_path(root, vid))
                 videos.append({"id": vid, "file": f"videos/{vid}.mp4"})
                 key[vid] = {
                     "audio": src.name,

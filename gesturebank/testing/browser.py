@@ -10,6 +10,7 @@ import os
 import select
 import subprocess
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,8 @@ CHROMIUM = "/usr/bin/chromium"
 class Browser:
     """Chromium with --remote-debugging-pipe: commands on fd 3, replies on fd 4, NUL-separated."""
 
-    def __init__(self, profile: str) -> None:
+    def __init__(self, profile: str, extra_args: Sequence[str] = ()) -> None:
+        """extra_args: more Chromium switches, e.g. --host-resolver-rules to map a name."""
         self._to_r, self._to_w = os.pipe()
         self._from_r, self._from_w = os.pipe()
         to_r, from_w = self._to_r, self._from_w
@@ -31,7 +33,7 @@ class Browser:
         args = [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu"]
         args += ["--disable-background-networking", "--disable-component-update"]
         args += ["--disable-sync", "--no-first-run", f"--user-data-dir={profile}"]
-        args += ["--remote-debugging-pipe", "--window-size=1400,1000", "about:blank"]
+        args += ["--remote-debugging-pipe", "--window-size=1400,1000", *extra_args, "about:blank"]
         self.proc = subprocess.Popen(
             args,
             pass_fds=sorted({3, 4, to_r, from_w}),

@@ -1,15 +1,18 @@
 """A stand-in NAOqi for the tests and `benchmarks/playback.py`: a real standalone qi session
-serving a recording ALMotion.
+serving a recording ALMotion and ALAudioDevice.
 
 Run as a script (a subprocess with a bounded lifetime, so a test can kill it like a robot that
 drops off the network):
 
-    python naoqi_server.py --lifetime 30 --pose '[11 angles in pepper.JOINTS order]'
+    python naoqi_server.py --lifetime 30 --pose '{"HeadYaw": 0.1, ...}' --audio-delay 0.3
 
-It prints `READY tcp://127.0.0.1:PORT` once the service is registered. `NaoqiServer` below starts
-it and reads the call log back over qi. The service knows every real Pepper joint (and rejects
-others, as ALMotion does) and stamps each call with time.monotonic() on arrival, which on Linux is
-the same clock as the client's time.monotonic().
+It prints `READY tcp://127.0.0.1:PORT` once the services are registered. `NaoqiServer` below
+starts it and reads the call log back over qi. ALMotion knows every real Pepper joint (and
+rejects others, as ALMotion does). ALAudioDevice takes `sendRemoteBufferToOutput(nbOfFrames,
+buffer)` as NAOqi does (16-bit interleaved stereo, at most 16384 frames a call); its first buffer
+opens the output, which takes `--audio-delay` seconds, and the call answers once the sound has
+started (logged as `audioStart`). One log holds both services' calls, in arrival order, each
+stamped with time.monotonic() on arrival: on Linux the same clock as the client's.
 """
 
 from __future__ import annotations
@@ -48,14 +51,15 @@ PEPPER_JOINTS = (
     "WheelB",
 )
 STARTED = "READY"
+MAX_FRAMES = 16384  # NAOqi's limit of one sendRemoteBufferToOutput call
 
 
 class RecordingMotion:
     """ALMotion look-alike: keeps a pose per joint and logs every call with its arrival time."""
 
-    def __init__(self, pose: dict[str, float]) -> None:
+    def __init__(self, pose: dict[str, float], log: CallLog) -> None:
         self.pose = {j: 0.0 for j in PEPPER_JOINTS} | pose
-        self.log: list[dict[str, Any]] = []
+        self.calls = log
         self.lock = threading.Lock()
 
     def _check(self, names: list[str]) -> list[str]:
@@ -66,8 +70,7 @@ class RecordingMotion:
         return names
 
     def _log(self, entry: dict[str, Any]) -> None:
-        with self.lock:
-            self.log.append(entry)
+        self.calls.add(entry)
 
     def setAngles(self, names: list[str], angles: list[float], fractionMaxSpeed: float) -> None:
         t = time.monotonic()
@@ -130,17 +133,71 @@ class RecordingMotion:
         self._log({"call": "killTasksUsingResources", "t": time.monotonic()})
 
     def callLog(self) -> str:
+        return self.calls.json()
+
+
+class CallLog:
+    """The calls of every service, in the order they arrived."""
+
+    def __init__(self) -> None:
+        self.entries: list[dict[str, Any]] = []
+        self.lock = threading.Lock()
+
+    def add(self, entry: dict[str, Any]) -> None:
         with self.lock:
-            return json.dumps(self.log)
+            self.entries.append(entry)
+
+    def json(self) -> str:
+        with self.lock:
+            return json.dumps(self.entries)
 
 
-def serve(lifetime_s: float, pose: dict[str, float]) -> None:
+class RecordingAudioDevice:
+    """ALAudioDevice look-alike: takes remote PCM buffers; the first one starts the sound after
+    `start_delay_s` (the output opening), and its call answers once the sound has started."""
+
+    def __init__(self, log: CallLog, start_delay_s: float) -> None:
+        self.calls = log
+        self.start_delay_s = start_delay_s
+        self.started: float | None = None
+        self.lock = threading.Lock()
+
+    def sendRemoteBufferToOutput(self, nbOfFrames: int, buffer: Any) -> bool:
+        t = time.monotonic()
+        data = bytes(buffer)
+        if not 0 < nbOfFrames <= MAX_FRAMES or len(data) != 4 * nbOfFrames:
+            raise RuntimeError(
+                f"ALAudioDevice: {nbOfFrames} frames need {4 * nbOfFrames} bytes of 16-bit "
+                f"stereo (got {len(data)}), at most {MAX_FRAMES} frames a call"
+            )
+        self.calls.add({"call": "sendRemoteBufferToOutput", "t": t, "frames": int(nbOfFrames)})
+        with self.lock:  # buffers queue behind the first one, as on the robot
+            if self.started is None:
+                time.sleep(self.start_delay_s)
+                self.started = time.monotonic()
+                self.calls.add({"call": "audioStart", "t": self.started})
+        return True
+
+    def flushAudioOutputs(self) -> None:
+        self.calls.add({"call": "flushAudioOutputs", "t": time.monotonic()})
+
+
+def serve(lifetime_s: float, pose: dict[str, float], audio_delay_s: float = 0.0) -> None:
     import qi
 
     qi.logging.setLevel(qi.logging.ERROR)
     session = qi.Session()
     session.listenStandalone("tcp://127.0.0.1:0")
-    session.registerService("ALMotion", RecordingMotion(pose))
+    log = CallLog()
+    session.registerService("ALMotion", RecordingMotion(pose, log))
+
+    class AudioDevice(RecordingAudioDevice):
+        # NAOqi takes the buffer as binary; an untyped Python method would get its repr instead
+        @qi.bind(qi.Bool, (qi.Int32, qi.Buffer))
+        def sendRemoteBufferToOutput(self, nbOfFrames: int, buffer: Any) -> bool:
+            return super().sendRemoteBufferToOutput(nbOfFrames, buffer)
+
+    session.registerService("ALAudioDevice", AudioDevice(log, audio_delay_s))
     print(STARTED, session.endpoints()[0], flush=True)
     time.sleep(lifetime_s)  # bounded lifetime: never outlives a crashed test run for long
     session.close()
@@ -149,8 +206,14 @@ def serve(lifetime_s: float, pose: dict[str, float]) -> None:
 class NaoqiServer:
     """Starts `serve` in a subprocess; `url`, `calls()`, `kill()`; a context manager."""
 
-    def __init__(self, pose: dict[str, float] | None = None, lifetime_s: float = 60.0) -> None:
+    def __init__(
+        self,
+        pose: dict[str, float] | None = None,
+        lifetime_s: float = 60.0,
+        audio_delay_s: float = 0.0,
+    ) -> None:
         args = ["--lifetime", str(lifetime_s), "--pose", json.dumps(pose or {})]
+        args += ["--audio-delay", str(audio_delay_s)]
         self.proc = subprocess.Popen(
             [sys.executable, str(Path(__file__).resolve()), *args],
             stdout=subprocess.PIPE,
@@ -193,5 +256,8 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--lifetime", type=float, default=60.0)
     parser.add_argument("--pose", default="{}", help="JSON {joint: angle} of the starting pose")
+    parser.add_argument(
+        "--audio-delay", type=float, default=0.0, help="seconds the audio output takes to start"
+    )
     ns = parser.parse_args()
-    serve(ns.lifetime, json.loads(ns.pose))
+    serve(ns.lifetime, json.loads(ns.pose), ns.audio_delay)

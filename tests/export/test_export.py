@@ -240,3 +240,57 @@ def test_cli_export_of_an_angles_csv(tmp_path: Path) -> None:
         cwd=tmp_path,
     )
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "trc needs a clip" in r.stderr
+
+
+def test_exported_script_plays_the_speech_on_the_robot_in_step(tmp_path: Path) -> None:
+    """The exported script run against the local qi peer, whose sound starts 300 ms after its
+    first buffer: the motion after frame 0 follows the start the peer reports."""
+    import wave
+
+    from gesturebank.robot.timeline import Timeline, write_csv
+    from gesturebank.testing.naoqi_server import NaoqiServer
+
+    n, rate = 100, 16000
+    write_csv(tmp_path / "angles.csv", Timeline.of(np.arange(n) / 100, _poses(n)))
+    tone = (0.3 * np.sin(np.arange(rate) * 2 * np.pi * 220 / rate) * 32767).astype("<i2")
+    with wave.open(str(tmp_path / "speech.wav"), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(rate)
+        w.writeframes(tone.tobytes())
+    written = export_command(
+        src=tmp_path / "angles.csv",
+        fmt="naoqi",
+        out=tmp_path / "out" / "talk.naoqi.json",
+        config=Config(),
+        audio=tmp_path / "speech.wav",
+    )
+    assert sorted(p.name for p in written) == ["talk.naoqi.json", "talk.naoqi.py", "talk.naoqi.wav"]
+    with wave.open(str(tmp_path / "out" / "talk.naoqi.wav")) as w:
+        assert (w.getframerate(), w.getnchannels(), w.getsampwidth()) == (48000, 2, 2)
+    data = json.loads((tmp_path / "out" / "talk.naoqi.json").read_text())
+    with NaoqiServer(lifetime_s=90, audio_delay_s=0.3) as srv:
+        run = subprocess.run(
+            [sys.executable, str(tmp_path / "out" / "talk.naoqi.py"), srv.url],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+        assert run.returncode == 0, run.stderr
+        calls = srv.calls()
+    names = [c["call"] for c in calls]
+    # the first pose, then the speech asked for, its start reported, then the rest of the motion
+    assert names.count("angleInterpolation") == 2
+    first, second = (k for k, c in enumerate(names) if c == "angleInterpolation")
+    start = names.index("audioStart")
+    assert first < names.index("sendRemoteBufferToOutput") < start < second
+    assert calls[start]["t"] - calls[names.index("sendRemoteBufferToOutput")]["t"] >= 0.3
+    lag_ms = (calls[second]["t"] - calls[start]["t"]) * 1000
+    assert 0 <= lag_ms <= 50, lag_ms
+    # its keys land where the timeline has them, counted from the robot's sound start
+    times = np.asarray(data["timeLists"][0]) - data["timeLists"][0][0]
+    keys = np.asarray(calls[second]["timeLists"][0]) + calls[second]["t"] - calls[start]["t"]
+    np.testing.assert_allclose(keys, times[-len(keys) :], atol=0.05)
+    frames = sum(c["frames"] for c in calls if c["call"] == "sendRemoteBufferToOutput")
+    assert frames == 48000

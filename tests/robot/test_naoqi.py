@@ -147,3 +147,80 @@ def test_replay_command_naoqi(server: NaoqiServer, tmp_path: Path) -> None:
     result = replay_command(csv, "naoqi", url=server.url, config=FAST)
     assert not isinstance(result, Path) and result.status == "completed"
     assert sum(c["call"] == "setAngles" for c in server.calls()) >= n + 60
+
+
+def _speech(path: Path, seconds: float) -> Path:
+    """A tone as 16 kHz mono WAV (the rate speech files have; the backend resamples it)."""
+    import wave
+
+    t = np.arange(round(16000 * seconds)) / 16000
+    pcm = (0.3 * np.sin(2 * np.pi * 220 * t) * 32767).astype("<i2")
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(16000)
+        w.writeframes(pcm.tobytes())
+    return path
+
+
+DELAY_S = 0.3  # the peer's audio output takes this long to start
+
+
+@pytest.mark.parametrize("mode", ["stream", "interpolate"])
+def test_motion_follows_the_robots_sound_start(tmp_path: Path, mode: str) -> None:
+    """The peer starts its sound 300 ms after the first buffer; the motion starts on the start
+    the peer reports, not on the moment this computer asked for the sound."""
+    seconds = 1.0
+    tl = wild_timeline(100)  # 1 s, frame 0 at t = 0
+    with NaoqiServer(START, lifetime_s=60, audio_delay_s=DELAY_S) as srv:
+        backend = NaoqiBackend(srv.url, audio=_speech(tmp_path / "s.wav", seconds))
+        assert backend.speaker is not None
+        config = FAST.model_copy(update={"mode": mode})
+        result = play(tl, backend, config=config, audio=backend.speaker)
+        backend.close()
+        calls = srv.calls()
+    names = [c["call"] for c in calls]
+    first_buffer = names.index("sendRemoteBufferToOutput")
+    start = names.index("audioStart")
+    motion = "setAngles" if mode == "stream" else "angleInterpolation"
+    # order: the start move, then the sound asked for, started, then the timeline's motion
+    assert names[:first_buffer].count(motion) == result.n_start
+    assert names[first_buffer:start].count(motion) == 0
+    first_motion = start + names[start:].index(motion)
+    # the peer did hold the sound back (its own clock), and the motion waited for it
+    assert calls[start]["t"] - calls[first_buffer]["t"] >= DELAY_S
+    lag_ms = (calls[first_motion]["t"] - calls[start]["t"]) * 1000
+    print(f"\n{mode}: timeline's first motion {lag_ms:.1f} ms after the robot's sound started")
+    assert 0 <= lag_ms <= 50
+    # and every later key keeps to the robot's sound, none ahead of it (a motion timed from
+    # this computer's request would run DELAY_S ahead: a burst of frames, or keys dropped)
+    if mode == "stream":
+        arrivals = np.array([c["t"] for c in calls[first_motion:] if c["call"] == motion])
+        ahead_ms = (tl.times - (arrivals[: len(tl)] - calls[start]["t"])) * 1000
+        assert np.max(ahead_ms) < 5  # Eq. 4.1's η wakes a hair early, never a frame early
+    else:
+        call = calls[first_motion]
+        keys = np.array(call["timeLists"][0]) + call["t"] - calls[start]["t"]
+        assert len(keys) >= len(tl) - 5  # at most the keys due in the call's own ~50 ms
+        np.testing.assert_allclose(keys, tl.times[-len(keys) :], atol=0.05)
+    # the whole speech went to the robot, 16-bit stereo at 48 kHz, in calls NAOqi accepts
+    buffers = [c["frames"] for c in calls if c["call"] == "sendRemoteBufferToOutput"]
+    assert sum(buffers) == round(48000 * seconds) and max(buffers) <= 16384
+
+
+def test_replay_command_plays_the_audio_on_the_robot(server: NaoqiServer, tmp_path: Path) -> None:
+    n = 50
+    csv = write_csv(tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1))))
+    wav = _speech(tmp_path / "s.wav", 0.5)
+    result = replay_command(csv, "naoqi", url=server.url, audio=wav, config=FAST)
+    assert not isinstance(result, Path) and result.status == "completed"
+    buffers = [c["frames"] for c in server.calls() if c["call"] == "sendRemoteBufferToOutput"]
+    assert sum(buffers) == 24000
+
+
+def test_audio_without_an_audio_track_is_one_line(server: NaoqiServer, tmp_path: Path) -> None:
+    bad = tmp_path / "speech.wav"
+    bad.write_bytes(b"not audio")
+    with pytest.raises(Exception) as info:
+        NaoqiBackend(server.url, audio=bad)
+    assert "\n" not in str(info.value)

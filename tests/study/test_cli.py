@@ -62,7 +62,7 @@ def test_analyse_prints_the_tables(study: Path) -> None:
         env={**os.environ, "COLUMNS": "160"},  # rich's tables, unwrapped
     )
     assert r.returncode == 0, r.stderr
-    assert "2 participants" in r.stdout
+    assert "2 finished, 0 partial" in r.stdout and "analysed: 2 (finished only)" in r.stdout
     lines = r.stdout.splitlines()
     mlp = next(ln for ln in lines if "│ mlp " in ln and "4 " in ln)
     assert "51.2" in mlp and "37.7 – 64.8" in mlp  # 51.25 ± 13.588

@@ -69,6 +69,12 @@ def test_stimuli_are_blind_keyed_apart_and_alike(
     assert len(set(ids)) == len(ids) == len(key)
     assert all(re.fullmatch(r"[0-9a-f]{10}", i) for i in ids)
     assert sorted(p.name for p in (out / "videos").iterdir()) == sorted(f"{i}.mp4" for i in ids)
+    # a poster frame for each, made with it, of the video's size
+    assert sorted(p.name for p in (out / "posters").iterdir()) == sorted(f"{i}.jpg" for i in ids)
+    from PIL import Image
+
+    with Image.open(out / "posters" / f"{ids[0]}.jpg") as poster:
+        assert poster.size == (SMALL.width_px, SMALL.height_px)
     # every video of one speech: same frame count and duration (the audio's), audio muxed
     for g in manifest["groups"]:
         seen = {streams(out / v["file"]) for v in g["videos"]}

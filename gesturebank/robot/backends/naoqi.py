@@ -5,11 +5,24 @@ Calls used: `setAngles(names, angles, fractionMaxSpeed)` (non-blocking on the ro
 `getAngles(names, useSensors)`, `wakeUp()` and optionally `rest()`. Every call goes out
 asynchronously and is awaited with a timeout, so a robot that silently vanishes (Wi-Fi) is
 detected like one that closes the socket. Errors are one line (RobotError) naming the URL.
+
+Sound (`--audio F`) plays on the robot, over the same qi session: the file is decoded here and
+streamed as PCM with `ALAudioDevice.sendRemoteBufferToOutput(nbOfFrames, buffer)` (16-bit
+interleaved stereo at 48 kHz, 0.1 s a call). Streaming rather than uploading the file for
+`ALAudioPlayer`: NAOqi has no qi service that writes a file on the robot (that takes ssh/scp),
+and streaming needs nothing installed there. The robot answers the first buffer once its output
+has taken it, and that answer is the sound's start: the motion's clock starts from it, so a
+slow-to-open output delays the motion with the sound instead of leaving them apart. What it
+adds is the first buffer's trip (19.2 kB: a few ms on a LAN, tens on a busy Wi-Fi) plus however
+long the robot's output takes to open; the motion waits for both. The stream then keeps
+`AHEAD_S` of sound queued ahead of the speaker, so the network's jitter never starves it.
 """
 
 from __future__ import annotations
 
 import logging
+import os
+import threading
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -26,11 +39,78 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 _POLL_MS = 50  # blocking calls are awaited in slices so that Ctrl-C gets through
+SAMPLE_RATE = 48000  # ALAudioDevice's output rate (its default)
+CHUNK_FRAMES = 4800  # 0.1 s of sound a call (NAOqi takes at most 16384 frames)
+AHEAD_S = 0.3  # sound queued on the robot ahead of what it plays: covers Wi-Fi jitter
 
 
 def _first_line(exc: BaseException) -> str:
     text = str(exc).strip()
     return text.splitlines()[0] if text else type(exc).__name__
+
+
+def stereo_pcm(signal: np.ndarray) -> bytes:
+    """Mono float samples in [-1, 1] as ALAudioDevice takes them: 16-bit little-endian,
+    left and right interleaved (the same sample on both)."""
+    mono = (np.clip(np.asarray(signal, np.float64), -1, 1) * 32767).round().astype("<i2")
+    return np.repeat(mono, 2).tobytes()
+
+
+class RobotSpeaker:
+    """Plays an audio file on the robot's loudspeakers by streaming it to ALAudioDevice
+    (module docstring). `start` returns when the robot reports the sound has started."""
+
+    def __init__(self, device: Any, path: str | os.PathLike[str], *, url: str, timeout_ms: int):
+        from gesturebank.extract.audio_io import read_audio
+
+        track = read_audio(path, sample_rate=SAMPLE_RATE)
+        if track is None or not len(track.signal):
+            raise RobotError(f"{os.fspath(path)}: no audio track to play on the robot")
+        self.device, self.url, self.timeout_ms = device, url, timeout_ms
+        self.pcm = stereo_pcm(track.signal)
+        self.started_at: float | None = None
+        self._started = threading.Event()
+        self._stop = threading.Event()
+        self._error: str | None = None
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> float:
+        """Start streaming; returns the time.monotonic() at which the robot's sound began."""
+        self._thread = threading.Thread(target=self._stream, name="robot-speaker", daemon=True)
+        self._thread.start()
+        if not self._started.wait(self.timeout_ms / 1000 + 1):
+            self._error = self._error or f"no answer within {self.timeout_ms / 1000:g} s"
+        if self._error is not None or self.started_at is None:
+            self.stop()
+            raise RobotError(f"{self.url}: ALAudioDevice could not play the audio ({self._error})")
+        return self.started_at
+
+    def _stream(self) -> None:
+        frames = len(self.pcm) // 4
+        for first in range(0, frames, CHUNK_FRAMES):
+            if self.started_at is not None:  # keep AHEAD_S queued, not the whole file
+                due = self.started_at + first / SAMPLE_RATE - AHEAD_S
+                if self._stop.wait(max(0.0, due - time.monotonic())):
+                    return
+            if self._stop.is_set():
+                return
+            n = min(CHUNK_FRAMES, frames - first)
+            chunk = self.pcm[4 * first : 4 * (first + n)]
+            try:
+                self.device.sendRemoteBufferToOutput(n, chunk, _async=True).value(self.timeout_ms)
+            except RuntimeError as exc:
+                self._error = _first_line(exc)
+                self._started.set()  # wakes `start` if it still waits
+                return
+            if self.started_at is None:
+                self.started_at = time.monotonic()  # the robot's answer: its sound has begun
+                self._started.set()
+
+    def stop(self) -> None:
+        """Send no more (what the robot holds, at most AHEAD_S, still plays out)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=self.timeout_ms / 1000 + 1)
 
 
 class NaoqiBackend:
@@ -39,8 +119,15 @@ class NaoqiBackend:
     name = "naoqi"
     realtime = True
 
-    def __init__(self, url: str, *, config: PlaybackConfig | None = None) -> None:
-        """config: the `playback` section (timeout_s, wake_up, rest_at_end); None: defaults."""
+    def __init__(
+        self,
+        url: str,
+        *,
+        config: PlaybackConfig | None = None,
+        audio: str | os.PathLike[str] | None = None,
+    ) -> None:
+        """config: the `playback` section (timeout_s, wake_up, rest_at_end); None: defaults.
+        audio: a file the robot plays (`speaker`), streamed to its ALAudioDevice."""
         cfg = config or PlaybackConfig()
         timeout_s, wake_up, rest_at_end = cfg.timeout_s, cfg.wake_up, cfg.rest_at_end
         try:
@@ -60,6 +147,19 @@ class NaoqiBackend:
         except RuntimeError as exc:
             self._close_session()
             raise RobotError(f"{url}: cannot connect to ALMotion ({_first_line(exc)})") from None
+        self.speaker: RobotSpeaker | None = None
+        if audio is not None:
+            try:
+                device = self.session.service("ALAudioDevice")
+            except RuntimeError as exc:
+                self._close_session()
+                msg = _first_line(exc)
+                raise RobotError(f"{url}: no ALAudioDevice to play the audio ({msg})") from None
+            try:
+                self.speaker = RobotSpeaker(device, audio, url=url, timeout_ms=self.timeout_ms)
+            except RobotError:
+                self._close_session()
+                raise
         if wake_up:
             self._call("wakeUp", timeout_ms=self.timeout_ms + 30_000)  # standing up takes a while
 
@@ -153,4 +253,4 @@ def create(
 ) -> NaoqiBackend:
     if not url:
         raise InputError("--backend naoqi needs --url tcp://HOST:9559")
-    return NaoqiBackend(url, config=config)
+    return NaoqiBackend(url, config=config, audio=audio)
