@@ -73,17 +73,24 @@ def orbit_camera(
     return Camera(name, (w, h), K, np.zeros(0), rotation, -rotation @ eye)
 
 
+def rays_through(camera: Camera, pixels: np.ndarray) -> np.ndarray:
+    """(..., 6) float32 rays (origin, unit direction) in world coordinates through the pixel
+    positions (..., 2) of a distortion-free `camera` (the inverse of `Camera.project`)."""
+    px = np.asarray(pixels, np.float64)
+    homogeneous = np.concatenate([px, np.ones_like(px[..., :1])], axis=-1)
+    directions = homogeneous @ np.linalg.inv(camera.K).T @ camera.R  # camera → world: Rᵀ d
+    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+    origins = np.broadcast_to(camera.center, directions.shape)
+    return np.concatenate([origins, directions], axis=-1).astype(np.float32)
+
+
 def pixel_rays(camera: Camera, *, supersample: int) -> np.ndarray:
-    """(H·s, W·s, 6) float32 rays (origin, unit direction) in world coordinates, one through
-    each (sub)pixel centre; pixel (col i, row j) has its centre at (i, j), as OpenCV projects."""
+    """(H·s, W·s, 6) rays through the (sub)pixel centres, s = `supersample` per pixel along
+    each axis; pixel (col i, row j) has its centre at (i, j), where OpenCV projects."""
     w, h = camera.size
     s = supersample
     offsets = (np.arange(s) + 0.5) / s - 0.5
     u = (np.arange(w)[:, None] + offsets[None, :]).ravel()
     v = (np.arange(h)[:, None] + offsets[None, :]).ravel()
     uu, vv = np.meshgrid(u, v)
-    pixels = np.stack([uu, vv, np.ones_like(uu)], axis=-1)
-    directions = pixels @ np.linalg.inv(camera.K).T @ camera.R  # camera → world: R^T d
-    directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
-    origins = np.broadcast_to(camera.center, directions.shape)
-    return np.concatenate([origins, directions], axis=-1).astype(np.float32)
+    return rays_through(camera, np.stack([uu, vv], axis=-1))

@@ -24,6 +24,7 @@ RINGS = 12  # along an ellipsoid, pole to pole; per cap of a tube
 # (name, colour role); the role decides the colour in a look.
 PARTS: tuple[tuple[str, str], ...] = (
     ("head", "face"),
+    ("nose", "face"),
     ("hair", "hair"),
     ("left_ear", "skin"),
     ("right_ear", "skin"),
@@ -48,10 +49,12 @@ PART_INDEX = {name: i for i, (name, _) in enumerate(PARTS)}
 # Head, in its own axes (forward, up, left) from the ear midpoint: the face points of
 # `mocap.names.face_model` have the eyes 0.09 m forward of the ears at their height.
 HEAD_CENTRE = (0.0, 0.02, 0.0)
-HEAD_RADII = (0.10, 0.12, 0.077)
+HEAD_RADII = (0.105, 0.12, 0.077)
 HAIR_CENTRE = (-0.03, 0.035, 0.0)
 HAIR_RADII = (0.105, 0.118, 0.088)
 EAR_RADII = (0.022, 0.032, 0.014)
+# The truth's nose tip sits 1 cm in front of the head's ellipsoid: a nose reaches it.
+NOSE_RADII = (0.025, 0.022, 0.013)
 
 # Limbs: (part, from joint, to joint, radius at from, radius at to), metres.
 LIMBS = (
@@ -179,6 +182,8 @@ def figure_meshes(joints: np.ndarray) -> list[Mesh]:
     meshes["hair"] = ellipsoid(
         _in_frame(head_c, head_axes, HAIR_CENTRE), _scaled(head_axes, HAIR_RADII)
     )
+    nose = j["nose"] - 0.018 * head_axes[:, 0]
+    meshes["nose"] = ellipsoid(nose, _scaled(head_axes, NOSE_RADII))
     for side, sign in (("left", 1.0), ("right", -1.0)):
         ear = j[f"{side}_ear"] + sign * 0.004 * head_axes[:, 2]
         meshes[f"{side}_ear"] = ellipsoid(ear, _scaled(head_axes, EAR_RADII))

@@ -161,7 +161,7 @@ def colours(figures: Sequence[Figure], frame: int, hits: Hits) -> np.ndarray:
                     start, end = j[COCO17.index[f"{side}_{a}"]], j[COCO17.index[f"{side}_{b}"]]
                     shirt = _sleeve(p[on], start, end, share)
                     colour[np.flatnonzero(on)[shirt]] = look.shirt
-        on_head = local == PART_INDEX["head"]
+        on_head = (local == PART_INDEX["head"]) | (local == PART_INDEX["nose"])
         if on_head.any():
             centre, axes = head_frame(j[None])
             rel = p[on_head] - centre[0]

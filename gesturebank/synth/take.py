@@ -35,8 +35,20 @@ from gesturebank.synth.raycast import Figure, render_frames
 from gesturebank.synth.truth import KEY, SPEECH, VIDEOS, Truth
 from gesturebank.synth.video import write_stream
 
-# Bump when the figure, the looks or the shading change what a render looks like.
+# Part of every render's cache key, with the renderer's own source (`code_digest`): bump it
+# when a render changes for a reason outside these files.
 VERSION = 1
+# The modules whose code decides what a render looks like.
+RENDERER = ("camera", "figure", "looks", "raycast", "take", "video")
+
+
+def code_digest() -> str:
+    """sha256 of the renderer's source: an edit to it makes every cached render stale."""
+    folder = Path(__file__).parent
+    h = hashlib.sha256()
+    for name in RENDERER:
+        h.update((folder / f"{name}.py").read_bytes())
+    return h.hexdigest()
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +137,7 @@ def render_key(
         json.dumps(
             {
                 "version": VERSION,
+                "code": code_digest(),
                 "encoder": ENCODER,
                 "synth": config.model_dump(mode="json"),
                 "mocap": mocap.model_dump(mode="json"),
