@@ -72,7 +72,7 @@ def background(look: Look, *, size: tuple[int, int]) -> np.ndarray:
     if look.background == "brick":
         from skimage import data, transform
 
-        brick = data.brick().astype(np.float32) / 255  # grey, 512 × 512
+        brick = data.brick().T.astype(np.float32) / 255  # grey, 512 × 512; rows of bricks
         scale = max(h, w) / 1024  # about two tiles across a 1280 px frame
         tile = transform.rescale(brick, max(scale, 0.1), anti_aliasing=True)
         reps = (-(-h // tile.shape[0]), -(-w // tile.shape[1]))

@@ -271,6 +271,24 @@ def render_take(
     return truth
 
 
+def render_cache(samples: Path) -> Path:
+    """Where renders are cached: beside the samples folder, as `footage` keeps its takes."""
+    return samples.parent / "synth"
+
+
+def cached_folder(
+    performers: Sequence[Performer],
+    *,
+    config: SynthConfig,
+    mocap: MocapConfig,
+    speech: Sequence[Path],
+    cache: Path,
+) -> Path:
+    """`cache/<checksum of the render's key>`: where `cached_render` puts this render."""
+    key = render_key(performers, config=config, mocap=mocap, speech=speech)
+    return cache / hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
+
+
 def cached_render(
     performers: Sequence[Performer],
     *,
@@ -279,8 +297,7 @@ def cached_render(
     speech: Sequence[Path],
     cache: Path,
 ) -> Truth:
-    """`render_take` into `cache/<checksum of its key>` (e.g. `<samples>/../synth`), so the
+    """`render_take` into `cached_folder(...)` (e.g. under `render_cache(samples)`), so the
     same render is made once however many tests and benchmarks ask for it."""
-    key = render_key(performers, config=config, mocap=mocap, speech=speech)
-    name = hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:16]
-    return render_take(performers, cache / name, config=config, mocap=mocap, speech=speech)
+    folder = cached_folder(performers, config=config, mocap=mocap, speech=speech, cache=cache)
+    return render_take(performers, folder, config=config, mocap=mocap, speech=speech)

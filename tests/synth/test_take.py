@@ -19,7 +19,7 @@ from gesturebank.synth.camera import Stage, orbit_camera, stage_of
 from gesturebank.synth.figure import head_frame
 from gesturebank.synth.looks import LOOKS
 from gesturebank.synth.raycast import Figure, render_frames
-from gesturebank.synth.take import Performer, cached_render, rig_azimuths
+from gesturebank.synth.take import Performer, cached_render, render_take, rig_azimuths
 from gesturebank.synth.truth import Truth
 from tests.synth.conftest import START_S
 
@@ -118,3 +118,26 @@ def test_the_mouth_opens(stretch_joints: np.ndarray) -> None:
     assert (
         wide[v - 2 : v + 3, u - 4 : u + 5].mean() < 0.6 * shut[v - 2 : v + 3, u - 4 : u + 5].mean()
     )
+
+
+def test_two_performers_stand_where_they_are_put(
+    test_bvh: Path, speech: list[Path], tmp_path: Path
+) -> None:
+    config = SynthConfig(width_px=320, height_px=180, start_s=START_S, length_s=0.1)
+    mouth = np.linspace(0, 1, 3)
+    truth = render_take(
+        [Performer(test_bvh), Performer(test_bvh, offset_m=(0.0, 1.2, 0.0), mouth=mouth)],
+        tmp_path,
+        config=config,
+        mocap=MocapConfig(),
+        speech=speech,
+    )
+    first, second = truth.figures3d
+    np.testing.assert_array_equal(first, truth.joints3d)
+    shift = second - first
+    np.testing.assert_allclose(shift, np.broadcast_to(shift[0, 0], shift.shape), atol=1e-9)
+    assert np.linalg.norm(shift[0, 0]) == pytest.approx(1.2)
+    np.testing.assert_allclose(truth.mouth, [np.zeros(3), mouth])
+    # the second figure stands to the first one's left: on the right of the picture
+    seen = truth.cameras[0].project(second)
+    assert (seen[..., 0] > truth.joints2d[0][..., 0].max()).mean() > 0.5
