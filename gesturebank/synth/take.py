@@ -164,6 +164,18 @@ def _read_key(folder: Path) -> object:
         return None
 
 
+def _check_wav(path: Path) -> None:
+    """InputError naming `path` unless it is a readable WAV file."""
+    from scipy.io import wavfile
+
+    if not path.is_file():
+        raise InputError(f"{path}: speech file not found")
+    try:
+        wavfile.read(path, mmap=True)
+    except (ValueError, OSError) as exc:
+        raise InputError(f"{path}: not a readable WAV file ({exc})") from None
+
+
 def render_take(
     performers: Sequence[Performer],
     out: Path,
@@ -180,8 +192,7 @@ def render_take(
         if not Path(p.bvh).is_file():
             raise InputError(f"{p.bvh}: BVH file not found")
     for s in speech:
-        if not Path(s).is_file():
-            raise InputError(f"{s}: speech file not found")
+        _check_wav(Path(s))
     key = render_key(performers, config=config, mocap=mocap, speech=speech)
     out = Path(out)
     if _read_key(out) == key:
@@ -235,7 +246,10 @@ def render_take(
         ]
     )
     fps = Fraction(config.rate_fps).limit_denominator(1001)
-    audio = looped_speech(list(speech), seconds=count / config.rate_fps)
+    try:
+        audio = looped_speech(list(speech), seconds=count / config.rate_fps)
+    except ValueError as exc:  # names the file: not 16 kHz mono 16-bit
+        raise InputError(str(exc)) from None
     scenery = LOOKS[config.look]
     for camera in cameras:
         frames = render_frames(figures, camera, scenery=scenery, supersample=config.supersample)

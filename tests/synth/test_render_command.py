@@ -37,6 +37,16 @@ def test_a_missing_or_bad_bvh_is_one_line_naming_it(
     assert len(lines) == 1 and str(bvh) in lines[0], r.stderr
 
 
+@pytest.mark.media
+def test_bad_speech_is_one_line_naming_it(test_bvh: Path, tmp_path: Path) -> None:
+    wav = tmp_path / "speech.wav"
+    wav.write_text("not a wav")
+    r = run(str(test_bvh), str(tmp_path / "out"), "--speech", str(wav), "--seconds", "0.1")
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(wav) in lines[0] and "WAV" in lines[0], r.stderr
+
+
 def test_a_bad_size_is_one_line(tmp_path: Path) -> None:
     r = run(str(tmp_path / "x.bvh"), str(tmp_path / "out"), "--size", "big")
     assert r.returncode == 2 and r.stderr.strip() == (
@@ -54,3 +64,9 @@ def test_a_two_camera_render(test_bvh: Path, tmp_path: Path) -> None:
     assert truth.cameras.names == ["cam01", "cam02"]
     assert truth.joints2d.shape == (2, 6, 17, 2) and np.isfinite(truth.joints2d).all()
     assert all(v.is_file() for v in truth.videos)
+
+
+def test_help_shows_the_allowed_values() -> None:
+    r = run("--help")
+    assert r.returncode == 0
+    assert "tshirt|sleeves" in r.stdout and "1280x720" in r.stdout
