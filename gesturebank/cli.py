@@ -829,7 +829,9 @@ def render(
     ] = None,
     distance: Annotated[
         float | None,
-        typer.Option(help=f"Camera distance from the figure, metres [{_SYNTH.distance_m:g}]."),
+        typer.Option(
+            help=f"Camera distance from the figure's chest, metres [{_SYNTH.distance_m:g}]."
+        ),
     ] = None,
     fov: Annotated[
         float | None, typer.Option(help=f"Vertical field of view, degrees [{_SYNTH.fov_deg:g}].")

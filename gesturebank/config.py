@@ -1164,7 +1164,7 @@ class SynthConfig(Section):
         0.0, ge=-60, le=80, description="Camera height as an angle above the horizon, degrees."
     )
     distance_m: float = Field(
-        3.0, gt=0.5, le=30, description="Camera distance from the middle of the figure, metres."
+        3.0, gt=0.5, le=30, description="Camera distance from the figure's chest, metres."
     )
     fov_deg: float = Field(
         50.0, gt=5, lt=150, description="Vertical field of view of every camera, degrees."

@@ -2,9 +2,10 @@
 
 The scene's frame comes from the motion itself: `up` is the world axis closest to the figure's
 mean torso direction (BVH files are y-up or z-up), `forward` the figure's mean facing direction
-made horizontal, and the target the middle of the figure's extent over the take. A camera at
-azimuth 0 and elevation 0 stands `distance` in front of the target at its height and looks at it;
-positive azimuths turn it towards the person's left.
+made horizontal (over the rendered stretch: a BVH's rest pose need not stand upright, test.bvh's
+does not), and the target the figure's mean chest (three quarters of the way from the mid-hip to
+the mid-shoulder). A camera at azimuth 0 and elevation 0 stands `distance` in front of the
+target at chest height and looks at it; positive azimuths turn it towards the person's left.
 """
 
 from __future__ import annotations
@@ -15,6 +16,9 @@ import numpy as np
 
 from gesturebank.lift.multiview.cameras import Camera
 from gesturebank.mocap.pose import body_axes
+from gesturebank.skeletons import COCO17
+
+CHEST = 0.75  # the chest, from the mid-hip (0) to the mid-shoulder (1)
 
 
 @dataclass(frozen=True)
@@ -38,9 +42,11 @@ def stage_of(joints: np.ndarray) -> Stage:
     up[axis] = np.sign(torso_up[axis])
     forward = forward - forward @ up * up
     forward /= np.linalg.norm(forward)
-    points = np.asarray(joints, np.float64).reshape(-1, 3)
-    points = points[np.isfinite(points).all(axis=1)]
-    target = (points.min(axis=0) + points.max(axis=0)) / 2
+    j = np.asarray(joints, np.float64)
+    i = COCO17.index
+    shoulders = (j[:, i["left_shoulder"]] + j[:, i["right_shoulder"]]) / 2
+    hips = (j[:, i["left_hip"]] + j[:, i["right_hip"]]) / 2
+    target = np.nanmean(CHEST * shoulders + (1 - CHEST) * hips, axis=0)
     return Stage(target=target, forward=forward, up=up)
 
 

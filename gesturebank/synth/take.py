@@ -226,7 +226,7 @@ def render_take(
         Figure(joints, mouth, LOOKS[p.look or config.look])
         for joints, mouth, p in zip(placed, mouths, performers, strict=True)
     ]
-    # Cameras around the figures' common middle, facing the first one's front.
+    # Cameras around the figures' mean chest, facing the first one's front.
     stage = Stage(
         target=stage_of(np.concatenate(placed, 1)).target, forward=stage.forward, up=stage.up
     )
