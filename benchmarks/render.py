@@ -5,7 +5,7 @@ Renders `test.bvh` (bvhtools, the issue's stretch 31–51 s) with one camera 3 m
 height, turned 0°, 30° and 60° from the person's front, and prints:
 1. speed: frames rendered per second of wall time and of CPU time (Embree uses every core, so
    CPU time is what a busy machine cannot hide), at 1280×720 and at the tests' 640×360, and as
-   a multiple of real time (the video's own 30 frames/s);
+   a multiple of real time (CPU frames/s over the video's own 30 frames/s);
 2. BlazePose on each render: share of frames with the person found, median 2D error of the body
    joints (% of the true torso length), also with each joint's constant offset removed (its
    median error vector: BlazePose's shoulder and hip sit elsewhere than a mocap skeleton's), and
@@ -61,20 +61,20 @@ def main() -> None:
     for col in (
         "size",
         "look",
-        "azimuth °",
+        "az °",
         "frames",
         "wall s",
         "CPU s",
-        "frames/s wall",
-        "frames/s CPU",
-        "× real time (CPU)",
+        "fps wall",
+        "fps CPU",
+        "× real time",
     ):
         speed.add_column(col, justify="right")
     found = Table(title="BlazePose on the renders (body joints, % of torso length)")
     for col in (
         "size",
         "look",
-        "azimuth °",
+        "az °",
         "found %",
         "median error %",
         "offset-free %",

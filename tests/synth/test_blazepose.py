@@ -2,9 +2,10 @@
 frame, close to the truth and with its left and right the right way round.
 
 Measured when written (640×360, test.bvh 31–32.5 s, look "tshirt", camera 3 m away at chest
-height): found in 100 % of frames at 0° and 30°; median error 3.9 / 4.5 % of torso length
-(1.7 / 1.9 % with each joint's constant offset removed: BlazePose's shoulder and hip are not
-where a mocap skeleton puts them); no frame swapped. Bounds: 1.5× the worst of these.
+height; `benchmarks/render.py --sizes 640x360 --seconds 1.5`): found in 100 % of frames at 0°
+and 30°; median error 4.3 / 5.7 % of torso length (1.9 / 1.9 % with each joint's constant
+offset removed: BlazePose's shoulder and hip are not where a mocap skeleton puts them); no
+frame swapped. Bounds: 1.5× the worst of these.
 """
 
 from __future__ import annotations
@@ -38,6 +39,6 @@ def test_blazepose_finds_the_figure(
     pose = detector.detect(iter_frames(video)).to_coco17()
     score = score_2d(pose.keypoints, truth.joints2d[0])
     assert score.found >= 0.95
-    assert score.error_pct <= 6.7
+    assert score.error_pct <= 8.5
     assert score.offset_free_pct <= 2.9
     assert score.swapped <= 0.1
