@@ -39,6 +39,7 @@ COMMANDS = [
     "replay",
     "preview",
     "clips",
+    "render",
     "live",
     "calibrate",
     "export",

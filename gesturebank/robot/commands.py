@@ -195,7 +195,7 @@ def live_command(
         source = wav_chunks(input, synth.hop, rate)
     extra: dict[str, object] = (
         {"render": render} if backend == "sim"
-        else {"csv": csv, "profile": synth.profile.name, "reach": _reach(model_dir)}
+        else {"csv": csv, "profile": synth.profile.name, "reach": model.reach}
         if backend == "record"
         else {}
     )  # fmt: skip
@@ -214,14 +214,6 @@ def live_command(
         p99,
     )
     return result
-
-
-def _reach(model_dir: PathLike) -> str | None:
-    """The reach mode of the angles a model was trained on (None: the folder does not say)."""
-    from gesturebank.train import model_folder
-
-    reach = model_folder.load(model_dir).info.get("reach")
-    return reach if isinstance(reach, str) else None
 
 
 def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:

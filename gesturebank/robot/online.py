@@ -94,13 +94,15 @@ class OnnxFrameModel:
 
 @dataclass(frozen=True, eq=False)
 class LiveModel:
-    """A frame model with what it needs around it: z-norm stats `(F,)`, robot, audio config."""
+    """A frame model with what it needs around it: z-norm stats `(F,)`, robot, audio config, and
+    the reach mode of the angles it was trained on (None: its folder does not say)."""
 
     model: FrameModel
     audio_mean: np.ndarray
     audio_std: np.ndarray
     robot: pepper.RobotProfile
     audio: AudioConfig
+    reach: str | None = None
 
     @property
     def profile(self) -> str:
@@ -136,7 +138,10 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
         raise InputError(
             f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
         )
-    return LiveModel(model, mean, std, folder.profile, folder.audio)
+    reach = folder.info.get("reach")
+    return LiveModel(
+        model, mean, std, folder.profile, folder.audio, reach if isinstance(reach, str) else None
+    )
 
 
 # --------------------------------------------------------------------------------------------------
