@@ -247,11 +247,11 @@ def test_exported_script_plays_the_speech_on_the_robot_in_step(tmp_path: Path) -
     first buffer: the motion after frame 0 follows the start the peer reports."""
     import wave
 
-    from gesturebank.robot.timeline import Timeline, write_csv
+    from gesturebank.robot.timeline import Timeline, write_timeline
     from gesturebank.testing.naoqi_server import NaoqiServer
 
     n, rate = 100, 16000
-    write_csv(tmp_path / "angles.csv", Timeline.of(np.arange(n) / 100, _poses(n)))
+    write_timeline(tmp_path / "angles.csv", Timeline.of(np.arange(n) / 100, _poses(n)))
     tone = (0.3 * np.sin(np.arange(rate) * 2 * np.pi * 220 / rate) * 32767).astype("<i2")
     with wave.open(str(tmp_path / "speech.wav"), "wb") as w:
         w.setnchannels(1)

@@ -210,7 +210,9 @@ def test_motion_follows_the_robots_sound_start(tmp_path: Path, mode: str) -> Non
 
 def test_replay_command_plays_the_audio_on_the_robot(server: NaoqiServer, tmp_path: Path) -> None:
     n = 50
-    csv = write_csv(tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1))))
+    csv = write_timeline(
+        tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1)))
+    )
     wav = _speech(tmp_path / "s.wav", 0.5)
     result = replay_command(csv, "naoqi", url=server.url, audio=wav, config=FAST)
     assert not isinstance(result, Path) and result.status == "completed"
