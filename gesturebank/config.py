@@ -437,8 +437,23 @@ class ResolvedConfig(Section):
         description="Cost of a bone pointing away from the detector's own 3D (BlazePose world "
         "landmarks), per squared unit-vector difference; 0 ignores them.",
     )
+    depth_levels: int = Field(
+        21,
+        ge=2,
+        description="Readings of the shoulder line per frame: 2 = its exact near and far points "
+        "for the estimated shoulder width; more = that many depths along the ray, each costing "
+        "its width's deviation (length_sd), so a small width error cannot turn a torso that "
+        "faces the camera (on test.bvh: torso frame 10° off with 2, 1° with 21). Cost grows with "
+        "the cube. The arms always use the exact pair (the levels were worse there).",
+    )
+    length_sd: float = Field(
+        0.04,
+        gt=0,
+        description="Relative deviation of a bone from its estimated length worth one unit of "
+        "cost (depth_levels > 2).",
+    )
     length_percentile: float = Field(
-        98.0,
+        95.0,
         gt=50,
         le=100,
         description="Each bone's length: this percentile of its 2D length over the take, "

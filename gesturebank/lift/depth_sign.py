@@ -39,6 +39,27 @@ def ray_candidates(
     return (along - root)[..., None] * ray, (along + root)[..., None] * ray
 
 
+def depth_readings(
+    parent: np.ndarray, ray: np.ndarray, length: float, *, levels: int, length_sd: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(T, S, 3) child positions on the unit `ray` (T, 3) that a bone of `length` from `parent`
+    (T, 3) may reach, and (T, S) what each costs: with 2 `levels`, the exact `near` and `far`
+    readings (cost 0); with more, S evenly spaced points along the ray within `length` of the
+    ray's point nearest the parent, each costing its bone length's deviation from `length` in
+    units of `length_sd` × length, squared — so a bone near the image plane, whose exact depth
+    a small error of its length changes a lot, is not forced off it."""
+    if levels == 2:
+        near, far = ray_candidates(parent, ray, length)
+        return np.stack([near, far], axis=1), np.zeros((len(parent), 2))
+    along = np.sum(parent * ray, axis=-1)
+    miss = np.sum(parent * parent, axis=-1) - along**2  # squared distance of the ray from parent
+    offsets = np.linspace(-1.0, 1.0, levels) * length
+    depth = along[:, None] + offsets[None, :]
+    implied = np.sqrt(np.clip(miss, 0.0, None)[:, None] + offsets[None, :] ** 2)
+    cost = ((implied - length) / (length_sd * length)) ** 2
+    return depth[..., None] * ray[:, None, :], cost
+
+
 def torso_frame(
     left_shoulder: np.ndarray, right_shoulder: np.ndarray, mid_hip: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -113,20 +134,18 @@ def decode_path(
     unary = np.nan_to_num(unary, nan=0.0)
     step = positions[1:, None, :] - positions[:-1, :, None]  # (T-1, from, to, J, 3)
     vel = np.nan_to_num(np.sum(step**2, axis=(-1, -2))) / (speed * dt[:, None, None]) ** 2
-    # acc[t, a, b, c]: states a, b, c at frames t, t+1, t+2
-    second = (
-        positions[2:, None, None]
-        - 2 * positions[1:-1, None, :, None]
-        + positions[:-2, :, None, None]
-    )
-    h = (dt[:-1] + dt[1:]) / 2
-    acc = (
-        np.nan_to_num(np.sum(second**2, axis=(-1, -2))) / (accel * h[:, None, None, None] ** 2) ** 2
-    )
+    sigma_acc = accel * ((dt[:-1] + dt[1:]) / 2) ** 2
     cost = unary[0][:, None] + unary[1][None, :] + vel[0]  # (b, c) at frames 0, 1
-    back = np.zeros((n_frames, n_states, n_states), dtype=int)
+    back = np.zeros((n_frames, n_states, n_states), dtype=np.int32)
     for t in range(2, n_frames):
-        total = cost[:, :, None] + acc[t - 2]  # (a, b, c)
+        # states a, b, c at frames t-2, t-1, t (computed per frame: S³ memory, not T·S³)
+        second = (
+            positions[t][None, None]
+            - 2 * positions[t - 1][None, :, None]
+            + positions[t - 2][:, None, None]
+        )
+        acc = np.nan_to_num(np.sum(second**2, axis=(-1, -2))) / sigma_acc[t - 2] ** 2
+        total = cost[:, :, None] + acc  # (a, b, c)
         back[t] = np.argmin(total, axis=0)
         cost = np.min(total, axis=0) + vel[t - 1] + unary[t][None, :]
     path = np.zeros(n_frames, dtype=int)

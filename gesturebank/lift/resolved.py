@@ -44,6 +44,7 @@ from gesturebank.lift import TakeViews
 from gesturebank.lift.depth_sign import (
     behind_cost,
     decode_path,
+    depth_readings,
     elbow_fold_cost,
     inside_torso_cost,
     ray_candidates,
@@ -61,6 +62,43 @@ _LS, _RS, _LH, _RH, _NOSE = (
 )
 _FACE_BONES = (("nose", "left_eye"), ("nose", "right_eye"), ("left_eye", "left_ear"),
                ("right_eye", "right_ear"))  # fmt: skip
+
+
+def torso_scale(
+    lengths_px: dict[str, np.ndarray], ok: np.ndarray, *, window: int, percentile: float
+) -> np.ndarray:
+    """(T,) pixels per unit length at the neck's depth, up to one factor for the take, from the
+    2D lengths (T,) of torso bones (`ok`: frames with a torso).
+
+    A bone foreshortens, never lengthens, so each frame's scale is bounded by each bone's 2D
+    length over its true one, and the least foreshortened bone (the largest ratio) comes nearest:
+    the scale and the take's bone lengths (a high `percentile` of length / scale) are refined in
+    turn from the spine's alone, the scale smoothed by a running median over `window` frames.
+    """
+    frames = np.arange(len(ok))
+
+    def smooth(values: np.ndarray) -> np.ndarray:
+        good = ok & np.isfinite(values) & (values > 0)
+        filled = np.interp(frames, np.flatnonzero(good), values[good])
+        return np.asarray(median_filter(filled, size=window, mode="nearest"))
+
+    scale = smooth(lengths_px["spine"])
+    for _ in range(3):
+        true = {k: np.nanpercentile(v[ok] / scale[ok], percentile) for k, v in lengths_px.items()}
+        scale = smooth(np.nanmax([v / true[k] for k, v in lengths_px.items()], axis=0))
+    return scale
+
+
+def ray_pair(parent: np.ndarray, ray: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """The arms' readings: the exact near and far points (T, 2, 3), costing nothing (T, 2).
+    Depth levels along the ray (as for the shoulder line) were worse for the arms on test.bvh."""
+    return depth_readings(parent, ray, length, levels=2, length_sd=1.0)
+
+
+def _expand(frame: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A torso frame of (T, 3) axes broadcast over readings: (T, 1, 3) each."""
+    forward, left, up = (axis[:, None] for axis in frame)
+    return forward, left, up
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,33 +196,28 @@ class ResolvedLifter:
             return None
         dt = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
         window = max(1, round(cfg.depth_window_s / dt) | 1)
-        filled = np.interp(np.arange(len(times)), np.flatnonzero(ok), spine_px[ok])
-        spine_smooth = median_filter(filled, size=window, mode="nearest")
-        scale = spine_smooth / focal.mean()  # metres per pixel at the neck, per unit spine length
+        px = {
+            "shoulders": np.linalg.norm(pixels[:, _LS] - pixels[:, _RS], axis=-1) / 2,
+            "hips": np.linalg.norm(pixels[:, _LH] - pixels[:, _RH], axis=-1) / 2,
+            "spine": spine_px,
+        }
+        scale = torso_scale(px, ok, window=window, percentile=cfg.length_percentile)
 
-        def ratio(a: np.ndarray, b: np.ndarray) -> float:
-            """The take's length of bone a → b, in spine lengths."""
-            d = np.linalg.norm(pixels[:, b] - pixels[:, a], axis=-1) / spine_smooth
+        def ratio(bone_px: np.ndarray) -> float:
+            """The take's length of a bone seen `bone_px` (T,) long, in scale units."""
+            d = bone_px / scale
             d = d[np.isfinite(d)]
             return float(np.percentile(d, cfg.length_percentile)) if d.size else np.nan
 
-        ratios = {
-            "shoulders": ratio(np.array(_LS), np.array(_RS)) / 2,
-            "hips": ratio(np.array(_LH), np.array(_RH)) / 2,
-            "nose": float(
-                np.nanpercentile(
-                    np.linalg.norm(pixels[:, _NOSE] - neck_px, axis=-1) / spine_smooth,
-                    cfg.length_percentile,
-                )
-            ),
-        }
+        ratios = {k: ratio(v) for k, v in px.items()}
+        ratios["nose"] = ratio(np.linalg.norm(pixels[:, _NOSE] - neck_px, axis=-1))
         for a, b in _FACE_BONES:
-            ratios[f"{a}-{b}"] = ratio(np.array(_I[a]), np.array(_I[b]))
-        spine_m = self.geometric.shoulder_width_m / (2 * ratios["shoulders"])
-        lengths = {k: v * spine_m for k, v in ratios.items()} | {"spine": spine_m}
+            ratios[f"{a}-{b}"] = ratio(np.linalg.norm(pixels[:, _I[b]] - pixels[:, _I[a]], axis=-1))
+        metres = self.geometric.shoulder_width_m / (2 * ratios["shoulders"])  # per scale unit
+        lengths = {k: v * metres for k, v in ratios.items()}
+        depth = focal.mean() * metres / scale  # the neck's z
         ray = rays(pixels, focal, center)
         neck_ray = rays(neck_px, focal, center)
-        depth = spine_m / scale  # the neck's z
         neck = neck_ray * (depth / neck_ray[:, 2])[:, None]
         cam_world = None
         if world is not None:
@@ -196,30 +229,38 @@ class ResolvedLifter:
         """Shoulders, hips and nose: states (shoulder line, nose) decoded together."""
         cfg, L = self.options, scene.lengths
         neck, ray = scene.neck, scene.ray
-        left = ray_candidates(neck, ray[:, _LS], L["shoulders"])
-        right = ray_candidates(neck, ray[:, _RS], L["shoulders"])
+        left, left_cost = depth_readings(
+            neck, ray[:, _LS], L["shoulders"], levels=cfg.depth_levels, length_sd=cfg.length_sd
+        )
+        right, right_cost = depth_readings(
+            neck, ray[:, _RS], L["shoulders"], levels=cfg.depth_levels, length_sd=cfg.length_sd
+        )
         nose = ray_candidates(neck, ray[:, _NOSE], L["nose"])
         mid_hip_ray = ray[:, [_LH, _RH]].mean(axis=1)
         mid_hip_ray /= np.linalg.norm(mid_hip_ray, axis=-1, keepdims=True)
         mid_hip = ray_candidates(neck, mid_hip_ray, L["spine"])[1]
-        states = [(s, n) for s in (0, 1) for n in (0, 1)]  # s = 0: left shoulder nearer
+        n_levels = left.shape[1]  # reading k of the left shoulder goes with n−1−k of the right
+        states = [(k, n) for k in range(n_levels) for n in (0, 1)]
         positions = np.stack(
-            [np.stack([left[s], right[1 - s], nose[n]], axis=1) for s, n in states], axis=1
-        )  # (T, 4, 3, 3)
+            [np.stack([left[:, k], right[:, n_levels - 1 - k], nose[n]], 1) for k, n in states],
+            axis=1,
+        )  # (T, S, 3, 3)
         unary = np.zeros(positions.shape[:2])
-        for k, (s, n) in enumerate(states):
-            forward = torso_frame(left[s], right[1 - s], mid_hip)[0]
+        for i, (k, n) in enumerate(states):
+            forward = torso_frame(left[:, k], right[:, n_levels - 1 - k], mid_hip)[0]
             ahead = np.sum((nose[n] - neck) * forward, -1) / L["nose"]
-            unary[:, k] = cfg.face_weight * np.clip(cfg.face_ahead - ahead, 0.0, None)
+            unary[:, i] = cfg.face_weight * np.clip(cfg.face_ahead - ahead, 0.0, None)
+            unary[:, i] += left_cost[:, k] + right_cost[:, n_levels - 1 - k]
         path = decode_path(positions, unary, scene.times, speed=cfg.speed_m_s, accel=cfg.accel_m_s2)
         t = np.arange(len(path))
         chosen = positions[t, path]
         joints[:, _LS], joints[:, _RS], joints[:, _NOSE] = chosen[:, 0], chosen[:, 1], chosen[:, 2]
-        left_near = np.array([states[p][0] == 0 for p in path])
-        for hip, near_with_left in ((_LH, True), (_RH, False)):
-            near, far = ray_candidates(mid_hip, ray[:, hip], L["hips"])
-            pick_near = left_near == near_with_left
-            joints[:, hip] = np.where(pick_near[:, None], near, far)
+        # the hip line turned as the shoulder line: its left end as much nearer or farther
+        shoulder_dz = joints[:, _LS, 2] - joints[:, _RS, 2]
+        hips = [ray_candidates(mid_hip, ray[:, h], L["hips"]) for h in (_LH, _RH)]
+        left_hip_near = shoulder_dz < 0
+        joints[:, _LH] = np.where(left_hip_near[:, None], hips[0][0], hips[0][1])
+        joints[:, _RH] = np.where(left_hip_near[:, None], hips[1][1], hips[1][0])
 
     def _arm_lengths(self, scene: _Scene, joints: np.ndarray) -> None:
         """Upper arm and forearm lengths: each 2D length in metres at its parent's depth (the
@@ -246,33 +287,40 @@ class ResolvedLifter:
         mid_hip = joints[:, [_LH, _RH]].mean(axis=1)
         frame = torso_frame(joints[:, _LS], joints[:, _RS], mid_hip)
         neck = (joints[:, _LS] + joints[:, _RS]) / 2
-        elbows = ray_candidates(shoulder, scene.ray[:, e], L["upper"])
-        states = [(u, f) for u in (0, 1) for f in (0, 1)]
-        positions = np.empty((len(shoulder), 4, 2, 3))
-        unary = np.zeros((len(shoulder), 4))
         box = {"half_width": L["shoulders"] * 0.8, "height": L["spine"], "half_depth": 0.1}
-        for k, (u, f) in enumerate(states):
-            elbow = elbows[u]
-            wrist = ray_candidates(elbow, scene.ray[:, w], L["fore"])[f]
-            positions[:, k, 0], positions[:, k, 1] = elbow, wrist
-            upper, fore = elbow - shoulder, wrist - elbow
-            anatomy = (
-                elbow_fold_cost(upper, fore, max_bend_deg=cfg.max_elbow_bend_deg)
-                + behind_cost(upper, frame[0], limit=cfg.max_behind)
-                + sum(inside_torso_cost(p, neck, frame, **box) for p in (elbow, wrist)) / 0.1
-            )
-            ahead = np.sum((wrist - shoulder) * frame[0], -1) / (L["upper"] + L["fore"])
-            cost = cfg.anatomy_weight * anatomy + cfg.front_weight * np.clip(-ahead, 0.0, None)
-            if scene.world is not None:
-                for bone, (a, b) in ((upper, (s, e)), (fore, (e, w))):
-                    seen = scene.world[:, b] - scene.world[:, a]
-                    unit = bone / np.linalg.norm(bone, axis=-1, keepdims=True)
-                    ref = seen / np.linalg.norm(seen, axis=-1, keepdims=True)
-                    cost = cost + cfg.detector_weight * np.nan_to_num(np.sum((unit - ref) ** 2, -1))
-            unary[:, k] = cost
-        path = decode_path(positions, unary, scene.times, speed=cfg.speed_m_s, accel=cfg.accel_m_s2)
-        chosen = positions[np.arange(len(path)), path]
-        joints[:, e], joints[:, w] = chosen[:, 0], chosen[:, 1]
+        motion = {"speed": cfg.speed_m_s, "accel": cfg.accel_m_s2}
+        elbows, cost = ray_pair(shoulder, scene.ray[:, e], L["upper"])
+        upper = elbows - shoulder[:, None]
+        cost = cost + cfg.anatomy_weight * (
+            behind_cost(upper, frame[0][:, None], limit=cfg.max_behind)
+            + inside_torso_cost(elbows, neck[:, None], _expand(frame), **box) / 0.1
+        )
+        cost = cost + self._detector_cost(scene, upper, s, e)
+        path = decode_path(elbows[:, :, None], cost, scene.times, **motion)
+        elbow = elbows[np.arange(len(path)), path]
+        joints[:, e] = elbow
+        wrists, cost = ray_pair(elbow, scene.ray[:, w], L["fore"])
+        fore = wrists - elbow[:, None]
+        ahead = np.sum((wrists - shoulder[:, None]) * frame[0][:, None], -1)
+        ahead = ahead / (L["upper"] + L["fore"])
+        cost = cost + cfg.anatomy_weight * (
+            elbow_fold_cost((elbow - shoulder)[:, None], fore, max_bend_deg=cfg.max_elbow_bend_deg)
+            + inside_torso_cost(wrists, neck[:, None], _expand(frame), **box) / 0.1
+        )
+        cost = cost + cfg.front_weight * np.clip(-ahead, 0.0, None)
+        cost = cost + self._detector_cost(scene, fore, e, w)
+        path = decode_path(wrists[:, :, None], cost, scene.times, **motion)
+        joints[:, w] = wrists[np.arange(len(path)), path]
+
+    def _detector_cost(self, scene: _Scene, bones: np.ndarray, a: int, b: int) -> np.ndarray:
+        """(T, S) cost of each reading's bone (T, S, 3) pointing away from the detector's own
+        3D bone a → b; 0 without world landmarks."""
+        if scene.world is None:
+            return np.zeros(bones.shape[:2])
+        seen = scene.world[:, b] - scene.world[:, a]
+        ref = seen / np.linalg.norm(seen, axis=-1, keepdims=True)
+        unit = bones / np.linalg.norm(bones, axis=-1, keepdims=True)
+        return self.options.detector_weight * np.nan_to_num(np.sum((unit - ref[:, None]) ** 2, -1))
 
     def _face(self, scene: _Scene, joints: np.ndarray) -> None:
         """Eyes and ears: the reading further behind its parent along the torso's forward."""
