@@ -49,9 +49,13 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from gesturebank.config import Config
+from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets.takes import find_calibration
+from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.pipeline import extract_take
+from gesturebank.extract.video import iter_frames
+from gesturebank.fileio import sha256_file
+from gesturebank.footage import SPEECH
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
@@ -72,6 +76,7 @@ from gesturebank.robot.pepper import JOINTS
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.skeletons import COCO17
+from gesturebank.synth.take import Performer, cached_render, render_cache
 
 MONOCULAR = ("blazepose-world", "geometric", "fitted")
 TRUTH_LIFTERS = ("geometric", "fitted", "resolved")  # blazepose-world: no perfect-2D row
@@ -83,6 +88,8 @@ TRUTH_SETS = {  # stretches where the person stays within about a metre (a fixed
     "holdout": (("test2", 0.0, 20.0), ("test3", 20.0, 40.0)),
 }
 QUICK_TRUTH = ("test", 31.0, 33.0)
+DETECTED_LIFTERS = ("blazepose-world", "geometric", "fitted", "resolved")
+DETECTED_START_S = 31.0
 # view name → (azimuth from the take's front, degrees; camera above the head)
 TRUTH_VIEWS = {
     "0°": (0.0, False),
@@ -243,18 +250,30 @@ def truth_table(config: Config, stretches: tuple[tuple[str, float, float], ...],
         front, _, up = body_axes(whole.joints)
         pick = (whole.timestamps >= start) & (whole.timestamps < end)
         takes.append((whole.joints[pick].astype(np.float64), whole.timestamps[pick], front, up))
+    seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]] = {}
+    for view in views:
+        seen[view] = []
+        for joints, times, front, up in takes:
+            cam = truth_camera(joints, front, up, view)
+            seen[view].append((project_view(joints, cam, times), cam, joints))
+    add_rows(table, config, lifters, seen)
+    return table
+
+
+def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
+             seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]]) -> None:  # fmt: skip
+    """One row per lifter × view: its lifts of the view's (2D, camera, world truth) takes,
+    scored together."""
     for lifter_name in lifters:
         lifter = LIFTERS.create(lifter_name, config)
-        for view in views:
+        for view, parts in seen.items():
             scores, mirror, frames, seconds = [], [], 0, 0.0
-            for joints, times, front, up in takes:
-                cam = truth_camera(joints, front, up, view)
-                pose2d = project_view(joints, cam, times)
+            for pose2d, cam, joints in parts:
                 cams = CameraGroup([cam])
                 start_t = time.perf_counter()
                 lifted = lifter.lift(TakeViews.of(pose2d, cams))
                 seconds += time.perf_counter() - start_t
-                frames += len(times)
+                frames += len(pose2d)
                 scores.append(score_lift(lifted, joints, cam, retarget=config.retarget))
                 flipped = lifter.lift(TakeViews.of(mirror_view(pose2d), cams))
                 back = mirror_angles(pepper_angles(flipped, config=config.retarget))
@@ -273,6 +292,37 @@ def truth_table(config: Config, stretches: tuple[tuple[str, float, float], ...],
                 f"{np.nanmean(mirror):.1f}",
                 f"{frames / seconds:.0f}",
             )  # fmt: skip
+
+
+def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Table:
+    """Renders of test.bvh from `DETECTED_START_S` (gesturebank.synth, cached by checksum), the
+    real BlazePose detector on each (its Pose2D cached beside the render by the video's
+    checksum), every monocular lifter scored against the render's truth."""
+    samples = default_samples_dir()
+    speech = [samples / rel for rel in SPEECH]
+    seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]] = {}
+    for azimuth in azimuths:
+        synth = SynthConfig(azimuths_deg=[azimuth], start_s=DETECTED_START_S, length_s=seconds)
+        performer = Performer(samples / TRUTH_BVH.format("test"))
+        cache = render_cache(samples)
+        truth = cached_render([performer], config=synth, mocap=config.mocap, speech=speech,
+                              cache=cache)  # fmt: skip
+        video = truth.videos[0]
+        cached = video.parent / f"{video.stem}.{sha256_file(video)[:16]}.blazepose.npz"
+        if cached.is_file():
+            pose = Pose2D.load(cached)
+        else:
+            detector = DETECTORS.create("blazepose", config.detector, video=video)
+            pose = detector.detect(iter_frames(video))
+            pose.save(cached)
+        seen[f"{azimuth:g}°"] = [(pose, truth.cameras[0], truth.joints3d.astype(np.float64))]
+    end = DETECTED_START_S + seconds
+    table = Table(title=f"Detected 2D: BlazePose on renders of test.bvh {DETECTED_START_S:g}–"
+                  f"{end:g} s (mirror: the detections flipped, not the video)")  # fmt: skip
+    for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
+                "elbow cm", "hand cm", "head °", "mirror °", "frames/s"):  # fmt: skip
+        table.add_column(col, justify="right")
+    add_rows(table, config, DETECTED_LIFTERS, seen)
     return table
 
 
@@ -282,6 +332,9 @@ def main() -> None:
     parser.add_argument("--only", choices=("truth", "demo"), help="one part only")
     parser.add_argument("--truth-set", choices=tuple(TRUTH_SETS), default="acceptance",
                         help="motion-capture stretches of the truth tables")  # fmt: skip
+    parser.add_argument("--detected", type=float, default=0.0, metavar="SECONDS",
+                        help="also render SECONDS of test.bvh at 0/30/60° and score every lifter "
+                        "on BlazePose's 2D (minutes; cached)")  # fmt: skip
     parser.add_argument("--lifters", default=",".join(TRUTH_LIFTERS),
                         help="comma-separated lifters of the truth tables")  # fmt: skip
     args = parser.parse_args()
@@ -293,6 +346,8 @@ def main() -> None:
         where = ", ".join(f"{n}.bvh {a:g}–{b:g} s" for n, a, b in stretches)
         title = f"Perfect 2D: motion-capture truth projected ({where}), scored on Pepper"
         console.print(truth_table(config, stretches, views, tuple(args.lifters.split(",")), title))
+        if args.detected:
+            console.print(detected_table(config, args.detected, [0.0, 30.0, 60.0]))
     if args.only == "truth":
         return
     samples = default_samples_dir()
