@@ -262,8 +262,9 @@ class LifterConfig(Section):
     name: str = Field(
         "blazepose-world",
         description="3D lifter of single-view takes: 'blazepose-world' (learned), 'fitted' (a "
-        "skeleton fitted to the 2D with BlazePose's 3D as prior), 'geometric' "
-        "(assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
+        "skeleton fitted to the 2D with BlazePose's 3D as prior), 'resolved' (each arm bone's "
+        "depth sign decoded over the take; best from true 2D, not yet at 60° from BlazePose's), "
+        "'geometric' (assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
     )
 
 
