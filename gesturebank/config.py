@@ -266,8 +266,9 @@ class LifterConfig(Section):
     name: str = Field(
         "blazepose-world",
         description="3D lifter of single-view takes: 'blazepose-world' (learned), 'fitted' (a "
-        "skeleton fitted to the 2D with BlazePose's 3D as prior), 'geometric' "
-        "(assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
+        "skeleton fitted to the 2D with BlazePose's 3D as prior), 'resolved' (each arm bone's "
+        "depth sign decoded over the take; best from true 2D, not yet at 60° from BlazePose's), "
+        "'geometric' (assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
     )
 
 
@@ -385,6 +386,89 @@ class FittedConfig(Section):
         ge=10,
         description="Frames fitted in one least-squares problem (long takes are cut into "
         "overlapping chunks, so memory stays bounded).",
+    )
+
+
+class ResolvedConfig(Section):
+    """Options of the `resolved` lifter: each bone's depth sign decoded over the take."""
+
+    speed_m_s: float = Field(
+        1.5,
+        gt=0,
+        description="Typical joint speed (m/s): moving a joint this far in a second costs as "
+        "much as one unit of the anatomical costs, so a sign flip where the two readings lie "
+        "far apart costs a lot.",
+    )
+    accel_m_s2: float = Field(
+        20.0,
+        gt=0,
+        description="Typical joint acceleration (m/s²): a bone bouncing back off the image "
+        "plane instead of swinging through it costs its change of depth velocity in these units.",
+    )
+    face_weight: float = Field(
+        20.0, ge=0, description="Cost of the nose not in front of the torso (per unit)."
+    )
+    face_ahead: float = Field(
+        0.1,
+        description="How far in front of the neck the nose must be, along the torso's forward, "
+        "in neck → nose lengths, before it costs nothing.",
+    )
+    anatomy_weight: float = Field(
+        20.0,
+        ge=0,
+        description="Cost per unit of the anatomical limits: an elbow folded past "
+        "max_elbow_bend_deg, an upper arm reaching behind past max_behind (cosines), an elbow "
+        "or hand inside the torso (per 10 cm).",
+    )
+    max_elbow_bend_deg: float = Field(
+        150.0, gt=0, le=180, description="The elbow bends no further than this, degrees."
+    )
+    max_behind: float = Field(
+        0.6,
+        ge=-1,
+        le=1,
+        description="The upper arm's unit vector points backwards (behind the torso's plane) "
+        "by at most this much.",
+    )
+    front_weight: float = Field(
+        1.0,
+        ge=0,
+        description="Small cost of the hand behind the shoulder's plane (per arm length): "
+        "gesturing hands are mostly in front.",
+    )
+    detector_weight: float = Field(
+        4.0,
+        ge=0,
+        description="Cost of a bone pointing away from the detector's own 3D (BlazePose world "
+        "landmarks), per squared unit-vector difference; 0 ignores them.",
+    )
+    depth_levels: int = Field(
+        21,
+        ge=2,
+        description="Readings of the shoulder line per frame: 2 = its exact near and far points "
+        "for the estimated shoulder width; more = that many depths along the ray, each costing "
+        "its width's deviation (length_sd), so a small width error cannot turn a torso that "
+        "faces the camera (on test.bvh: torso frame 10° off with 2, 1° with 21). Cost grows with "
+        "the cube. The arms always use the exact pair (the levels were worse there).",
+    )
+    length_sd: float = Field(
+        0.04,
+        gt=0,
+        description="Relative deviation of a bone from its estimated length worth one unit of "
+        "cost (depth_levels > 2).",
+    )
+    length_percentile: float = Field(
+        95.0,
+        gt=50,
+        le=100,
+        description="Each bone's length: this percentile of its 2D length over the take, "
+        "scaled to metres at the neck's depth.",
+    )
+    depth_window_s: float = Field(
+        1.0,
+        gt=0,
+        description="Running median (seconds) of the spine's 2D length that gives the neck's "
+        "depth.",
     )
 
 
@@ -1291,6 +1375,7 @@ class Config(Section):
     lifter: LifterConfig = Field(default_factory=LifterConfig)
     geometric: GeometricConfig = Field(default_factory=GeometricConfig)
     fitted: FittedConfig = Field(default_factory=FittedConfig)
+    resolved: ResolvedConfig = Field(default_factory=ResolvedConfig)
     multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
     board: BoardConfig = Field(default_factory=BoardConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)

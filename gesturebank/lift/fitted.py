@@ -78,6 +78,18 @@ class FittedReport:
         return np.asarray(self.disagree.any(axis=1))
 
 
+def pinhole(
+    xy: np.ndarray, image_size: tuple[int, int], camera: Camera | None, *, fov_deg: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Focal (2,), principal point (2,) and keypoints xy (..., 2) as ideal pinhole pixels: the
+    calibrated `camera`'s (undistorted), else a focal from `fov_deg` across the longer side."""
+    if camera is not None:
+        K = camera.K
+        return np.diag(K)[:2].copy(), K[:2, 2].copy(), camera.undistort_points(xy)
+    f = 0.5 * max(image_size) / np.tan(np.deg2rad(fov_deg) / 2)
+    return np.array([f, f]), np.asarray(image_size, np.float64) / 2, xy
+
+
 # --------------------------------------------------------------------------------------------------
 # The lifter
 
@@ -196,12 +208,7 @@ class FittedLifter:
     def _camera(
         self, xy: np.ndarray, image_size: tuple[int, int], camera: Camera | None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Focal (2,), principal point (2,) and the keypoints (T, 13, 2) as ideal pinhole pixels."""
-        if camera is not None:
-            K = camera.K
-            return np.diag(K)[:2].copy(), K[:2, 2].copy(), camera.undistort_points(xy)
-        f = 0.5 * max(image_size) / np.tan(np.deg2rad(self.options.fov_deg) / 2)
-        return np.array([f, f]), np.asarray(image_size, np.float64) / 2, xy
+        return pinhole(xy, image_size, camera, fov_deg=self.options.fov_deg)
 
     def _prior(self, pose2d: Pose2D) -> tuple[np.ndarray, str]:
         """Prior joints (T, 17, 3) in camera axes, metres: BlazePose world, else geometric."""
