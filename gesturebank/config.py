@@ -627,21 +627,20 @@ class SpeechConfig(Section):
     min_face_px: float = Field(
         48.0,
         gt=0,
-        description="Faces smaller than this (side of the square face crop, pixels) get no mouth "
+        description="Faces narrower than this (pixels, estimated from the eyes) get no mouth "
         "measurement.",
     )
     max_face_turn: float = Field(
-        0.6,
+        1.0,
         gt=0,
-        le=1,
-        description="A face counts as facing the camera when its nose lies within this share of "
-        "the half distance between the ears (or eyes) from their midpoint (0 = frontal only).",
+        description="A face counts as facing the camera when its nose lies within this many half "
+        "eye distances of the eyes' midpoint, along the eye line (about tan(yaw): 1 = 45°).",
     )
     min_face_confidence: float = Field(
         0.5,
         ge=0,
         le=1,
-        description="Face keypoints (nose, eyes, ears) below this confidence count as unseen.",
+        description="Face keypoints (nose, eyes) below this confidence count as unseen.",
     )
     speaking_window_s: float = Field(
         1.5,
