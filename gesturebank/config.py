@@ -648,6 +648,13 @@ class SpeechConfig(Section):
         description="Sliding window over which mouth-opening speed is correlated with the speech "
         "envelope, seconds.",
     )
+    still_mouth_range: float = Field(
+        0.03,
+        ge=0,
+        description="A mouth whose opening (share of the face's height) spans less than this "
+        "within a window (10th to 90th percentile) is still there: speaking score 0. Closed "
+        "mouths measured 0.0015-0.015 (Pose2Sim Demo_MultiPerson cam04).",
+    )
     speaking_max_lag_s: float = Field(
         0.25,
         ge=0,
