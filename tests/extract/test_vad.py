@@ -109,3 +109,14 @@ def test_other_sample_rates_are_resampled_to_16k(samples: Path) -> None:
     ref = vad.speech_activity(Audio(x, RATE, 0.0), t0=0.0, n_frames=n, config=SpeechConfig())
     other = vad.speech_activity(at_44k, t0=0.0, n_frames=n, config=SpeechConfig())
     assert np.mean(ref.speech == other.speech) > 0.97
+
+
+@pytest.mark.filterwarnings("ignore:path is deprecated:DeprecationWarning")  # silero-vad's own
+def test_chunk_probabilities_match_the_wheels_own_onnx_wrapper(samples: Path) -> None:
+    """The reference: silero-vad's own ONNX wrapper (it needs torch, which `train` installs)."""
+    torch = pytest.importorskip("torch")
+    silero = pytest.importorskip("silero_vad")
+    x = _speech(samples, "arctic_a0009")
+    reference = silero.load_silero_vad(onnx=True).audio_forward(torch.from_numpy(x), RATE)
+    ours = vad.chunk_probabilities(x)
+    np.testing.assert_allclose(ours, reference.numpy().ravel(), atol=1e-5)
