@@ -17,6 +17,7 @@ envelope 133 ms late with noise scored a median 0.29-0.44, a random mouth 0.04-0
 from __future__ import annotations
 
 import importlib.util
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -130,7 +131,7 @@ def mouth_opening(points: np.ndarray) -> float:
 
 
 def mouth_openings(
-    frames: Any, *, keypoints: np.ndarray, skeleton: str, config: SpeechConfig
+    frames: Iterable[np.ndarray], *, keypoints: np.ndarray, skeleton: str, config: SpeechConfig
 ) -> np.ndarray:
     """(T,) mouth opening of one person over `frames` (an iterable of T RGB uint8 images, one per
     row of `keypoints (T, K, 3)`); NaN where the face gets no crop or the model finds none."""
