@@ -18,6 +18,7 @@ DEMO_OUT   ?= demo-out
 APT_PKGS   := espeak-ng sox libusb-1.0-0 chromium libportaudio2
 MEDIAPIPE  := mediapipe==0.10.14
 SCENEDETECT := scenedetect==0.7.2
+SILERO_VAD := silero-vad==6.2.3
 
 .PHONY: demo test lint typecheck pytest docs setup system-deps samples clean help
 
@@ -44,6 +45,9 @@ $(VENV)/.installed: pyproject.toml Makefile
 	# build) would be a second cv2 beside opencv-contrib-python-headless. Its pure-Python deps
 	# (click, platformdirs, tqdm) are in pyproject's dependencies.
 	$(PIP) install -q --no-deps $(SCENEDETECT)
+	# silero-vad (MIT) for its ONNX speech-activity model only, run on onnxruntime: without its
+	# declared deps (torch, torchaudio), which the model does not need.
+	$(PIP) install -q --no-deps $(SILERO_VAD)
 	touch $@
 
 setup: system-deps $(VENV)/.installed

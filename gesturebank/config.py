@@ -687,6 +687,71 @@ class AudioConfig(Section):
         return self
 
 
+class SpeechConfig(Section):
+    """Speech activity (Silero VAD) and who speaks (mouth opening against the speech envelope)."""
+
+    threshold: float = Field(
+        0.5,
+        gt=0,
+        lt=1,
+        description="Speech starts where the VAD's speech probability reaches this.",
+    )
+    release_threshold: float = Field(
+        0.35,
+        gt=0,
+        lt=1,
+        description="Speech ends only where the probability falls below this (hysteresis: no "
+        "flicker on a probability hovering near `threshold`).",
+    )
+    max_silence_s: float = Field(
+        2.0,
+        gt=0,
+        description="Silences longer than this cut a clip; shorter ones are marked in `speech`.",
+    )
+    min_face_px: float = Field(
+        48.0,
+        gt=0,
+        description="Faces narrower than this (pixels, estimated from the eyes) get no mouth "
+        "measurement.",
+    )
+    max_face_turn: float = Field(
+        1.0,
+        gt=0,
+        description="A face counts as facing the camera when its nose lies within this many half "
+        "eye distances of the eyes' midpoint, along the eye line (about tan(yaw): 1 = 45°).",
+    )
+    min_face_confidence: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Face keypoints (nose, eyes) below this confidence count as unseen.",
+    )
+    speaking_window_s: float = Field(
+        1.5,
+        gt=0,
+        description="Sliding window over which mouth-opening speed is correlated with the speech "
+        "envelope, seconds.",
+    )
+    still_mouth_range: float = Field(
+        0.03,
+        ge=0,
+        description="A mouth whose opening (share of the face's height) spans less than this "
+        "within a window (10th to 90th percentile) is still there: speaking score 0. Closed "
+        "mouths measured 0.0015-0.015 (Pose2Sim Demo_MultiPerson cam04).",
+    )
+    speaking_max_lag_s: float = Field(
+        0.25,
+        ge=0,
+        description="Largest delay of the mouth behind the speech envelope searched, seconds.",
+    )
+
+    @model_validator(mode="after")
+    def _hysteresis(self) -> SpeechConfig:
+        if self.release_threshold > self.threshold:
+            raise ValueError("release_threshold must not exceed threshold")
+        return self
+
+
 class QCConfig(Section):
     """Thresholds of the QC (config section `qc`), judged per clip. Every one is a share of time,
     seconds, a value on the analysis clock or a size in shoulder widths, so footage at any frame
@@ -1382,6 +1447,7 @@ class Config(Section):
     retarget: RetargetConfig = Field(default_factory=RetargetConfig)
     processing: ProcessingConfig = Field(default_factory=ProcessingConfig)
     audio: AudioConfig = Field(default_factory=AudioConfig)
+    speech: SpeechConfig = Field(default_factory=SpeechConfig)
     qc: QCConfig = Field(default_factory=QCConfig)
     splits: SplitsConfig = Field(default_factory=SplitsConfig)
     train: TrainConfig = Field(default_factory=TrainConfig)
