@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from gesturebank.config import ProcessingConfig
+from gesturebank.config import ProcessingConfig, RetargetConfig
 from gesturebank.datasets.process import process_angles
 from gesturebank.filters import butter_lowpass, clock, interpolate_at
 from gesturebank.robot import pepper
@@ -13,12 +15,13 @@ PROFILE = pepper.load_profile()
 YAW = pepper.INDEX["HeadYaw"]
 
 
-def _run(raw: np.ndarray, t: np.ndarray) -> np.ndarray:
+def _run(raw: np.ndarray, t: np.ndarray, reach: str = "clamp") -> np.ndarray:
     return process_angles(
         raw=raw,
         timestamps=t,
         clock=clock(float(t[0]), float(t[-1]), 100.0),
         processing=ProcessingConfig(),
+        retarget=RetargetConfig(reach=reach),
         profile=PROFILE,
     ).angles
 
@@ -51,3 +54,32 @@ def test_angles_inside_the_range_are_processed_bit_for_bit_as_before() -> None:
         PROFILE,
     )
     np.testing.assert_array_equal(_run(raw, t), plain)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    joint=st.sampled_from(["HeadYaw", "LShoulderPitch", "RShoulderPitch"]),
+    side=st.sampled_from([-1.0, 1.0]),
+    before=st.floats(0.05, 1.0),
+    after=st.floats(0.05, 1.0),
+    at=st.integers(5, 55),
+    reach=st.sampled_from(["clamp", "soft"]),
+)
+def test_a_crossing_of_pi_stays_on_the_side_it_left_from(joint, side, before, after, at, reach):
+    """A head turning on round to its back, an arm raised overhead and on behind: the raw angle
+    leaves the range at one limit and crosses ±π between two frames (atan2 wraps it to the far
+    side). The processed angle stays beyond the limit it left from: never on the other side."""
+    j = pepper.INDEX[joint]
+    t = np.arange(60) / 30.0
+    raw = np.tile(pepper.neutral_pose(), (len(t), 1))
+    # inside the range near the limit, out past it, across ±π at frame `at`, on beyond
+    path = np.concatenate(
+        [
+            np.linspace(PROFILE.upper[j] - 0.3, np.pi - before * 0.5, at),
+            np.linspace(np.pi + after * 0.5, np.pi + after, len(t) - at),
+        ]
+    )
+    raw[:, j] = side * np.angle(np.exp(1j * path))  # wrapped, as atan2 gives it
+    got = _run(raw, t, reach)[:, j]
+    assert np.all(side * got > 0), got
+    assert side * got[-1] > PROFILE.upper[j] - 0.15  # at (clamp) or near (soft) its limit
