@@ -554,7 +554,11 @@ class RetargetConfig(Section):
         description="Motion beyond the robot's reach, mapped once where the dataset's angles "
         "are made: 'clamp' holds a joint at its limit while the person is beyond it; 'soft' "
         "compresses the last soft_margin rad before each limit with a tanh, so the robot keeps "
-        "moving with the person's timing (benchmarks/retarget.py measures both).",
+        "moving with the person's timing. Soft is the default because it more than halves the "
+        "time held at a limit for under +0.5 cm of hand error (benchmarks/retarget.py: frames "
+        "with a joint within 0.02 rad of a limit, clamp → soft: test.bvh's first 30 s 91 → 37 %, "
+        "the 4-camera demo 68 → 22 %, the talking demo 25 → 10 %; mean hand error against the "
+        "unlimited pose +0.48, +0.42, +0.29 cm).",
     )
     soft_margin: float = Field(
         0.5,

@@ -33,14 +33,21 @@ class ProcessedAngles:
 
 
 def unlimited_angles(
-    *, raw: np.ndarray, timestamps: np.ndarray, clock: np.ndarray, processing: ProcessingConfig
+    *,
+    raw: np.ndarray,
+    timestamps: np.ndarray,
+    clock: np.ndarray,
+    processing: ProcessingConfig,
+    profile: pepper.RobotProfile,
 ) -> tuple[np.ndarray, GapReport]:
     """`raw (T, 11)` rad at `timestamps (T,)` → the person's angles on `clock (N,)`, low-passed
     and continuous, not yet limited: `(N, 11)` float64 and the gaps met. An angle beyond ±π
     (an arm overhead and behind, a head turned away) stays on the branch it reached, so it is
-    never filtered as a sweep across the joint's range nor wrapped to the other side of it."""
+    never filtered as a sweep across the joint's range nor wrapped to the other side of it,
+    until it comes back inside `profile`'s limits on another branch (`reach.continuous`)."""
     p = processing
-    angles, gaps = interpolate_at(continuous(raw), timestamps, clock, max_gap_s=p.max_gap_s)
+    steady = continuous(raw, profile.lower, profile.upper)
+    angles, gaps = interpolate_at(steady, timestamps, clock, max_gap_s=p.max_gap_s)
     smooth = butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order)
     return smooth, gaps
 
@@ -59,7 +66,7 @@ def process_angles(
     of at most processing.max_gap_s; each finite run is low-passed on its own. The reach map
     (`robot.reach.reach_map`) is applied here, once, to the low-passed continuous angles."""
     smooth, gaps = unlimited_angles(
-        raw=raw, timestamps=timestamps, clock=clock, processing=processing
+        raw=raw, timestamps=timestamps, clock=clock, processing=processing, profile=profile
     )
     limited = reach_map(smooth, profile=profile, retarget=retarget)
     if processing.max_speed is not None:

@@ -431,7 +431,11 @@ def reach_metrics(
     else:
         processing = ProcessingConfig(rate_hz=rate_hz, cutoff_hz=min(4.0, rate_hz / 4))
         person, _ = unlimited_angles(
-            raw=clip.raw_angles, timestamps=clip.timestamps, clock=clip.times, processing=processing
+            raw=clip.raw_angles,
+            timestamps=clip.timestamps,
+            clock=clip.times,
+            processing=processing,
+            profile=profile,
         )
     beyond = out_of_reach(person, profile) & known
     m: dict[str, float] = {}

@@ -25,19 +25,47 @@ from gesturebank.robot import pepper
 TURN = 2.0 * np.pi
 
 
-def continuous(angles: np.ndarray) -> np.ndarray:
+def continuous(
+    angles: np.ndarray, lower: np.ndarray | None = None, upper: np.ndarray | None = None
+) -> np.ndarray:
     """`angles (T, D)` rad → float64 (T, D): each column unwrapped over its finite values, i.e.
     every known frame on the branch nearest the previous known one (across NaN gaps too), the
     first known frame on its principal branch [−π, π]: a trajectory is anchored where it starts
-    and stays on the side it left the range from. NaN stays NaN; a column without a step across
-    ±π comes back bit for bit."""
+    and stays on the side it left the range from. With the joints' limits `lower`, `upper`
+    (D,), an angle that comes back inside them on another branch (an arm that went on round
+    behind the back and down) is taken there, and the trajectory goes on from it. NaN stays NaN;
+    a column without a step across ±π comes back bit for bit."""
     out = np.array(angles, dtype=np.float64, copy=True)
-    for col in out.reshape(len(out), -1).T:
+    flat = out.reshape(len(out), -1)
+    for j, col in enumerate(flat.T):
         known = np.isfinite(col)
-        if known.any():
-            values = np.unwrap(col[known])
-            turns = np.round(values[0] / TURN)
-            col[known] = values - turns * TURN if turns else values
+        if not known.any():
+            continue
+        values = np.unwrap(col[known])
+        turns = np.round(values[0] / TURN)
+        if turns:
+            values -= turns * TURN
+        if lower is not None and upper is not None:
+            values = _back_in_range(values, float(lower[j]), float(upper[j]))
+        col[known] = values
+    return out
+
+
+def _back_in_range(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """An unwrapped trajectory moved by whole turns from each frame where it lies beyond the
+    limits [lo, hi] but another branch of it lies inside them."""
+    principal = (values + np.pi) % TURN - np.pi
+    back = ((values < lo) | (values > hi)) & (principal >= lo) & (principal <= hi)
+    if not back.any():
+        return values
+    out = values.copy()
+    shift = 0.0
+    for t in range(len(out)):
+        value = values[t] + shift
+        if (value < lo or value > hi) and back[t]:
+            shift += principal[t] - value
+            value = principal[t]
+        out[t] = value
     return out
 
 
