@@ -119,3 +119,36 @@ def test_a_robot_frozen_at_a_limit_is_rejected_but_motion_beyond_reach_is_not() 
     assert any(r.startswith("robot frozen at a limit: RElbowRoll held") for r in frozen), frozen
     assert _reasons(_elbow_beyond(0.45, 0.0, 3.0)) == []
     assert _reasons(_elbow_beyond(0.8, 0.3, 1.0)) == []
+
+
+def test_gesturebank_qc_applies_the_invariants_to_the_clips_a_folder_holds(tmp_path) -> None:
+    """A clip whose stored angles were broken after the build (a jump across RShoulderPitch's
+    range) is measured again from its arrays by `gesturebank qc` and rejected, with the reason;
+    the others stay accepted."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import pyarrow.parquet as pq
+
+    from gesturebank.datasets import store
+    from gesturebank.testing.clips import write_dataset
+
+    takes = {f"s{i}_take": [synthetic_clip(seed=i, clip_id=f"s{i}_take__c000")] for i in range(3)}
+    out = write_dataset(tmp_path / "ds", takes)
+    path = store.clip_npz(out, "s1_take", "s1_take__c000")
+    with np.load(path) as d:
+        arrays = {k: d[k] for k in d.files}
+    broken = _jump(synthetic_clip(seed=1, clip_id="s1_take__c000"))
+    arrays["angles"], arrays["angles01"] = broken.angles, broken.angles01
+    np.savez(path, **arrays)
+    gesturebank = Path(sys.executable).parent / "gesturebank"
+    r = subprocess.run([str(gesturebank), "qc", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    rows = {c["clip_id"]: c for c in pq.read_table(out / "manifest.parquet").to_pylist()}
+    assert rows["s0_take__c000"]["qc_status"] == rows["s2_take__c000"]["qc_status"] == "accepted"
+    assert rows["s1_take__c000"]["qc_status"] == "rejected"
+    assert any(
+        r.startswith(f"invariant speed broken at frame {FRAME}: RShoulderPitch")
+        for r in rows["s1_take__c000"]["qc_reasons"]
+    ), rows["s1_take__c000"]["qc_reasons"]
