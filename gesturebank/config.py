@@ -581,15 +581,14 @@ class ProcessingConfig(Section):
     max_gap_s: float = Field(
         0.25, ge=0, description="Gaps in the pose up to this long are interpolated, seconds."
     )
-    max_speed: float | None = Field(
+    max_speed: float = Field(
         1.0,
         gt=0,
         le=1.5,
         description="The processed angles step at most this × the robot profile's joint speed "
         "between two samples (rate-limited forwards and backwards, averaged: no lag). A lifter's "
         "depth flip or a face detected backwards for a few frames otherwise becomes a sweep "
-        "faster than the robot can move (measured up to 5× on the demo's talking takes). None "
-        "= not limited (qc.max_speed_factor still rejects such clips).",
+        "faster than the robot can move (measured up to 5.2× on the demo's outdoor take).",
     )
 
     @model_validator(mode="after")

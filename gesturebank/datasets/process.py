@@ -69,9 +69,8 @@ def process_angles(
         raw=raw, timestamps=timestamps, clock=clock, processing=processing, profile=profile
     )
     limited = reach_map(smooth, profile=profile, retarget=retarget)
-    if processing.max_speed is not None:
-        step = profile.velocity * processing.max_speed / processing.rate_hz
-        limited = pepper.clamp(speed_limit(limited, step).astype(np.float32), profile)
+    step = profile.velocity * processing.max_speed / processing.rate_hz
+    limited = pepper.clamp(speed_limit(limited, step).astype(np.float32), profile)
     finite = np.isfinite(smooth)
     beyond = out_of_reach(smooth, profile) & finite
     return ProcessedAngles(

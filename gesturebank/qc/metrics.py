@@ -221,7 +221,7 @@ def _max(values: np.ndarray) -> float:
 def limit_frames(
     angles: np.ndarray, lower: np.ndarray, upper: np.ndarray, tol: float = 1e-5
 ) -> NDArray[np.bool_]:
-    """`(N, D)` True where a clamped angle of `angles (N, D)` sits on its limit (within `tol`)."""
+    """`(N, D)` True where an angle of `angles (N, D)` sits on its limit (within `tol`)."""
     a = np.asarray(angles, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         return np.asarray((a <= np.asarray(lower) + tol) | (a >= np.asarray(upper) - tol))
@@ -441,9 +441,7 @@ def reach_metrics(
     m: dict[str, float] = {}
     m["out_of_reach_fraction"] = float(beyond.any(axis=1).mean()) if n else nan
     a = np.asarray(clip.angles, dtype=np.float64)
-    with np.errstate(invalid="ignore"):
-        tol = qc.frozen_limit_tol
-        held = known & ((a <= profile.lower + tol) | (a >= profile.upper - tol))
+    held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
     frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
     for j, name in enumerate(JOINTS):
         m[f"out_of_reach/{name}"] = _share(beyond[:, j], known[:, j])
