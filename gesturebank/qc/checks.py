@@ -5,6 +5,11 @@ check fails; each failed check adds one reason with its numbers (degrees and sec
 text). Rejected clips stay in the dataset, flagged, so they can be looked at (`qc.dashboard`) and
 re-admitted by changing the thresholds.
 
+What is stored is judged as well as what was measured: the processed angles' steps (the speed
+invariant, `qc.invariants`), their jerk (the jerk invariant and the relative check on `jerk`)
+and a robot frozen at a limit while the person moves (`frozen_at_limit_s`). Motion beyond the
+robot's reach is reported, not judged, unless `max_limit_fraction` is set.
+
 Relative check (as Fig. 4.7, where one subject's failed 3D pose stands out): for each of
 `outlier_metrics` the robust z-score of log(metric) over the dataset's clips,
 z = (log m − median) / (1.4826 · MAD). A clip is an outlier when z > `outlier_z` and its metric is

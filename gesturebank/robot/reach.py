@@ -17,6 +17,8 @@ robot's reach (`[retarget] reach`).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from gesturebank.config import RetargetConfig
@@ -78,18 +80,22 @@ def hold_free(values: np.ndarray, weight: np.ndarray, *, start: float = 0.0) -> 
     x = np.asarray(values, dtype=np.float64)
     w = np.asarray(weight, dtype=np.float64)
     out = np.full(len(x), np.nan)
-    held = float(start)
-    for t in range(len(x)):
-        if np.isfinite(x[t]) and np.isfinite(w[t]):
-            turn = (x[t] - held + np.pi) % TURN - np.pi
+    ok = np.isfinite(x) & np.isfinite(w)
+    if ok.all() and np.all(w >= 1.0):
+        return x.copy()  # nothing is free: the measured angle throughout
+    held, pi = float(start), math.pi
+    result = out.tolist()
+    for t, (xt, wt, known) in enumerate(zip(x.tolist(), w.tolist(), ok.tolist(), strict=True)):
+        if known:  # Python floats: a per-frame loop over numpy scalars is 20× slower
+            turn = (xt - held + pi) % TURN - pi
             # A plane that turned by about π while straight: turn the way that stays in
             # [−π, π], the middle of the joint's range, rather than out beyond a limit.
-            if abs(turn) > np.pi / 2 and abs(held + turn) > np.pi:
-                turn -= np.sign(turn) * TURN
-            out[t] = held + w[t] * turn
-            if w[t] >= 1.0:
-                held = out[t]
-    return out
+            if abs(turn) > pi / 2 and abs(held + turn) > pi:
+                turn -= math.copysign(TURN, turn)
+            result[t] = held + wt * turn
+            if wt >= 1.0:
+                held = result[t]
+    return np.asarray(result, dtype=np.float64)
 
 
 def soft_limits(
@@ -124,11 +130,11 @@ def reach_map(
 
 def _rate_limited(x: np.ndarray, step: float) -> np.ndarray:
     """`x (N,)` followed with steps of at most `step` (starting on x[0])."""
-    out = np.empty_like(x)
-    out[0] = x[0]
-    for t in range(1, len(x)):
-        out[t] = out[t - 1] + min(step, max(-step, x[t] - out[t - 1]))
-    return out
+    values = x.tolist()
+    out = [values[0]]
+    for v in values[1:]:
+        out.append(out[-1] + min(step, max(-step, v - out[-1])))
+    return np.asarray(out, dtype=np.float64)
 
 
 def speed_limit(angles: np.ndarray, max_step: np.ndarray) -> np.ndarray:
