@@ -35,7 +35,8 @@ def continuous(
     first known frame on its principal branch [−π, π]: a trajectory is anchored where it starts
     and stays on the side it left the range from. With the joints' limits `lower`, `upper`
     (D,), an angle that comes back inside them on another branch (an arm that went on round
-    behind the back and down) is taken there, and the trajectory goes on from it. NaN stays NaN;
+    behind the back and down), or comes clearly nearer the other limit (`SWITCH_MARGIN`), is
+    taken there, and the trajectory goes on from it. NaN stays NaN;
     a column without a step across ±π comes back bit for bit."""
     out = np.array(angles, dtype=np.float64, copy=True)
     flat = out.reshape(len(out), -1)
@@ -53,22 +54,38 @@ def continuous(
     return out
 
 
+# How much nearer the robot's range another branch of an angle beyond it must be before the
+# trajectory is taken there (rad): an angle that goes on past ±π stays on its side until it is
+# clearly nearer the other limit — for a joint with limits ±119.5°, beyond about ±209° (the
+# 4-camera demo's triangulated forearm turned on to a median 218° = −142° froze the robot's
+# ElbowYaw for 3 s) — and no noise around ±π itself can flip it.
+SWITCH_MARGIN = 1.0
+
+
 def _back_in_range(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """An unwrapped trajectory moved by whole turns from each frame where it lies beyond the
-    limits [lo, hi] but another branch of it lies inside them."""
-    principal = (values + np.pi) % TURN - np.pi
-    back = ((values < lo) | (values > hi)) & (principal >= lo) & (principal <= hi)
-    if not back.any():
+    """An unwrapped trajectory moved by whole turns from each frame where another branch of it
+    lies inside the limits [lo, hi] while it lies beyond them, or lies more than
+    `SWITCH_MARGIN` nearer them."""
+
+    def beyond(v: np.ndarray | float) -> np.ndarray:
+        return np.maximum(np.maximum(lo - np.asarray(v), np.asarray(v) - hi), 0.0)
+
+    d = beyond(values)
+    best = np.minimum(beyond(values - TURN), beyond(values + TURN))
+    if not np.any((d > 0) & ((best == 0) | (best + SWITCH_MARGIN < d))):
         return values
-    out = values.copy()
+    out = values.tolist()
     shift = 0.0
-    for t in range(len(out)):
-        value = values[t] + shift
-        if (value < lo or value > hi) and back[t]:
-            shift += principal[t] - value
-            value = principal[t]
+    for t, raw in enumerate(values.tolist()):
+        value = raw + shift
+        own = float(beyond(value))
+        if own > 0:
+            for turn in (-TURN, TURN):
+                other = float(beyond(value + turn))
+                if other == 0 or other + SWITCH_MARGIN < own:
+                    shift, value, own = shift + turn, value + turn, other
         out[t] = value
-    return out
+    return np.asarray(out, dtype=np.float64)
 
 
 def hold_free(values: np.ndarray, weight: np.ndarray, *, start: float = 0.0) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -76,10 +77,24 @@ def test_a_crossing_of_pi_stays_on_the_side_it_left_from(joint, side, before, af
     path = np.concatenate(
         [
             np.linspace(PROFILE.upper[j] - 0.3, np.pi - before * 0.5, at),
-            np.linspace(np.pi + after * 0.5, np.pi + after, len(t) - at),
+            np.linspace(np.pi + after * 0.2, np.pi + after * 0.4, len(t) - at),
         ]
     )
     raw[:, j] = side * np.angle(np.exp(1j * path))  # wrapped, as atan2 gives it
     got = _run(raw, t, reach)[:, j]
     assert np.all(side * got > 0), got
     assert side * got[-1] > PROFILE.upper[j] - 0.15  # at (clamp) or near (soft) its limit
+
+
+def test_an_angle_that_goes_on_round_is_taken_on_its_nearer_side_at_the_robots_speed() -> None:
+    """A forearm turned on past ±π until it is much nearer the other limit (here 230° = −130°,
+    0.18 rad past −119.5° but 1.97 rad past +119.5°): the processed angle goes there, as a
+    sweep no faster than the joint's speed, instead of staying frozen at the far limit."""
+    j = pepper.INDEX["LElbowYaw"]
+    t = np.arange(90) / 30.0
+    raw = np.tile(pepper.neutral_pose(), (len(t), 1))
+    path = np.concatenate([np.linspace(1.5, np.radians(230), 30), np.full(60, np.radians(230))])
+    raw[:, j] = np.angle(np.exp(1j * path))
+    got = _run(raw, t)[:, j].astype(np.float64)
+    assert got[-1] == pytest.approx(PROFILE.lower[j], abs=1e-3)
+    assert np.abs(np.diff(got)).max() <= PROFILE.velocity[j] / 100 * (1 + 1e-5)
