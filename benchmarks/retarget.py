@@ -241,7 +241,7 @@ def reach(sources: dict[str, list[Motion]]) -> Table:
         ("clamp", RetargetConfig(reach="clamp"), "fade"),
         *(
             (f"soft {m:g} rad", RetargetConfig(reach="soft", soft_margin=m), "hold")
-            for m in (0.25, 0.5, 0.6, 0.75)
+            for m in (0.25, 0.5, 0.65, 0.75)
         ),
     ]
     for name, motions in sources.items():

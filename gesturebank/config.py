@@ -556,17 +556,18 @@ class RetargetConfig(Section):
         "compresses the last soft_margin rad before each limit with a tanh, so the robot keeps "
         "moving with the person's timing. Soft is the default because it more than halves the "
         "time held at a limit for at most +1 cm of hand error (benchmarks/retarget.py, frames "
-        "with a joint within 0.02 rad of a limit, clamp → soft 0.6 rad: test.bvh's first 30 s "
-        "91 → 37 %, the 4-camera demo 68 → 19 %, the talking demo 25 → 7 %; mean hand error "
-        "against the unlimited pose +0.52, +0.66, +0.38 cm).",
+        "with a joint within 0.02 rad of a limit, clamp → soft 0.65 rad: test.bvh's first 30 s "
+        "91 → 36 %, the 4-camera demo 68 → 18 %, the talking demo 25 → 5 %; mean hand error "
+        "against the unlimited pose +0.54, +0.78, +0.42 cm).",
     )
     soft_margin: float = Field(
-        0.6,
+        0.65,
         gt=0,
         description="Width of the soft reach margin before each limit, rad (at most a quarter "
-        "of a joint's range is used). 0.6: with 0.5 the robot's RElbowYaw stood within 0.02 rad "
+        "of a joint's range is used). 0.65: with 0.5 the robot's RElbowYaw stood within 0.02 rad "
         "of its limit for 2.6 s of test.bvh's first 30 s while the person's moved (rejected as "
-        "frozen); with 0.75 the 4-camera demo's hand error grew by 1.03 cm.",
+        "frozen), with 0.6 its LElbowYaw for 2.3 s on the builder's clock; with 0.75 the "
+        "4-camera demo's hand error grew by 1.03 cm.",
     )
 
 

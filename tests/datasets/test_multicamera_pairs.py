@@ -35,7 +35,7 @@ SECONDS = 5.0
 # arm raised behind the head past ShoulderPitch's −119.5° (14-16 %). That is reported
 # (out_of_reach/<Joint>), not judged: with the clamp the robot stood at a limit in 68-71 % of the
 # frames on cam01+cam03, cam01+cam04 and all four (rejected for it before), with the soft reach
-# map 19 % (all four, benchmarks/retarget.py). Each rig may be rejected only for the reasons it
+# map 18 % (all four, benchmarks/retarget.py). Each rig may be rejected only for the reasons it
 # names here, never for reach, a 3D jump, a swap or (but cam02+cam04) a bone-length spread.
 BONES = "3D bone length varies"
 AWAY = "facing away"
