@@ -49,21 +49,25 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
 
 
-# Frames more than this many median intervals apart have frames missing between them (a damaged
-# stretch of the video that did not decode, or a recording that stopped): the frame before the
-# gap lasts one median interval, and the gap is no frame's.
+# Frames more than this many times their neighbouring intervals apart have frames missing
+# between them (a damaged stretch of the video that did not decode, or a recording that
+# stopped); a variable frame rate changes its interval without such a gap. The frame before the
+# gap lasts as long as the interval before it, and the gap is no frame's.
 MISSING_INTERVALS = 4.0
 
 
 def frame_ends(timestamps: np.ndarray) -> np.ndarray:
-    """(T,) when each frame ends: the next frame's time; the last, and the last before frames
-    go missing (`MISSING_INTERVALS`), last one median interval."""
+    """(T,) when each frame ends: the next frame's time; the last lasts one median interval,
+    and the last before frames go missing (`MISSING_INTERVALS`) its own previous interval."""
     t = np.asarray(timestamps, dtype=np.float64)
     if len(t) < 2:
         return t + 0.0
     step = np.diff(t)
     dt = float(np.median(step))
-    nxt = np.where(step > MISSING_INTERVALS * dt, t[:-1] + dt, t[1:])
+    before = np.concatenate([[step[0]], step[:-1]])  # the interval before each step
+    after = np.concatenate([step[1:], [step[-1]]])  # and after it
+    gap = step > MISSING_INTERVALS * np.maximum(before, after)
+    nxt = np.where(gap, t[:-1] + before, t[1:])
     return np.append(nxt, t[-1] + dt)
 
 

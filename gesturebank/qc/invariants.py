@@ -9,9 +9,10 @@
 - angles01: `angles01` is `angles` normalised (Eq. 3.13–3.14);
 - audio: the audio features are finite and as many frames as the angles.
 
-Each is stored as `invariant/<name>` (NaN = holds, else the first frame that breaks it; speed,
-limits: the worst one) with the numbers its reason quotes; `invariant_reasons` turns them into
-one reason each that names the invariant and the frame.
+Each is stored as `invariant/<name>` (−1 = holds, else the first frame that breaks it; speed,
+jerk: the worst one) with the numbers its reason quotes (no NaN, so that two builds compare
+equal); `invariant_reasons` turns them into one reason each that names the invariant and the
+frame.
 """
 
 from __future__ import annotations
@@ -30,10 +31,13 @@ _ANGLES01_TOL = 1e-4  # float32 rounding of (θ − lower) / (upper − lower)
 _NAN = math.nan
 
 
+HOLDS = -1.0
+
+
 def _first(bad: np.ndarray) -> float:
-    """Index of the first True frame of `bad (N, ...)`, NaN when none."""
+    """Index of the first True frame of `bad (N, ...)`, HOLDS when none."""
     rows = np.flatnonzero(np.asarray(bad).reshape(len(bad), -1).any(axis=1))
-    return float(rows[0]) if len(rows) else _NAN
+    return float(rows[0]) if len(rows) else HOLDS
 
 
 def invariant_metrics(
@@ -43,7 +47,7 @@ def invariant_metrics(
     processed and raw J (`qc.metrics.clip_metrics`)."""
     a = np.asarray(clip.angles, dtype=np.float64)
     rate = 1.0 / float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 100.0
-    m: dict[str, float] = {f"invariant/{n}": _NAN for n in NAMES}
+    m: dict[str, float] = {f"invariant/{n}": HOLDS for n in NAMES}
 
     steps = np.abs(np.diff(a, axis=0)) * rate / profile.velocity  # × the joint speed
     if np.isfinite(steps).any():
@@ -53,7 +57,8 @@ def invariant_metrics(
             m["invariant/speed"] = float(frame + 1)
             m["invariant/speed_joint"] = float(joint)
 
-    m["invariant/jerk_ratio"] = jerk / jerk_raw if jerk_raw > 0 else _NAN
+    if jerk_raw > 0 and math.isfinite(jerk):
+        m["invariant/jerk_ratio"] = jerk / jerk_raw
     if jerk > jerk_raw:  # NaN either side: not measured
         d3 = np.abs(a[3:] - 3 * a[2:-1] + 3 * a[1:-2] - a[:-3])
         if np.isfinite(d3).any():
@@ -91,8 +96,8 @@ def invariant_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[st
         return float(value) if value is not None else _NAN
 
     def at(key: str) -> int | None:
-        frame = get(f"invariant/{key}")
-        return int(frame) if math.isfinite(frame) else None
+        frame = get(f"invariant/{key}")  # NaN: measured before the invariants existed
+        return int(frame) if math.isfinite(frame) and frame >= 0 else None
 
     reasons = []
     if (k := at("speed")) is not None:

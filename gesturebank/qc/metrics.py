@@ -444,7 +444,8 @@ def reach_metrics(
     held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
     frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
     for j, name in enumerate(JOINTS):
-        m[f"out_of_reach/{name}"] = _share(beyond[:, j], known[:, j])
+        # 0 for a joint never seen (no NaN, so that two builds compare equal)
+        m[f"out_of_reach/{name}"] = float(np.sum(beyond[:, j]) / max(1, np.sum(known[:, j])))
         m[f"frozen_at_limit_s/{name}"] = float(frozen[j])
     m["frozen_at_limit_s"] = float(frozen.max())
     return m
