@@ -740,8 +740,11 @@ app.command("build-dataset")(build_dataset)
 def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOption = None) -> None:
     """Re-run the quality checks on a dataset and write its dashboard.
 
-    Judges every clip (jerk, unseen head or arms, bone lengths, limits, jitter, swaps, spikes,
-    static or frozen poses, framing) against the [qc] thresholds and against each other, updates
+    Measures every clip again from its arrays and judges it (jerk, unseen head or arms, bone
+    lengths, a robot frozen at a limit, jitter, swaps, spikes, static or frozen poses, framing,
+    and the invariants every written clip must hold: joint speed, jerk not above the raw jerk,
+    finite where mask, inside the limits, angles01, audio) against the [qc] thresholds and
+    against each other, updates
     the records, manifest, dataset.json and splits, and writes OUT_DIR/qc/index.html with a page
     per take. The dataset's own configuration is the base: only what --config and --set change
     differs (the [qc] and [splits] sections; the clips stay as built).
@@ -765,7 +768,7 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
             )
         # one writer per dataset: not while a build or another qc writes it
         with dataset_lock(out_dir), output_errors(out_dir, "the QC results"):
-            notes = refresh(out_dir, config)
+            notes = refresh(out_dir, config, recheck=True)
             index = write_dashboard(out_dir)
         records = store.take_records(out_dir)
     summary = BuildSummary(out_dir, notes=list(notes), dashboard=index, takes=records)

@@ -637,6 +637,26 @@ class RetargetConfig(Section):
         "elbow offset and the pitched elbow frame: the robot's hand follows the person's) or "
         "'ideal' (offset-free pitch-roll-yaw-roll chain).",
     )
+    reach: Literal["clamp", "soft"] = Field(
+        "soft",
+        description="Motion beyond the robot's reach, mapped once where the dataset's angles "
+        "are made: 'clamp' holds a joint at its limit while the person is beyond it; 'soft' "
+        "compresses the last soft_margin rad before each limit with a tanh, so the robot keeps "
+        "moving with the person's timing. Soft is the default because it more than halves the "
+        "time held at a limit for at most +1 cm of hand error (benchmarks/retarget.py, frames "
+        "with a joint within 0.02 rad of a limit, clamp → soft 0.65 rad: test.bvh's first 30 s "
+        "91 → 36 %, the 4-camera demo 68 → 18 %, the talking demo 25 → 5 %; mean hand error "
+        "against the unlimited pose +0.54, +0.78, +0.42 cm).",
+    )
+    soft_margin: float = Field(
+        0.65,
+        gt=0,
+        description="Width of the soft reach margin before each limit, rad (at most a quarter "
+        "of a joint's range is used). 0.65: with 0.5 the robot's RElbowYaw stood within 0.02 rad "
+        "of its limit for 2.6 s of test.bvh's first 30 s while the person's moved (rejected as "
+        "frozen), with 0.6 its LElbowYaw for 2.3 s on the builder's clock; with 0.75 the "
+        "4-camera demo's hand error grew by 1.03 cm.",
+    )
 
 
 class ProcessingConfig(Section):
@@ -649,6 +669,15 @@ class ProcessingConfig(Section):
     )
     max_gap_s: float = Field(
         0.25, ge=0, description="Gaps in the pose up to this long are interpolated, seconds."
+    )
+    max_speed: float = Field(
+        1.0,
+        gt=0,
+        le=1.5,
+        description="The processed angles step at most this × the robot profile's joint speed "
+        "between two samples (rate-limited forwards and backwards, averaged: no lag). A lifter's "
+        "depth flip or a face detected backwards for a few frames otherwise becomes a sweep "
+        "faster than the robot can move (measured up to 5.2× on the demo's outdoor take).",
     )
 
     @model_validator(mode="after")
@@ -786,11 +815,37 @@ class QCConfig(Section):
         description="Largest coefficient of variation of a 3D bone length over the frames in "
         "which both its ends were seen (rigid body: 0).",
     )
-    max_limit_fraction: float = Field(
-        0.6,
+    max_limit_fraction: float | None = Field(
+        None,
         ge=0,
         le=1,
-        description="Largest share of frames with some joint held at a robot limit by clamping.",
+        description="Opt-in filter (the old rule, 0.6 before): largest share of frames with some "
+        "joint beyond the robot's reach. None = motion beyond reach is reported "
+        "(out_of_reach_fraction, out_of_reach/<Joint>), not judged: the clip keeps its best "
+        "reachable version of the motion.",
+    )
+    max_frozen_at_limit_s: float | None = Field(
+        2.0,
+        gt=0,
+        description="Longest the robot may stand frozen at a limit, seconds: a joint within "
+        "frozen_limit_tol of a limit while the person's (unlimited) angle moves more than "
+        "frozen_min_motion. None = not judged.",
+    )
+    frozen_limit_tol: float = Field(
+        0.02, gt=0, description="A joint this close to a limit (rad) counts as held there."
+    )
+    frozen_min_motion: float = Field(
+        0.2,
+        ge=0,
+        description="Range of the person's angle (rad) over a span held at a limit above which "
+        "the robot is frozen while the person moves.",
+    )
+    max_speed_factor: float = Field(
+        1.5,
+        gt=0,
+        le=1.5,
+        description="Invariant: no processed angle steps between two samples more than this × "
+        "the robot profile's joint speed allows (a jump, e.g. across the joint's range).",
     )
     max_jitter_fraction: float = Field(
         0.15, ge=0, le=1, description="Largest share of raw-angle power above jitter_above_hz."

@@ -2,7 +2,8 @@
 
 A clip is a run of video frames that lies in one shot, follows one main speaker, has a usable
 pose at its first and last frame, contains no unusable stretch longer than `clips.max_gap_s`
-(shorter ones stay inside, masked), has audio, and lasts at least `clips.min_s`; clips longer
+(shorter ones stay inside, masked) nor a stretch without video frames (a damaged part of the
+file, `MISSING_INTERVALS`), has audio, and lasts at least `clips.min_s`; clips longer
 than `clips.max_s` are split into equal parts. Every other stretch of the take becomes a dropped
 span with its reason, so the spans and clips together cover the whole take.
 
@@ -48,11 +49,35 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
 
 
+# Frames more than this many times their neighbouring intervals apart have frames missing
+# between them (a damaged stretch of the video that did not decode, or a recording that
+# stopped); a variable frame rate changes its interval without such a gap. The frame before the
+# gap lasts as long as the interval before it, and the gap is no frame's.
+MISSING_INTERVALS = 4.0
+
+
 def frame_ends(timestamps: np.ndarray) -> np.ndarray:
-    """(T,) when each frame ends: the next frame's time; the last lasts one median interval."""
+    """(T,) when each frame ends: the next frame's time; the last lasts one median interval,
+    and the last before frames go missing (`MISSING_INTERVALS`) its own previous interval."""
     t = np.asarray(timestamps, dtype=np.float64)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    return np.append(t[1:], t[-1] + dt) if len(t) else t
+    if len(t) < 2:
+        return t + 0.0
+    step = np.diff(t)
+    dt = float(np.median(step))
+    before = np.concatenate([[step[0]], step[:-1]])  # the interval before each step
+    after = np.concatenate([step[1:], [step[-1]]])  # and after it
+    gap = step > MISSING_INTERVALS * np.maximum(before, after)
+    nxt = np.where(gap, t[:-1] + before, t[1:])
+    return np.append(nxt, t[-1] + dt)
+
+
+def missing_frames(timestamps: np.ndarray, longer_than_s: float) -> list[tuple[int, float, float]]:
+    """Stretches without video frames (see `MISSING_INTERVALS`) longer than `longer_than_s`:
+    (index of the first frame after, start s, end s) each."""
+    t = np.asarray(timestamps, dtype=np.float64)
+    ends = frame_ends(t)
+    gone = np.flatnonzero(t[1:] - ends[:-1] > max(longer_than_s, 0.0))
+    return [(int(i) + 1, float(ends[i]), float(t[i + 1])) for i in gone]
 
 
 def has_audio(timestamps: np.ndarray, audio_span: tuple[float, float]) -> np.ndarray:
@@ -98,6 +123,18 @@ def cut_clips(
     boundary = np.zeros(len(t), dtype=bool)
     boundary[starts[(starts > 0) & (starts < len(t))]] = True
     boundary[1:] |= speaker[1:] != speaker[:-1]
+    # Stretches without frames (a damaged video): each side is judged on its own.
+    for i, start_s, end_s in missing_frames(t, 0.0):
+        boundary[i] = True
+        cutter.dropped.append(
+            Span(
+                i,
+                i,
+                start_s,
+                end_s,
+                f"no video frames from {start_s:.2f} to {end_s:.2f} s (damaged or missing)",
+            )
+        )
     edges = [0, *np.flatnonzero(boundary).tolist(), len(t)]
     for a0, b0 in itertools.pairwise(edges):
         for a, b in _runs(~audio[a0:b0]):

@@ -349,7 +349,12 @@ def _clip(
     raw = pepper_angles(pose3d, config=config.retarget)
     raw[~angle_support(valid)] = np.nan
     processed = process_angles(
-        raw=raw, timestamps=ts, clock=times, processing=config.processing, profile=profile
+        raw=raw,
+        timestamps=ts,
+        clock=times,
+        processing=config.processing,
+        retarget=config.retarget,
+        profile=profile,
     )
     start_s = float(times[0])
     return Clip(

@@ -1,7 +1,9 @@
 """Raw Pepper angles at the video's timestamps → the dataset's 100 Hz angles (docs/architecture.md
-"Data flow": process): interpolated onto the clip's frame clock (short gaps only), the
-zero-phase Butterworth low-pass of §4.2.3, clamped to the robot's limits, normalised to [0, 1]
-(Eq. 3.13–3.14). The builder and the QC's corruption benchmark use this one function.
+"Data flow": process): made continuous (`robot.reach.continuous`), interpolated onto the
+clip's frame clock (short gaps only), the zero-phase Butterworth low-pass of §4.2.3, brought into
+the robot's reach (`[retarget] reach`: clamped or softly compressed), kept within the robot's
+joint speed (`processing.max_speed`), normalised to [0, 1] (Eq. 3.13–3.14). The builder, the QC
+and the QC's corruption benchmark use these functions.
 """
 
 from __future__ import annotations
@@ -10,27 +12,44 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gesturebank.config import ProcessingConfig
-from gesturebank.filters import (
-    GapReport,
-    butter_lowpass,
-    interpolate_at,
-    unwrap_angles,
-    wrap_angles,
-)
+from gesturebank.config import ProcessingConfig, RetargetConfig
+from gesturebank.filters import GapReport, butter_lowpass, interpolate_at
 from gesturebank.robot import pepper
+from gesturebank.robot.reach import continuous, out_of_reach, reach_map, speed_limit
 
 
 @dataclass(frozen=True)
 class ProcessedAngles:
     """angles, angles01 (N, 11) float32 (NaN where unknown), mask (N, 11) bool (known), the
-    gaps interpolation met, and the share of known values that clamping held at a limit."""
+    person's low-passed angles before the reach map (`unlimited`, float64), the gaps
+    interpolation met, and the share of known values beyond the robot's reach."""
 
     angles: np.ndarray
     angles01: np.ndarray
     mask: np.ndarray
+    unlimited: np.ndarray
     gaps: GapReport
-    clamped_fraction: float
+    out_of_reach_fraction: float
+
+
+def unlimited_angles(
+    *,
+    raw: np.ndarray,
+    timestamps: np.ndarray,
+    clock: np.ndarray,
+    processing: ProcessingConfig,
+    profile: pepper.RobotProfile,
+) -> tuple[np.ndarray, GapReport]:
+    """`raw (T, 11)` rad at `timestamps (T,)` → the person's angles on `clock (N,)`, low-passed
+    and continuous, not yet limited: `(N, 11)` float64 and the gaps met. An angle beyond ±π
+    (an arm overhead and behind, a head turned away) stays on the branch it reached, so it is
+    never filtered as a sweep across the joint's range nor wrapped to the other side of it,
+    until it comes back inside `profile`'s limits on another branch (`reach.continuous`)."""
+    p = processing
+    steady = continuous(raw, profile.lower, profile.upper)
+    angles, gaps = interpolate_at(steady, timestamps, clock, max_gap_s=p.max_gap_s)
+    smooth = butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order)
+    return smooth, gaps
 
 
 def process_angles(
@@ -39,26 +58,26 @@ def process_angles(
     timestamps: np.ndarray,
     clock: np.ndarray,
     processing: ProcessingConfig,
+    retarget: RetargetConfig,
     profile: pepper.RobotProfile,
 ) -> ProcessedAngles:
     """`raw (T, 11)` rad at `timestamps (T,)` → the processed angles on `clock (N,)` (seconds,
     uniform at processing.rate_hz). NaN in `raw` (an unseen limb) stays NaN unless it is a gap
-    of at most processing.max_gap_s; each finite run is low-passed on its own. An angle that
-    steps across ±π (beyond the robot's range, e.g. a head turned away) is interpolated and
-    filtered unwrapped, then wrapped back: filtered as it is, the step would become a sweep
-    through 0, across the joint's whole range."""
-    p = processing
-    angles, gaps = interpolate_at(unwrap_angles(raw), timestamps, clock, max_gap_s=p.max_gap_s)
-    smooth = butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order)
-    smooth = wrap_angles(smooth)
-    # clamped in the stored dtype: float32(limit) can lie outside the float64 limit
-    clamped = pepper.clamp(smooth.astype(np.float32), profile)
+    of at most processing.max_gap_s; each finite run is low-passed on its own. The reach map
+    (`robot.reach.reach_map`) is applied here, once, to the low-passed continuous angles."""
+    smooth, gaps = unlimited_angles(
+        raw=raw, timestamps=timestamps, clock=clock, processing=processing, profile=profile
+    )
+    limited = reach_map(smooth, profile=profile, retarget=retarget)
+    step = profile.velocity * processing.max_speed / processing.rate_hz
+    limited = pepper.clamp(speed_limit(limited, step).astype(np.float32), profile)
     finite = np.isfinite(smooth)
-    at_limit = finite & ((smooth <= profile.lower) | (smooth >= profile.upper))
+    beyond = out_of_reach(smooth, profile) & finite
     return ProcessedAngles(
-        angles=clamped.astype(np.float32),
-        angles01=pepper.normalise(clamped, profile).astype(np.float32),
+        angles=limited,
+        angles01=pepper.normalise(limited, profile).astype(np.float32),
         mask=finite,
+        unlimited=smooth,
         gaps=gaps,
-        clamped_fraction=float(at_limit.sum() / max(1, finite.sum())),
+        out_of_reach_fraction=float(beyond.sum() / max(1, finite.sum())),
     )

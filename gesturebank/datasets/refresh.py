@@ -27,19 +27,23 @@ from gesturebank.errors import InputError
 log = logging.getLogger(__name__)
 
 
-def _remeasure(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecord:
-    """The record with every clip measured with the current settings."""
+def _remeasure(
+    out: Path, record: store.TakeRecord, config: Config, *, recheck: bool = False
+) -> store.TakeRecord:
+    """The record with every clip measured with the current settings (`recheck`: every clip
+    measured again from its arrays, so the invariants of `qc.invariants` are applied to what
+    the folder holds now)."""
     from gesturebank.datasets.clip import Clip
     from gesturebank.qc.metrics import clip_metrics
     from gesturebank.robot import pepper
 
     digest = measure_digest(config)
-    if all(c.measured == digest for c in record.data_clips):
+    if not recheck and all(c.measured == digest for c in record.data_clips):
         return record
     profile = pepper.load_profile(config.robot.profile)
     clips = []
     for c in record.clips:
-        if c.kind == "clip" and c.measured != digest:
+        if c.kind == "clip" and (recheck or c.measured != digest):
             path = store.clip_npz(out, record.take_id, c.clip_id)
             with np.load(path, allow_pickle=False) as data:
                 clip = Clip.from_arrays({k: data[k] for k in data.files})
@@ -123,16 +127,19 @@ def refresh(
     *,
     take_ids: Sequence[str] | None = None,
     videos_dir: Path | None = None,
+    recheck: bool = False,
 ) -> list[str]:
     """Re-judge, then rewrite the records whose verdicts changed, manifest.parquet, dataset.json
     and the splits of the dataset in `out`, for the takes `take_ids` (default: every take
-    record in the folder). Returns notes (e.g. why no subject-independent split was written)."""
+    record in the folder). `recheck`: measure every clip again from its arrays (`gesturebank
+    qc`: the invariants re-applied to what the folder holds). Returns notes (e.g. why no
+    subject-independent split was written)."""
     from gesturebank.extract.audio_features import feature_dim
     from gesturebank.robot import pepper
 
     out = Path(out)
     before = store.take_records(out, take_ids)
-    measured = [_remeasure(out, r, config) for r in before]
+    measured = [_remeasure(out, r, config, recheck=recheck) for r in before]
     records = _judge(measured, config)
     for old, new in zip(before, records, strict=True):
         if _text(new) != _text(old):  # as text: NaN metrics compare equal

@@ -7,6 +7,7 @@ whose one-line message names the file. Audio features are `audio_features`.
 
 from __future__ import annotations
 
+import logging
 import os
 from typing import NamedTuple
 
@@ -15,6 +16,8 @@ import numpy as np
 
 from gesturebank.errors import InputError
 from gesturebank.extract.video import PathLike, av_reason, first_frame_time, open_media
+
+log = logging.getLogger(__name__)
 
 
 class Audio(NamedTuple):
@@ -49,19 +52,44 @@ def read_audio(path: PathLike, *, sample_rate: int) -> Audio | None:
         resampler = av.AudioResampler(format="fltp", rate=sample_rate)
         chunks: list[np.ndarray] = []
         audio_t0: float | None = None
+        samples, damaged, reason = 0, 0, ""
         try:
-            for frame in container.decode(stream):
-                if audio_t0 is None and frame.pts is not None and frame.time_base is not None:
-                    audio_t0 = float(frame.pts * frame.time_base)
-                chunks.extend(_mono(out) for out in resampler.resample(frame))
+            for packet in container.demux(stream):
+                try:  # packet by packet: a damaged stretch becomes silence, in its place
+                    frames = packet.decode()
+                except av.FFmpegError as exc:
+                    damaged, reason = damaged + 1, reason or av_reason(exc)
+                    continue
+                for frame in frames:
+                    t = _time(frame)
+                    if audio_t0 is None:
+                        audio_t0 = t
+                    elif damaged and t is not None:
+                        gap = round((t - audio_t0) * sample_rate) - samples
+                        if gap > sample_rate // 50:  # the samples of the packets lost
+                            chunks.append(np.zeros(gap, np.float32))
+                            samples += gap
+                    for out in resampler.resample(frame):
+                        chunks.append(_mono(out))
+                        samples += len(chunks[-1])
             chunks.extend(_mono(out) for out in resampler.resample(None))
         except av.FFmpegError as exc:
             raise InputError(f"{name}: audio is corrupt or truncated ({av_reason(exc)})") from None
+        if damaged and not chunks:
+            raise InputError(f"{name}: audio is corrupt or truncated ({reason})")
+        if damaged:
+            log.warning("%s: audio damaged: %d packets do not decode, silent there", name, damaged)
     video_t0 = first_frame_time(path)
     signal = np.concatenate(chunks) if chunks else np.zeros(0, np.float32)
     start = audio_t0 or 0.0
     offset = start - (video_t0 if video_t0 is not None else 0.0)
     return Audio(signal.astype(np.float32, copy=False), sample_rate, offset, start)
+
+
+def _time(frame: av.AudioFrame) -> float | None:
+    if frame.pts is None or frame.time_base is None:
+        return None
+    return float(frame.pts * frame.time_base)
 
 
 def _mono(frame: av.AudioFrame) -> np.ndarray:

@@ -178,8 +178,9 @@ def iter_frames(
         last_t = -np.inf
         kept = 0
         cap = _RateCap(config.max_fps)
+        damaged = _Damage()
         try:
-            for frame in container.decode(stream):
+            for frame in _decode(container, stream, damaged):
                 t = _frame_time(frame, last_t)
                 if t is None:
                     continue
@@ -194,7 +195,50 @@ def iter_frames(
                 yield t, _to_rgb(frame)
         except av.FFmpegError as exc:
             raise InputError(f"{name}: video is corrupt or truncated ({av_reason(exc)})") from None
+        if damaged.packets and not np.isfinite(last_t):
+            raise InputError(f"{name}: video is corrupt or truncated ({damaged.reason})")
+        if damaged.packets:
+            log.warning("%s: %s; the frames that decode are kept", name, damaged.text())
         _check_complete(stream, last_t, name)
+
+
+def _decode(
+    container: av.container.InputContainer,
+    stream: av.video.stream.VideoStream,
+    damaged: _Damage | None = None,
+) -> Iterator[av.VideoFrame]:
+    """The stream's frames, decoded packet by packet: a packet that does not decode (a damaged
+    stretch of the file) loses its frames, not the rest of the video (noted in `damaged`)."""
+    for packet in container.demux(stream):
+        try:
+            frames = packet.decode()
+        except av.FFmpegError as exc:
+            if damaged is not None:
+                damaged.add(packet, exc)
+            continue
+        yield from frames
+
+
+class _Damage:
+    """Packets that failed to decode: how many, the time span they cover and the first reason."""
+
+    def __init__(self) -> None:
+        self.packets = 0
+        self.first, self.last = np.inf, -np.inf
+        self.reason = ""
+
+    def add(self, packet: av.Packet, exc: av.FFmpegError) -> None:
+        self.packets += 1
+        self.reason = self.reason or av_reason(exc)
+        if packet.pts is not None and packet.time_base is not None:
+            t = float(packet.pts * packet.time_base)
+            self.first, self.last = min(self.first, t), max(self.last, t)
+
+    def text(self) -> str:
+        where = (
+            f" between {self.first:.2f} s and {self.last:.2f} s" if self.first <= self.last else ""
+        )
+        return f"video damaged: {self.packets} packets do not decode{where} ({self.reason})"
 
 
 def _set_threads(stream: av.video.stream.VideoStream, threads: int | None) -> None:
@@ -255,7 +299,7 @@ def frames_at(path: PathLike, times: Sequence[float]) -> list[tuple[float, np.nd
             for want in times:
                 container.seek(max(0, int(want / tb)) + (stream.start_time or 0), stream=stream)
                 best: av.VideoFrame | None = None
-                for frame in container.decode(stream):
+                for frame in _decode(container, stream):
                     t = _frame_time(frame, -np.inf)
                     if t is None:
                         continue
@@ -301,7 +345,7 @@ def _first_video_time(container: av.container.InputContainer) -> float | None:
     if not container.streams.video:
         return None
     try:
-        for frame in container.decode(container.streams.video[0]):
+        for frame in _decode(container, container.streams.video[0]):
             if frame.pts is not None and frame.time_base is not None:
                 return float(frame.pts * frame.time_base)
     except av.FFmpegError:

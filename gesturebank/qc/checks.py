@@ -5,6 +5,11 @@ check fails; each failed check adds one reason with its numbers (degrees and sec
 text). Rejected clips stay in the dataset, flagged, so they can be looked at (`qc.dashboard`) and
 re-admitted by changing the thresholds.
 
+What is stored is judged as well as what was measured: the processed angles' steps (the speed
+invariant, `qc.invariants`), their jerk (the jerk invariant and the relative check on `jerk`)
+and a robot frozen at a limit while the person moves (`frozen_at_limit_s`). Motion beyond the
+robot's reach is reported, not judged, unless `max_limit_fraction` is set.
+
 Relative check (as Fig. 4.7, where one subject's failed 3D pose stands out): for each of
 `outlier_metrics` the robust z-score of log(metric) over the dataset's clips,
 z = (log m − median) / (1.4826 · MAD). A clip is an outlier when z > `outlier_z` and its metric is
@@ -21,6 +26,8 @@ from typing import Literal
 import numpy as np
 
 from gesturebank.config import QCConfig
+from gesturebank.qc.invariants import invariant_reasons
+from gesturebank.robot.pepper import JOINTS
 
 Verdict = tuple[Literal["accepted", "rejected"], list[str]]
 
@@ -104,11 +111,19 @@ def absolute_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[str
         "both arms unseen in {v:.0%} of the clip (max {lim:.0%})",
     )
     over("bone_cv_max", c.max_bone_cv, "3D bone length varies by {v:.0%} (max {lim:.0%})")
-    over(
-        "limit_frames_fraction",
-        c.max_limit_fraction,
-        "a joint clamped at a robot limit in {v:.0%} of frames (max {lim:.0%})",
-    )
+    if c.max_limit_fraction is not None:  # opt-in: reach is reported, not judged, by default
+        over(
+            "out_of_reach_fraction",
+            c.max_limit_fraction,
+            "a joint beyond the robot's reach in {v:.0%} of frames (max {lim:.0%})",
+        )
+    if m.get("frozen_at_limit_s", math.nan) > (c.max_frozen_at_limit_s or math.inf):
+        joint = max(JOINTS, key=lambda j: m.get(f"frozen_at_limit_s/{j}", -1.0))
+        reasons.append(
+            f"robot frozen at a limit: {joint} held within {c.frozen_limit_tol:g} rad of its "
+            f"limit for {m['frozen_at_limit_s']:.1f} s while the person's angle moves more than "
+            f"{c.frozen_min_motion:g} rad (max {c.max_frozen_at_limit_s:g} s)"
+        )
     over(
         "jitter_fraction",
         c.max_jitter_fraction,
@@ -153,7 +168,7 @@ def absolute_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[str
     )
     if c.max_jerk_raw is not None:
         over("jerk_raw", c.max_jerk_raw, "raw jerk {v:.3g} rad²/s⁵ (max {lim:.3g})")
-    return reasons
+    return reasons + invariant_reasons(metrics, c)
 
 
 def robust_z(values: np.ndarray) -> tuple[np.ndarray, float]:

@@ -62,7 +62,8 @@ _METRICS = (
     ("arms_unknown_fraction", "both arms unseen", "{:.0f} %", 100.0),
     ("torso_gap_s", "longest torso gap", "{:.2f} s", 1.0),
     ("bone_cv_max", "bone length variation", "{:.1f} %", 100.0),
-    ("limit_frames_fraction", "at a robot limit", "{:.0f} %", 100.0),
+    ("out_of_reach_fraction", "beyond reach", "{:.0f} %", 100.0),
+    ("frozen_at_limit_s", "frozen at a limit", "{:.1f} s", 1.0),
     ("jitter_fraction", "raw power above the jitter band", "{:.1f} %", 100.0),
     ("swap_events", "left/right swaps", "{:.0f}", 1.0),
     ("spike_max", "largest spike", "{:.2f} shoulder widths", 1.0),
@@ -741,6 +742,14 @@ def _masked_text(clip: Clip, joints: Sequence[str]) -> str:
     return ", ".join(f"{j} {v:.0%}" for j, v in zip(joints, share, strict=True) if v > 0)
 
 
+def _reach_text(metrics: Mapping[str, float], joints: Sequence[str]) -> str:
+    """Share of its known frames each joint's person angle lies beyond the robot's limits
+    (`out_of_reach/<Joint>`): reported, not judged (the reach map keeps the motion)."""
+    share = {j: float(metrics.get(f"out_of_reach/{j}", math.nan) or 0.0) for j in joints}
+    shown = [f"{j} {v:.0%}" for j, v in share.items() if v > 0]
+    return ", ".join(shown) if shown else "none"
+
+
 def _clip_html(
     n: int, c: store.ClipRecord, clip: Clip | str, joints: Sequence[str], qc: QCConfig
 ) -> str:
@@ -755,7 +764,8 @@ def _clip_html(
         )
         arrays = (
             f"Keypoints repaired: {fixed}. "
-            f"Angles unknown (masked): {_e(_masked_text(clip, joints))}."
+            f"Angles unknown (masked): {_e(_masked_text(clip, joints))}. "
+            f"Beyond the robot's reach: {_e(_reach_text(c.metrics, joints))}."
         )
         plot = f"<div id='angles-{n}'></div>"
     else:

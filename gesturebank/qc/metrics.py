@@ -34,7 +34,9 @@ from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.datasets.clip import Clip
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
+from gesturebank.qc.invariants import invariant_metrics
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
+from gesturebank.robot.reach import out_of_reach
 from gesturebank.skeletons import COCO17, to_coco17
 
 if TYPE_CHECKING:
@@ -221,7 +223,7 @@ def _max(values: np.ndarray) -> float:
 def limit_frames(
     angles: np.ndarray, lower: np.ndarray, upper: np.ndarray, tol: float = 1e-5
 ) -> NDArray[np.bool_]:
-    """`(N, D)` True where a clamped angle of `angles (N, D)` sits on its limit (within `tol`)."""
+    """`(N, D)` True where an angle of `angles (N, D)` sits on its limit (within `tol`)."""
     a = np.asarray(angles, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         return np.asarray((a <= np.asarray(lower) + tol) | (a >= np.asarray(upper) - tol))
@@ -375,7 +377,68 @@ def _share(flags: np.ndarray, among: np.ndarray) -> float:
 
 def measure_settings(qc: QCConfig) -> dict[str, float]:
     """The QC settings the metrics depend on (the rest are thresholds on them)."""
-    return {"analysis_rate_hz": qc.analysis_rate_hz, "jitter_above_hz": qc.jitter_above_hz}
+    return {
+        "analysis_rate_hz": qc.analysis_rate_hz,
+        "jitter_above_hz": qc.jitter_above_hz,
+        "frozen_limit_tol": qc.frozen_limit_tol,
+        "frozen_min_motion": qc.frozen_min_motion,
+        "max_speed_factor": qc.max_speed_factor,
+    }
+
+
+def frozen_spans_s(
+    held: np.ndarray, person: np.ndarray, rate_hz: float, *, min_motion: float
+) -> F64:
+    """Per column of `held (N, D)` (the robot's joint held at a limit), the longest run in
+    seconds over which the person's angle `person (N, D)` spans more than `min_motion` rad: the
+    robot stands frozen while the person moves. 0 where there is none."""
+    out = np.zeros(held.shape[1])
+    for j in range(held.shape[1]):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], held[:, j].astype(np.int8), [0]])))
+        for start, stop in zip(edges[::2], edges[1::2], strict=True):
+            span = person[start:stop, j]
+            span = span[np.isfinite(span)]
+            if len(span) and span.max() - span.min() > min_motion:
+                out[j] = max(out[j], (stop - start) / rate_hz)
+    return out
+
+
+def reach_metrics(
+    clip: Clip, *, profile: RobotProfile, qc: QCConfig, rate_hz: float
+) -> dict[str, float]:
+    """Motion beyond the robot's reach, reported: `out_of_reach/<Joint>` (share of the joint's
+    known frames in which the person's low-passed angle lies beyond its limits) and
+    `out_of_reach_fraction` (frames with any joint beyond); `frozen_at_limit_s/<Joint>` and its
+    maximum `frozen_at_limit_s` (`frozen_spans_s`: the robot held within qc.frozen_limit_tol of
+    a limit while the person's angle moves more than qc.frozen_min_motion)."""
+    from gesturebank.datasets.process import unlimited_angles
+
+    nan = float("nan")
+    n = len(clip.times)
+    known = np.asarray(clip.mask, dtype=bool)
+    if n < 2 or len(clip.raw_angles) < 2:
+        person = np.full((n, len(JOINTS)), nan)
+    else:
+        processing = ProcessingConfig(rate_hz=rate_hz, cutoff_hz=min(4.0, rate_hz / 4))
+        person, _ = unlimited_angles(
+            raw=clip.raw_angles,
+            timestamps=clip.timestamps,
+            clock=clip.times,
+            processing=processing,
+            profile=profile,
+        )
+    beyond = out_of_reach(person, profile) & known
+    m: dict[str, float] = {}
+    m["out_of_reach_fraction"] = float(beyond.any(axis=1).mean()) if n else nan
+    a = np.asarray(clip.angles, dtype=np.float64)
+    held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
+    frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
+    for j, name in enumerate(JOINTS):
+        # 0 for a joint never seen (no NaN, so that two builds compare equal)
+        m[f"out_of_reach/{name}"] = float(np.sum(beyond[:, j]) / max(1, np.sum(known[:, j])))
+        m[f"frozen_at_limit_s/{name}"] = float(frozen[j])
+    m["frozen_at_limit_s"] = float(frozen.max())
+    return m
 
 
 def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str, float]:
@@ -384,9 +447,11 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     Keys: duration_s; jerk_raw and jerk (sums over joints, Eq. 3.21) and their per-joint
     `jerk_raw/<Joint>`, `jerk/<Joint>`; head_unknown_fraction, arms_unknown_fraction (shares of
     the 100 Hz clock); torso_gap_s (longest stretch with a shoulder unseen); bone_cv_max;
-    limit_frames_fraction; jitter_fraction; swap_events; frozen_fraction; spike_max (shoulder
-    widths); motion_range (rad); facing_away_fraction, sideways_fraction, shoulder_width (share
-    of the frame height), image_change, people (mean people in the frame).
+    out_of_reach_fraction, out_of_reach/<Joint>, frozen_at_limit_s(/<Joint>) (`reach_metrics`);
+    the invariants (`qc.invariants`, `invariant/<name>`); jitter_fraction; swap_events;
+    frozen_fraction; spike_max (shoulder widths); motion_range (rad); facing_away_fraction,
+    sideways_fraction, shoulder_width (share of the frame height), image_change, people (mean
+    people in the frame).
 
     A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged by its 3D:
     spikes, swaps and freezes of the triangulated joints only, facing away and sideways as every
@@ -432,8 +497,10 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     m["frozen_fraction"] = max(frozen_fraction(p[:, upper]) for p in shapes)
     m["spike_max"] = float(max(_max(spike_sizes(p)) for p in shapes))
 
-    at_limit = limit_frames(clip.angles, profile.lower, profile.upper) & known
-    m["limit_frames_fraction"] = float(at_limit.any(axis=1).mean()) if len(known) else nan
+    m.update(reach_metrics(clip, profile=profile, qc=qc, rate_hz=rate))
+    m.update(
+        invariant_metrics(clip, profile=profile, qc=qc, jerk=m["jerk"], jerk_raw=m["jerk_raw"])
+    )
     m["jitter_fraction"] = high_freq_fraction(raw_u, hz, qc.jitter_above_hz) if len(raw_u) else nan
     m["motion_range"] = motion_range(clip.angles)
 

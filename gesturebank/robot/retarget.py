@@ -34,8 +34,11 @@ offsets (ê ∥ x̂, β = 0), a pure pitch-roll-yaw-roll chain.
 Singular set (documented and handled continuously, never by a jump):
 
 - Straight elbow (|ElbowRoll| < `straight_elbow`, default 10°): the arm plane, hence ElbowYaw,
-  is undefined. ElbowYaw is multiplied by a smoothstep of |ElbowRoll|/`straight_elbow`, so it
-  fades to 0 as the arm straightens (where it has no visible effect).
+  is undefined, and measured frame by frame it spins (it turns the forearm about its own axis
+  and moves nothing). It is held: blended towards its previous frame's value with a weight
+  1 − smoothstep(|ElbowRoll|/`straight_elbow`) (`reach.hold_free`), 0 at the start of a take.
+  Fading it to 0 instead (as before) made it travel across its range whenever the arm
+  straightened (benchmarks/retarget.py measures both).
 - Arm that looks straight, urdf chain only (elbow angle < 2·offset ≈ 20°): exactly, a person's
   straight arm would be ElbowRoll −10°, ElbowYaw ≈ +118° (next to the limit), and small bends
   around it cross ElbowYaw ±π, so resting arms would flicker between the yaw limits. Inside this
@@ -52,8 +55,9 @@ Singular set (documented and handled continuously, never by a jump):
   frame. The blend can only cancel out, i.e. jump, where the true ElbowYaw is near ±π, beyond
   the robot's limits.
 - Branch cuts of atan2 (±π) lie where the robot cannot go: ShoulderPitch ±π (arm pointing straight
-  backwards), ElbowYaw ±π, HeadYaw ±π — each the middle of the arc beyond the joint's limits, so a
-  later clamp goes to the nearer limit.
+  backwards), ElbowYaw ±π, HeadYaw ±π — each the middle of the arc beyond the joint's limits.
+  Along a trajectory the angle is continuous across them (`reach.continuous`: the branch nearest
+  the previous frame), so an arm raised overhead and behind stays beyond the limit it left from.
 
 Missing joints (NaN) make only the angles that need them NaN: the torso frame needs both shoulders
 and hips (all angles), an arm needs its elbow (shoulder angles) and wrist (elbow angles); HeadYaw
@@ -63,6 +67,8 @@ eyes and both ears; HipRoll needs the hips and shoulders.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 
 from gesturebank.config import RetargetConfig
@@ -70,6 +76,7 @@ from gesturebank.errors import InputError
 from gesturebank.geometry import body_frame, cross, dot, unit
 from gesturebank.poses import Pose3D
 from gesturebank.robot.pepper import JOINTS, MODELS, Kinematics
+from gesturebank.robot.reach import continuous, hold_free
 from gesturebank.skeletons import COCO17
 
 STRAIGHT_ELBOW = np.deg2rad(10.0)
@@ -85,12 +92,19 @@ def pepper_angles(
     config: RetargetConfig | None = None,
     straight_elbow: float = STRAIGHT_ELBOW,
     lateral_arm: float = LATERAL_ARM,
+    free_yaw: Literal["hold", "fade"] = "hold",
 ) -> np.ndarray:
     """Pepper angles `(T, 11)` float32 radians (order `pepper.JOINTS`) from COCO-17 joints.
+
+    The rows are a trajectory: each angle keeps the branch nearest its previous frame (it may
+    leave [−π, π]; `reach.continuous`), and ElbowYaw at a nearly straight elbow is held at its
+    previous value (module docstring). Retarget independent poses one at a time.
 
     pose: a Pose3D, or joints `(T, 17, 3)` in COCO-17 order, right-handed, any unit.
     config: the arm chain inverted (`kinematics`, see the module docstring); None = defaults.
     straight_elbow, lateral_arm: widths (rad) of the singular bands (see the module docstring).
+    free_yaw: ElbowYaw at a straight elbow "hold" (its previous value) or "fade" (towards 0, the
+    old way, kept for benchmarks/retarget.py's comparison).
     """
     chain = MODELS[(config if config is not None else RetargetConfig()).kinematics]
     p = _points(pose)
@@ -127,10 +141,14 @@ def pepper_angles(
     out = np.empty((len(up[0]), len(JOINTS)), dtype=np.float32)
     out[:, 0] = head_pitch
     out[:, 1] = head_yaw
-    out[:, 2], out[:, 3], out[:, 4], out[:, 5] = l_arm
-    out[:, 6], out[:, 7], out[:, 8], out[:, 9] = -r_arm[0], r_arm[1], -r_arm[2], -r_arm[3]
+    out[:, 2], out[:, 3], out[:, 4] = l_arm[:3]
+    out[:, 6], out[:, 7], out[:, 8] = -r_arm[0], r_arm[1], -r_arm[2]
+    if free_yaw == "hold":
+        out[:, 5], out[:, 9] = hold_free(l_arm[3], l_arm[4]), -hold_free(r_arm[3], r_arm[4])
+    else:
+        out[:, 5], out[:, 9] = l_arm[3] * l_arm[4], -r_arm[3] * r_arm[4]
     out[:, 10] = hip_roll
-    return out
+    return continuous(out).astype(np.float32)
 
 
 # The COCO-17 keypoints each angle needs to be *seen* (confidently detected), besides both
@@ -216,8 +234,10 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
 
 def _arm(
     upper: np.ndarray, fore: np.ndarray, straight_elbow: float, lateral_arm: float, k: Kinematics
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Left-arm angles (roll, pitch, elbow roll, elbow yaw), each (T,), from torso-frame vectors.
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Left-arm angles (roll, pitch, elbow roll, elbow yaw) and the weight in [0, 1] of the
+    measured elbow yaw against its previous value (0 at a straight elbow), each (T,), from
+    torso-frame vectors.
 
     upper: (3, T) shoulder → elbow; fore: (3, T) elbow → wrist; k: the arm chain inverted.
     """
@@ -259,8 +279,8 @@ def _arm(
         gx, fy, gz = gx + keep * (1.0 - line[0]), fy - keep * line[1], gz - keep * line[2]
     # Left arm: g = (cos e, sin e·cos yaw, sin e·sin yaw) with e = ElbowRoll = −bend ≤ 0.
     bend = np.arctan2(np.hypot(fy, gz), gx)
-    yaw = np.arctan2(-gz, -fy) * _smoothstep(bend / straight_elbow)
-    return roll, pitch, -bend, yaw
+    yaw = np.arctan2(-gz, -fy)
+    return roll, pitch, -bend, yaw, _smoothstep(bend / straight_elbow)
 
 
 def _head_lateral(p: dict[str, np.ndarray]) -> np.ndarray:

@@ -79,7 +79,12 @@ def clip_from_angles(
     times = np.arange(0.0, ts[-1] + 1e-9, 1.0 / c.processing.rate_hz)
     raw = pepper_angles(joints)
     processed = process_angles(
-        raw=raw, timestamps=ts, clock=times, processing=c.processing, profile=profile
+        raw=raw,
+        timestamps=ts,
+        clock=times,
+        processing=c.processing,
+        retarget=c.retarget,
+        profile=profile,
     )
     feats = np.zeros((len(times), 26), np.float32) if audio is None else audio[: len(times)]
     arrays = {

@@ -29,7 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from gesturebank.config import ProcessingConfig, RobotConfig
+from gesturebank.config import ProcessingConfig, RetargetConfig, RobotConfig
 from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.process import process_angles
 from gesturebank.robot import pepper
@@ -276,6 +276,7 @@ def rederive(
         timestamps=clip.timestamps,
         clock=clip.times,
         processing=processing or ProcessingConfig(),
+        retarget=RetargetConfig(),
         profile=prof,
     )
     return replace(

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from gesturebank.config import ProcessingConfig
+from gesturebank.config import ProcessingConfig, RetargetConfig
 from gesturebank.datasets.process import process_angles
 from gesturebank.filters import butter_lowpass, clock, interpolate_at
 from gesturebank.robot import pepper
@@ -13,12 +16,13 @@ PROFILE = pepper.load_profile()
 YAW = pepper.INDEX["HeadYaw"]
 
 
-def _run(raw: np.ndarray, t: np.ndarray) -> np.ndarray:
+def _run(raw: np.ndarray, t: np.ndarray, reach: str = "clamp") -> np.ndarray:
     return process_angles(
         raw=raw,
         timestamps=t,
         clock=clock(float(t[0]), float(t[-1]), 100.0),
         processing=ProcessingConfig(),
+        retarget=RetargetConfig(reach=reach),
         profile=PROFILE,
     ).angles
 
@@ -51,3 +55,46 @@ def test_angles_inside_the_range_are_processed_bit_for_bit_as_before() -> None:
         PROFILE,
     )
     np.testing.assert_array_equal(_run(raw, t), plain)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    joint=st.sampled_from(["HeadYaw", "LShoulderPitch", "RShoulderPitch"]),
+    side=st.sampled_from([-1.0, 1.0]),
+    before=st.floats(0.05, 1.0),
+    after=st.floats(0.05, 1.0),
+    at=st.integers(5, 55),
+    reach=st.sampled_from(["clamp", "soft"]),
+)
+def test_a_crossing_of_pi_stays_on_the_side_it_left_from(joint, side, before, after, at, reach):
+    """A head turning on round to its back, an arm raised overhead and on behind: the raw angle
+    leaves the range at one limit and crosses ±π between two frames (atan2 wraps it to the far
+    side). The processed angle stays beyond the limit it left from: never on the other side."""
+    j = pepper.INDEX[joint]
+    t = np.arange(60) / 30.0
+    raw = np.tile(pepper.neutral_pose(), (len(t), 1))
+    # inside the range near the limit, out past it, across ±π at frame `at`, on beyond
+    path = np.concatenate(
+        [
+            np.linspace(PROFILE.upper[j] - 0.3, np.pi - before * 0.5, at),
+            np.linspace(np.pi + after * 0.2, np.pi + after * 0.4, len(t) - at),
+        ]
+    )
+    raw[:, j] = side * np.angle(np.exp(1j * path))  # wrapped, as atan2 gives it
+    got = _run(raw, t, reach)[:, j]
+    assert np.all(side * got > 0), got
+    assert side * got[-1] > PROFILE.upper[j] - 0.15  # at (clamp) or near (soft) its limit
+
+
+def test_an_angle_that_goes_on_round_is_taken_on_its_nearer_side_at_the_robots_speed() -> None:
+    """A forearm turned on past ±π until it is much nearer the other limit (here 230° = −130°,
+    0.18 rad past −119.5° but 1.97 rad past +119.5°): the processed angle goes there, as a
+    sweep no faster than the joint's speed, instead of staying frozen at the far limit."""
+    j = pepper.INDEX["LElbowYaw"]
+    t = np.arange(90) / 30.0
+    raw = np.tile(pepper.neutral_pose(), (len(t), 1))
+    path = np.concatenate([np.linspace(1.5, np.radians(230), 30), np.full(60, np.radians(230))])
+    raw[:, j] = np.angle(np.exp(1j * path))
+    got = _run(raw, t)[:, j].astype(np.float64)
+    assert got[-1] == pytest.approx(PROFILE.lower[j], abs=1e-3)
+    assert np.abs(np.diff(got)).max() <= PROFILE.velocity[j] / 100 * (1 + 1e-5)

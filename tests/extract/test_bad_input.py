@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 from fractions import Fraction
 from pathlib import Path
@@ -62,6 +63,7 @@ def test_truncated_file_with_index_first(tmp_path: Path, samples: Path) -> None:
 
 
 def test_corrupt_payload(tmp_path: Path, cam01: Path) -> None:
+    """Every compressed frame garbage: nothing usable decodes, so the take fails."""
     data = bytearray(cam01.read_bytes())
     start = data.find(b"mdat") + 2000
     end = data.find(b"moov")  # keep the index: only the compressed frames are garbage
@@ -71,6 +73,35 @@ def test_corrupt_payload(tmp_path: Path, cam01: Path) -> None:
     with pytest.raises((InputError, DetectionError)) as err:
         run(path, tmp_path)
     assert_one_line_naming(err, path)
+
+
+def test_a_damaged_middle_keeps_the_stretches_that_decode(
+    tmp_path: Path, cam01: Path, samples: Path
+) -> None:
+    """128 KiB overwritten in the middle of cam01's media data: 70 of its 100 frames still
+    decode. The take builds; each intact stretch is judged on its own and the one long enough
+    is a clip; the damaged span is named in the take's record."""
+    from gesturebank.config import ClipsConfig
+    from gesturebank.datasets.build import build_dataset
+    from gesturebank.datasets.takes import discover_takes
+
+    data = bytearray(cam01.read_bytes())
+    start, end = data.find(b"mdat"), data.find(b"moov")
+    middle = (start + end) // 2
+    data[middle : middle + 128 * 1024] = np.random.default_rng(0).bytes(128 * 1024)
+    take = tmp_path / "videos" / "lab"
+    take.mkdir(parents=True)
+    (take / "damaged.mp4").write_bytes(bytes(data))
+    shutil.copy(samples / "speech" / "arctic_a0007.wav", take / "damaged.wav")
+    config = Config(clips=ClipsConfig(min_s=0.5))  # cam01 lasts 1.7 s
+    out = tmp_path / "out"
+    summary = build_dataset(discover_takes(tmp_path / "videos"), tmp_path / "videos", out, config)
+    assert not summary.failed, summary.failed[0].reason
+    record = json.loads((out / "takes" / "lab__damaged.json").read_text())
+    clips = [c for c in record["clips"] if c["kind"] == "clip"]
+    damaged = [r for c in record["clips"] for r in c["qc_reasons"] if "no video frames" in r]
+    assert clips and clips[0]["end_s"] < 1.0  # the stretch before the damage
+    assert len(damaged) == 1 and damaged[0].endswith("s (damaged or missing)"), damaged
 
 
 @pytest.mark.parametrize("content", [b"", np.random.default_rng(1).bytes(50_000)])

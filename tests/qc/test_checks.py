@@ -18,7 +18,8 @@ GOOD = {
     "head_unknown_fraction": 0.0,
     "arms_unknown_fraction": 0.1,
     "bone_cv_max": 0.05,
-    "limit_frames_fraction": 0.1,
+    "out_of_reach_fraction": 0.7,
+    "frozen_at_limit_s": 0.5,
     "jitter_fraction": 0.02,
     "swap_events": 0.0,
     "spike_max": 0.1,
@@ -45,7 +46,7 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
         ("head_unknown_fraction", 0.6, "head unseen in 60% of the clip (max 50%)"),
         ("arms_unknown_fraction", 0.7, "both arms unseen in 70% of the clip (max 50%)"),
         ("bone_cv_max", 0.3, "3D bone length varies by 30% (max 25%)"),
-        ("limit_frames_fraction", 0.7, "in 70% of frames (max 60%)"),
+        ("frozen_at_limit_s", 2.5, "held within 0.02 rad of its limit for 2.5 s"),
         ("jitter_fraction", 0.2, "jitter: 20% of raw motion power above 7 Hz (max 15%)"),
         ("swap_events", 2.0, "left/right arms swapped 2× (max 0)"),
         ("spike_max", 1.5, "keypoint jumps 1.50 shoulder widths"),
@@ -61,6 +62,21 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
 def test_each_absolute_check_gives_its_reason_with_numbers(key, value, text) -> None:
     reasons = absolute_reasons({**GOOD, key: value}, QCConfig())
     assert len(reasons) == 1 and text in reasons[0]
+
+
+def test_reach_is_reported_not_judged_unless_the_old_rule_is_asked_for() -> None:
+    """70 % of the frames beyond reach is no reason by default; qc.max_limit_fraction brings
+    the old rule back as a filter."""
+    assert absolute_reasons(GOOD, QCConfig()) == []
+    reasons = absolute_reasons(GOOD, QCConfig(max_limit_fraction=0.6))
+    assert reasons == ["a joint beyond the robot's reach in 70% of frames (max 60%)"]
+
+
+def test_a_frozen_robot_names_the_joint() -> None:
+    metrics = {**GOOD, "frozen_at_limit_s": 3.0, "frozen_at_limit_s/RElbowRoll": 3.0}
+    (reason,) = absolute_reasons(metrics, QCConfig())
+    assert reason.startswith("robot frozen at a limit: RElbowRoll held") and "3.0 s" in reason
+    assert absolute_reasons(metrics, QCConfig(max_frozen_at_limit_s=None)) == []
 
 
 def test_absolute_jerk_ceiling_is_optional() -> None:
