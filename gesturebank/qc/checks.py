@@ -41,7 +41,8 @@ THRESHOLDS: dict[str, tuple[str, Literal["max", "min"]]] = {
     "head_unknown_fraction": ("max_head_unknown_fraction", "max"),
     "arms_unknown_fraction": ("max_arms_unknown_fraction", "max"),
     "bone_cv_max": ("max_bone_cv", "max"),
-    "limit_frames_fraction": ("max_limit_fraction", "max"),
+    "out_of_reach_fraction": ("max_limit_fraction", "max"),  # opt-in (None: reported only)
+    "frozen_at_limit_s": ("max_frozen_at_limit_s", "max"),
     "jitter_fraction": ("max_jitter_fraction", "max"),
     "swap_events": ("max_swap_events", "max"),
     "spike_max": ("max_spike", "max"),

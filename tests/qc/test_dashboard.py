@@ -309,7 +309,7 @@ def test_each_metric_is_shown_beside_its_threshold_and_the_failed_one_marked(
 def test_every_absolute_check_has_its_threshold_for_the_dashboard() -> None:
     """checks.THRESHOLDS (what the page shows) and absolute_reasons (what rejects) agree: a
     metric just past its limit gives exactly one reason and fails exactly its own check."""
-    qc = QCConfig(max_jerk_raw=1e4)
+    qc = QCConfig(max_jerk_raw=1e4, max_limit_fraction=0.6)  # both opt-in checks on
     for key, (field, side) in THRESHOLDS.items():
         limit = getattr(qc, field)
         past = limit * 1.5 + 1 if side == "max" else limit * 0.5
