@@ -10,6 +10,13 @@ left-right, its angles mirrored back, against the unflipped lift). `blazepose-wo
 detector's own 3D and has no perfect-2D row. Stretches: `test.bvh` 31–51 s is the acceptance
 set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3.
 
+The multi-view rig (issue 30; with `--detected SECONDS`, and a 2 s, 320×180, 3-camera true-2D
+row in `--quick`): the same stretch rendered by 3 and 4 cameras spread over `[synth]
+rig_spread_deg` around the front, the `multiview` lifter given the render's calibration.toml and
+(a) each camera's true 2D, (b) each camera's BlazePose 2D (cached like the monocular renders);
+its world-frame lift is put in camera 1's axes and scored like the monocular rows. Acceptance:
+Pepper hand error ≤ 1 cm from the true 2D, ≤ 3.5 cm from the detections.
+
 The self-agreement tables on the real Pose2Sim 4-camera demo (no truth):
 
 (a) The multi-view reference against itself: Pepper angles from disjoint camera pairs, and with
