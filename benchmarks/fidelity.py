@@ -10,6 +10,13 @@ left-right, its angles mirrored back, against the unflipped lift). `blazepose-wo
 detector's own 3D and has no perfect-2D row. Stretches: `test.bvh` 31–51 s is the acceptance
 set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3.
 
+The multi-view rig (issue 30; with `--detected SECONDS`, and a 2 s, 320×180, 3-camera true-2D
+row in `--quick`): the same stretch rendered by 3 and 4 cameras spread over `[synth]
+rig_spread_deg` around the front, the `multiview` lifter given the render's calibration.toml and
+(a) each camera's true 2D, (b) each camera's BlazePose 2D (cached like the monocular renders);
+its world-frame lift is put in camera 1's axes and scored like the monocular rows. Acceptance:
+Pepper hand error ≤ 1 cm from the true 2D, ≤ 3.5 cm from the detections.
+
 The self-agreement tables on the real Pose2Sim 4-camera demo (no truth):
 
 (a) The multi-view reference against itself: Pepper angles from disjoint camera pairs, and with
@@ -44,6 +51,7 @@ import argparse
 import time
 import warnings
 from itertools import combinations
+from pathlib import Path
 
 import numpy as np
 from rich.console import Console
@@ -76,7 +84,8 @@ from gesturebank.robot.pepper import JOINTS
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.skeletons import COCO17
-from gesturebank.synth.take import Performer, cached_render, render_cache
+from gesturebank.synth.take import Performer, cached_render, render_cache, rig_azimuths
+from gesturebank.synth.truth import CALIBRATION, Truth
 
 MONOCULAR = ("blazepose-world", "geometric", "fitted")
 TRUTH_LIFTERS = ("geometric", "fitted", "resolved")  # blazepose-world: no perfect-2D row
@@ -100,6 +109,7 @@ TRUTH_VIEWS = {
 CAMERA_M, SPINE_M = 3.0, 0.5  # camera distance for a person whose neck → mid-hip is SPINE_M
 IMAGE, FOV_DEG = (1280, 720), 60.0
 QUICK_S = 0.3
+QUICK_RIG_S, QUICK_RIG = 2.0, (320, 180)  # the quick rig: seconds, image size
 TORSO = [COCO17.index[j] for j in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 LIMBS = [COCO17.index[j] for j in COCO17.joints[:11] if "shoulder" not in j]  # face, arms
 # Output frames → camera axes (x right, y down, z forward).
@@ -294,27 +304,34 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
             )  # fmt: skip
 
 
+def render_truth(config: Config, synth: SynthConfig) -> Truth:
+    """The cached render of test.bvh under `synth` (gesturebank.synth)."""
+    samples = default_samples_dir()
+    speech = [samples / rel for rel in SPEECH]
+    performer = Performer(samples / TRUTH_BVH.format("test"))
+    return cached_render([performer], config=synth, mocap=config.mocap, speech=speech,
+                         cache=render_cache(samples))  # fmt: skip
+
+
+def detect_cached(config: Config, video: Path) -> Pose2D:
+    """BlazePose on `video`, its Pose2D cached beside it by the video's checksum."""
+    cached = video.parent / f"{video.stem}.{sha256_file(video)[:16]}.blazepose.npz"
+    if cached.is_file():
+        return Pose2D.load(cached)
+    pose = DETECTORS.create("blazepose", config.detector, video=video).detect(iter_frames(video))
+    pose.save(cached)
+    return pose
+
+
 def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Table:
     """Renders of test.bvh from `DETECTED_START_S` (gesturebank.synth, cached by checksum), the
     real BlazePose detector on each (its Pose2D cached beside the render by the video's
     checksum), every monocular lifter scored against the render's truth."""
-    samples = default_samples_dir()
-    speech = [samples / rel for rel in SPEECH]
     seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]] = {}
     for azimuth in azimuths:
         synth = SynthConfig(azimuths_deg=[azimuth], start_s=DETECTED_START_S, length_s=seconds)
-        performer = Performer(samples / TRUTH_BVH.format("test"))
-        cache = render_cache(samples)
-        truth = cached_render([performer], config=synth, mocap=config.mocap, speech=speech,
-                              cache=cache)  # fmt: skip
-        video = truth.videos[0]
-        cached = video.parent / f"{video.stem}.{sha256_file(video)[:16]}.blazepose.npz"
-        if cached.is_file():
-            pose = Pose2D.load(cached)
-        else:
-            detector = DETECTORS.create("blazepose", config.detector, video=video)
-            pose = detector.detect(iter_frames(video))
-            pose.save(cached)
+        truth = render_truth(config, synth)
+        pose = detect_cached(config, truth.videos[0])
         seen[f"{azimuth:g}°"] = [(pose, truth.cameras[0], truth.joints3d.astype(np.float64))]
     end = DETECTED_START_S + seconds
     table = Table(title=f"Detected 2D: BlazePose on renders of test.bvh {DETECTED_START_S:g}–"
@@ -323,6 +340,50 @@ def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Tab
                 "elbow cm", "hand cm", "head °", "mirror °", "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
     add_rows(table, config, DETECTED_LIFTERS, seen)
+    return table
+
+
+def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detected: bool,
+              size: tuple[int, int] = IMAGE) -> Table:  # fmt: skip
+    """The multi-view rig (issue 30): test.bvh from `DETECTED_START_S` rendered by `count`
+    cameras spread over `[synth] rig_spread_deg` around the front, the `multiview` lifter given
+    the render's own calibration.toml and each camera's true 2D (and, with `detected`, each
+    camera's BlazePose 2D), scored like the monocular rows in the first camera's axes."""
+    spread = config.synth.rig_spread_deg
+    end = DETECTED_START_S + seconds
+    table = Table(title=f"Multi-view rig: test.bvh {DETECTED_START_S:g}–{end:g} s, cameras "
+                  f"over {spread:g}° around the front, true calibration, scored in camera 1's "
+                  "axes")  # fmt: skip
+    for col in ("2D", "cameras", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
+                "elbow cm", "hand cm", "head °", "frames/s"):  # fmt: skip
+        table.add_column(col, justify="right")
+    lifter = LIFTERS.create("multiview", config)
+    for count in counts:
+        azimuths = rig_azimuths(centre_deg=0.0, count=count, spread_deg=spread)
+        synth = SynthConfig(azimuths_deg=azimuths, start_s=DETECTED_START_S, length_s=seconds,
+                            width_px=size[0], height_px=size[1])  # fmt: skip
+        truth = render_truth(config, synth)
+        cams = CameraGroup.load(truth.folder / CALIBRATION)
+        joints = truth.joints3d.astype(np.float64)
+        sources = {"true": [project_view(joints, cam, truth.times) for cam in cams]}
+        if detected:
+            sources["BlazePose"] = [detect_cached(config, video) for video in truth.videos]
+        for source, poses in sources.items():
+            start_t = time.perf_counter()
+            lifted = lifter.lift(TakeViews.of(poses, cams))
+            fps = len(lifted) / (time.perf_counter() - start_t)
+            # world → camera 1's axes, where score_lift takes the depth signs
+            in_camera = Pose3D(cams[0].to_camera(lifted.joints.astype(np.float64)),
+                               lifted.confidence, lifted.timestamps)  # fmt: skip
+            score = score_lift(in_camera, joints, cams[0], retarget=config.retarget)
+            names = ",".join(f"{a:g}" for a in azimuths)
+            table.add_row(
+                source, f"{count} ({names}°)",
+                f"{score.arm_mae_deg:.1f}", f"{score.wrong_sign_pct:.0f}",
+                *(f"{100 * w / max(n, 1):.0f}" for n, w in score.signs.values()),
+                f"{score.elbow_cm:.1f}", f"{score.hand_cm:.1f}", f"{score.head_deg:.1f}",
+                f"{fps:.0f}",
+            )  # fmt: skip
     return table
 
 
@@ -348,6 +409,9 @@ def main() -> None:
         console.print(truth_table(config, stretches, views, tuple(args.lifters.split(",")), title))
         if args.detected:
             console.print(detected_table(config, args.detected, [0.0, 30.0, 60.0]))
+            console.print(rig_table(config, args.detected, (3, 4), detected=True))
+        elif args.quick:  # true 2D only, a small render (its calibration is all it gives)
+            console.print(rig_table(config, QUICK_RIG_S, (3,), detected=False, size=QUICK_RIG))
     if args.only == "truth":
         return
     samples = default_samples_dir()
