@@ -105,12 +105,15 @@ def clip_from_targets(
     clip_id: str,
     profile: pepper.RobotProfile,
     rate_hz: float | None = None,
+    raw01: np.ndarray | None = None,
 ) -> Clip:
     """A clip whose 100 Hz angles are exactly `angles01 (N, 11)` (NaN = unknown) with features
     `audio (N, F)`: for trainers, whose targets must be known exactly. Its poses are the angles'
-    ideal forward kinematics at the same 100 Hz frames."""
+    ideal forward kinematics at the same 100 Hz frames; its raw angles are `raw01 (N, 11)`
+    (what the angles were made from, normalised) or, without it, the angles themselves."""
     ts = np.arange(len(angles01)) / (rate_hz or ProcessingConfig().rate_hz)
     angles = pepper.denormalise(np.asarray(angles01, np.float64), profile)
+    raw = angles if raw01 is None else pepper.denormalise(np.asarray(raw01, np.float64), profile)
     joints = pepper.fk_coco17(np.nan_to_num(angles), model="ideal").astype(np.float32)
     joints[:, 13:] = np.nan  # no legs
     joints[~np.isfinite(angles).all(axis=1)] = np.nan
@@ -120,7 +123,7 @@ def clip_from_targets(
         "mask": np.isfinite(angles),
         "audio": np.asarray(audio, np.float32),
         "times": ts,
-        "raw_angles": angles.astype(np.float32),
+        "raw_angles": raw.astype(np.float32),
     }
     return _filmed(joints, ts, clip_id=clip_id, angles=arrays)
 

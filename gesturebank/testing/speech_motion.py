@@ -5,7 +5,11 @@ with pauses). Its "audio features" `(N, F)` are e(t) through a fixed random gain
 plus a per-subject offset and gain and some noise — so per-subject z-normalisation matters. The
 motion follows the envelope with memory: m(t) = the envelope through a first-order low-pass
 (time constant `tau_s`), delayed by `lag_s`; the arms and head move with m, the other joints
-stay put. A frame-wise model sees only e(t) and cannot know m(t); a recurrent one can.
+stay put. The angles are then made playable, as the builder makes a person's: the dissertation's
+low-pass (§4.2.3) and the robot's joint speed, since every written clip must hold the
+invariants (`qc.invariants`: a syllable's 60 ms rise is several times faster than a shoulder).
+The raw angles stored are the targets before that.
+A frame-wise model sees only e(t) and cannot know m(t); a recurrent one can.
 
 Each take is one clip, written with the real store and `datasets.refresh` (`testing.clips`), so
 the result is a dataset folder like any built one.
@@ -17,8 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.config import Config
+from gesturebank.config import Config, ProcessingConfig
+from gesturebank.filters import butter_lowpass
 from gesturebank.robot import pepper
+from gesturebank.robot.reach import speed_limit
 from gesturebank.testing.clips import clip_from_targets, write_dataset
 
 RATE_HZ = 100.0
@@ -59,6 +65,15 @@ def motion(env: np.ndarray, tau_s: float, lag_s: float) -> np.ndarray:
     return np.clip(m / 0.5, 0.0, 1.0)  # the low-passed envelope rarely exceeds 0.5
 
 
+def _playable(angles01: np.ndarray, profile: pepper.RobotProfile) -> np.ndarray:
+    """`angles01 (n, 11)` low-passed as processing does and held within the joint speeds."""
+    p = ProcessingConfig()
+    angles = pepper.denormalise(angles01, profile)
+    smooth = butter_lowpass(angles, RATE_HZ, cutoff_hz=p.cutoff_hz, order=p.butter_order)
+    slow = speed_limit(smooth, np.asarray(profile.velocity) / RATE_HZ)
+    return np.clip(pepper.normalise(slow, profile), 0.0, 1.0)
+
+
 def write_speech_motion_dataset(
     out: Path,
     *,
@@ -96,7 +111,13 @@ def write_speech_motion_dataset(
                 angles01[:, pepper.INDEX[joint]] = rest + gain * m
             gap = round(unknown_s * RATE_HZ)
             angles01[n // 2 : n // 2 + gap] = np.nan
-            clip = clip_from_targets(angles01, audio, clip_id=f"{take_id}__c000", profile=profile)
+            clip = clip_from_targets(
+                _playable(angles01, profile),
+                audio,
+                clip_id=f"{take_id}__c000",
+                profile=profile,
+                raw01=angles01,
+            )
             takes[take_id] = [clip]
     # Judged by the real QC, which would reject this motion (not a person's: it holds still
     # exactly in every pause of the speech), so its thresholds are opened for it.

@@ -12,6 +12,7 @@ import pytest
 
 from gesturebank import datasets
 from gesturebank.config import Config
+from gesturebank.datasets import store
 from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.export.commands import export_command, upright
@@ -195,7 +196,8 @@ def test_cli_exports_every_format(dataset: Path, tmp_path: Path) -> None:
     person = read_bvh(tmp_path / "bvh" / f"{clip_id}_person.bvh")
     assert "left_wrist" in person.names
     lines = (tmp_path / "csv" / f"{clip_id}.angles.csv").read_text().splitlines()
-    assert "pepper-1.7" in lines[0] and "reach: clamp" in lines[0]
+    reach = store.read_dataset_json(dataset).config.retarget.reach  # the dataset's own mode
+    assert "pepper-1.7" in lines[0] and f"reach: {reach}" in lines[0]
     assert lines[1].startswith("time_s,HeadPitch,HeadYaw,")
     data = json.loads((tmp_path / "naoqi" / f"{clip_id}.naoqi.json").read_text())
     assert data["names"] == list(pepper.JOINTS) and data["isAbsolute"] is True
