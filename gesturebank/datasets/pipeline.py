@@ -503,8 +503,19 @@ def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
 
 # Config sections that change what a take contains. The others only change how it is built
 # (build), judged (qc), split (splits), calibrated (board), trained on (train), played
-# (playback) or drawn (render); tests/datasets/test_build.py checks each is one or the other.
-NOT_CONTENT_SECTIONS = ("build", "qc", "splits", "board", "train", "playback", "render")
+# (playback) or drawn (render, synth); speech is not used by the build yet (issue 32);
+# tests/datasets/test_build.py checks each is one or the other.
+NOT_CONTENT_SECTIONS = (
+    "build",
+    "qc",
+    "splits",
+    "board",
+    "train",
+    "playback",
+    "render",
+    "synth",
+    "speech",
+)
 CONTENT_SECTIONS = (
     "video",
     "detector",
@@ -515,6 +526,7 @@ CONTENT_SECTIONS = (
     "lifter",
     "geometric",
     "fitted",
+    "resolved",
     "multiview",
     "robot",
     "retarget",
