@@ -254,9 +254,11 @@ def _build(
     on_result: Callable[[TakeResult], None] | None,
     on_chunk: Callable[[str, int, int], None] | None,
 ) -> BuildSummary:
+    from gesturebank.datasets.card import read_takes_toml
     from gesturebank.datasets.refresh import refresh
 
     summary = BuildSummary(out)
+    read_takes_toml(videos_dir)  # a bad takes.toml stops the build before any take, not after
     if store.remove_stale_temporaries(out):
         log.info("%s: removed temporary files of an interrupted build", out)
     digest = content_digest(config)

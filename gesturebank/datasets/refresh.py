@@ -1,7 +1,8 @@
 """Bring a dataset folder's shared files up to date with its take records: the QC verdicts over
 every clip (dataset-relative ones need them all), manifest.parquet, dataset.json (audio
-normalisation stats, per-take summary) and the splits. `build-dataset` calls it after the takes
-are built, `gesturebank qc` after changing thresholds; the QC itself stays pure over metrics.
+normalisation stats, per-take summary), the dataset card DATASET.md (`datasets.card`) and the
+splits. `build-dataset` calls it after the takes are built, `gesturebank qc` after changing
+thresholds; the QC itself stays pure over metrics.
 
 Metrics are measured by the workers as each take is built; only clips whose metrics were
 measured with other measuring settings (`qc.analysis_rate_hz`, …) are loaded and measured again.
@@ -20,6 +21,7 @@ import numpy as np
 from gesturebank import __version__
 from gesturebank.config import Config
 from gesturebank.datasets import store
+from gesturebank.datasets.card import read_takes_toml, write_card
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
@@ -138,6 +140,12 @@ def refresh(
     from gesturebank.robot import pepper
 
     out = Path(out)
+    if videos_dir is None:
+        try:
+            videos_dir = Path(store.read_dataset_json(out).videos_dir)
+        except Exception:  # no earlier dataset.json: the folder itself
+            videos_dir = out
+    terms = read_takes_toml(videos_dir)  # before anything is rewritten: a bad file stops it here
     before = store.take_records(out, take_ids)
     measured = [_remeasure(out, r, config, recheck=recheck) for r in before]
     records = _judge(measured, config)
@@ -146,11 +154,6 @@ def refresh(
             store.write_record(out, new)
     table = store.write_manifest(out, records)
     statuses = table.column("qc_status").to_pylist()
-    if videos_dir is None:
-        try:
-            videos_dir = Path(store.read_dataset_json(out).videos_dir)
-        except Exception:  # no earlier dataset.json: the folder itself
-            videos_dir = out
     profile = pepper.load_profile(config.robot.profile)
     info = store.DatasetInfo(
         tool_version=__version__,
@@ -171,4 +174,5 @@ def refresh(
         takes={r.take_id: _summary(r) for r in records},
     )
     store.write_dataset_json(out, info)
+    write_card(out, info=info, records=records, terms=terms)
     return write_splits(out, table.to_pylist(), config.splits)

@@ -4,6 +4,7 @@ by take.
     out/dataset.json              `DatasetInfo`: schema version, tool version, resolved config,
                                   joints, limits, rates, audio features, normalisation, per-take
                                   summary (clips, usable seconds, share kept)
+    out/DATASET.md                the dataset card (`datasets.card`), rewritten with dataset.json
     out/manifest.parquet          one row per clip and per dropped span (`MANIFEST_SCHEMA`)
     out/takes/<take_id>.json      the take's record (`TakeRecord`, its clips and dropped spans);
                                   written last, so it marks a take as done
