@@ -28,6 +28,9 @@ from gesturebank.robot.pepper import JOINTS, RobotProfile, normalise
 
 NAMES = ("speed", "jerk", "mask", "limits", "angles01", "audio")
 _ANGLES01_TOL = 1e-4  # float32 rounding of (θ − lower) / (upper − lower)
+# Jerk (Eq. 3.21) of float32 rounding alone: Δ³θ ~ 3e-7 rad gives ½·100⁵·(3e-7)² ≈ 5e-4 rad² s⁻⁵
+# at 100 Hz, while a person's clips measure 1e2–1e9: below this, "more jerk" is rounding noise.
+_JERK_NOISE = 1e-2
 _NAN = math.nan
 
 
@@ -59,7 +62,7 @@ def invariant_metrics(
 
     if jerk_raw > 0 and math.isfinite(jerk):
         m["invariant/jerk_ratio"] = jerk / jerk_raw
-    if jerk > jerk_raw:  # NaN either side: not measured
+    if jerk > max(jerk_raw, _JERK_NOISE):  # NaN either side: not measured
         d3 = np.abs(a[3:] - 3 * a[2:-1] + 3 * a[1:-2] - a[:-3])
         if np.isfinite(d3).any():
             m["invariant/jerk"] = float(np.unravel_index(np.nanargmax(d3), d3.shape)[0] + 1)

@@ -22,7 +22,13 @@ from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
 from gesturebank.robot.commands import live_command, replay_command
 from gesturebank.robot.safety import safe_angles, speed_profile
-from gesturebank.robot.timeline import Timeline, from_clip, read_timeline, write_timeline
+from gesturebank.robot.timeline import (
+    Timeline,
+    from_clip,
+    reach_of,
+    read_timeline,
+    write_timeline,
+)
 
 FAST = PlaybackConfig(start_s=0.2, return_s=0.2)
 N = 150
@@ -116,7 +122,8 @@ def _synthesized(folder: Path, model: Path) -> tuple[Path, Timeline]:
     angles = synthesize_command(model, wav, folder / "synth.csv")
     audio = json.loads((model / "model.json").read_text())["audio"]
     times = np.arange(len(angles)) * audio["winstep_s"] + audio["winlen_s"] / 2
-    return folder / "synth.csv", Timeline.of(times, angles, profile="pepper-1.7", reach="clamp")
+    reach = json.loads((model / "model.json").read_text())["reach"]  # its dataset's mode
+    return folder / "synth.csv", Timeline.of(times, angles, profile="pepper-1.7", reach=reach)
 
 
 def _replayed(folder: Path, suffix: str, mode: str = "stream") -> tuple[Path, Timeline]:
@@ -139,8 +146,9 @@ def _live(folder: Path, model: Path, csv: bool) -> tuple[Path, Timeline]:
     jsonl = folder / "live.jsonl"
     live_command(model, "record", str(wav), out=jsonl, config=FAST)
     calls = [c for c in read_record(jsonl) if c["phase"] == "live"]
+    reach = json.loads((model / "model.json").read_text())["reach"]  # its dataset's mode
     expected = Timeline.of(
-        [c["t"] for c in calls], [c["angles"] for c in calls], profile="pepper-1.7", reach="clamp"
+        [c["t"] for c in calls], [c["angles"] for c in calls], profile="pepper-1.7", reach=reach
     )
     if not csv:
         return jsonl, expected
@@ -230,7 +238,7 @@ def test_export_reads_it(
     (csv,) = export_command(src=path, fmt="csv", out=tmp_path / "again.csv", config=Config())
     again = read_timeline(csv)
     _same(again, want, angles_only=writer == "live-csv")  # masked cells stay masked
-    assert again.reach == (want.reach or "clamp")  # what the file says, else the default
+    assert again.reach == (want.reach or reach_of(Config()))  # the file's, else the config's
     (js, _) = export_command(src=path, fmt="naoqi", out=tmp_path / "a.naoqi.json", config=Config())
     sent = np.array(json.loads(js.read_text())["angleLists"]).T
     np.testing.assert_allclose(sent, _played(_held(want)).angles, atol=2e-6)
