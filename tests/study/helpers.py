@@ -3,7 +3,13 @@
 from __future__ import annotations
 
 import re
+import threading
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
+
+from gesturebank.study.commands import make_server
 
 
 @dataclass(frozen=True)
@@ -29,3 +35,17 @@ def shown_trial(page: str) -> Shown | None:
     step, of = map(int, re.search(r"Page (\d+) of (\d+)", page).groups())  # type: ignore[union-attr]
     kind = "ab" if "name='choice'" in page else "mushra"
     return Shown(found.group(1), kind, items, step, of)
+
+
+@contextmanager
+def serving(study: Path, allow: Sequence[str]) -> Iterator[int]:
+    """The study's real server on 127.0.0.1 (a free port, yielded), answering `allow` too."""
+    httpd = make_server(study, host="127.0.0.1", port=0, allow_hosts=allow)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield httpd.server_port
+    finally:
+        httpd.shutdown()
+        httpd.server_close()
+        thread.join()

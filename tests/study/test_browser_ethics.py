@@ -5,32 +5,17 @@ video of a trial page, and the Host allow-list against a DNS-rebinding name (Chr
 from __future__ import annotations
 
 import tempfile
-import threading
 from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
-from gesturebank.study.commands import make_server
 from gesturebank.testing.browser import CHROMIUM, Browser, Tab
+from tests.study.helpers import serving
 from tests.study.test_browser import _navigating, _until
 from tests.study.test_ethics import DESIGN
 
 REBIND = "rebind.test"
-
-
-@contextmanager
-def _serving(study: Path, allow: list[str]) -> Iterator[int]:
-    httpd = make_server(study, host="127.0.0.1", port=0, allow_hosts=allow)
-    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
-    thread.start()
-    try:
-        yield httpd.server_port
-    finally:
-        httpd.shutdown()
-        httpd.server_close()
-        thread.join()
 
 
 @pytest.fixture()
@@ -51,7 +36,7 @@ def _text(tab: Tab, element: str) -> str:
 
 def test_consent_page_in_chromium(study: Path, chromium: Browser, artifacts: Path) -> None:
     (study / "design.toml").write_text(DESIGN)
-    with _serving(study, []) as port:
+    with serving(study, []) as port:
         tab = chromium.open(f"http://127.0.0.1:{port}/")
         assert _text(tab, "title") == "Gestures of a talking robot"
         assert _text(tab, "researcher") == "Dr Ada Example, Robotics Lab, Example University"
@@ -69,7 +54,7 @@ def test_consent_page_in_chromium(study: Path, chromium: Browser, artifacts: Pat
 def test_every_video_shows_its_poster_in_chromium(
     study: Path, chromium: Browser, artifacts: Path
 ) -> None:
-    with _serving(study, []) as port:
+    with serving(study, []) as port:
         tab = chromium.open(f"http://127.0.0.1:{port}/")
         tab.click("#agree")
         _navigating(tab, lambda: tab.click("#start"))
@@ -110,12 +95,12 @@ def _document_status(browser: Browser) -> int:
 
 
 def test_a_rebound_name_is_refused_unless_allowed(study: Path, chromium: Browser) -> None:
-    with _serving(study, []) as port:
+    with serving(study, []) as port:
         tab = chromium.open(f"http://{REBIND}:{port}/")
         assert _document_status(chromium) == 403
         assert tab.eval("document.getElementById('consent')") is None
         tab.close()
-    with _serving(study, [REBIND]) as port:
+    with serving(study, [REBIND]) as port:
         tab = chromium.open(f"http://{REBIND}:{port}/")
         assert _document_status(chromium) == 200
         tab.click("#agree")

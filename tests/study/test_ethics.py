@@ -8,7 +8,6 @@ from __future__ import annotations
 import http.client
 import io
 import math
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -19,9 +18,9 @@ from PIL import Image
 from gesturebank.errors import InputError
 from gesturebank.study.analyse import analyse, holm, mean_ci
 from gesturebank.study.app import create_app
-from gesturebank.study.commands import make_server
 from gesturebank.study.design import load_design
 from gesturebank.study.posters import poster_path
+from tests.study.helpers import serving
 from tests.study.test_app import RATINGS, _answer_all, _form, _join, _shown
 
 DESIGN = """\
@@ -125,15 +124,8 @@ def analyse_count(study: Path) -> int:
 
 @pytest.fixture()
 def served(study: Path) -> Iterator[int]:
-    httpd = make_server(study, host="127.0.0.1", port=0, allow_hosts=["study.example"])
-    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
-    thread.start()
-    try:
-        yield httpd.server_port
-    finally:
-        httpd.shutdown()
-        httpd.server_close()
-        thread.join()
+    with serving(study, ["study.example"]) as port:
+        yield port
 
 
 def test_a_real_server_answers_its_own_names_only(served: int) -> None:
