@@ -116,6 +116,24 @@ def _one_line(exc: BaseException) -> str:
     return text if len(text) < 200 else text[:197] + "..."
 
 
+# A Ray Client head starts one server process per client; on a busy head that start can fail
+# once (the process exits before it listens) and the next client gets a fresh one.
+CLIENT_START_ATTEMPTS = 3
+
+
+def _init(ray: Any, address: str | None) -> None:
+    for attempt in range(1, CLIENT_START_ATTEMPTS + 1):
+        try:
+            # "local": a private Ray, not the cluster a stale /tmp/ray/ray_current_cluster names
+            ray.init(address=address or "local", include_dashboard=False, log_to_driver=False)
+            return
+        except ConnectionError as exc:
+            server_start_failed = "Initialization failure from server" in str(exc)
+            if not server_start_failed or attempt == CLIENT_START_ATTEMPTS:
+                raise
+            log.warning("%s: the head's client server did not start; retrying", address)
+
+
 @contextmanager
 def connected(address: str | None, config: Config) -> Iterator[Any]:
     """Ray, connected to `address` (see the module docstring) for the block; InputError with one
@@ -149,8 +167,7 @@ def connected(address: str | None, config: Config) -> Iterator[Any]:
             _send_local_token()
     handler = signal.getsignal(signal.SIGTERM)
     try:
-        # "local": a private Ray, not the cluster a stale /tmp/ray/ray_current_cluster names
-        ray.init(address=address or "local", include_dashboard=False, log_to_driver=False)
+        _init(ray, address)
     except Exception as exc:  # Ray raises ConnectionError, RuntimeError, AuthenticationError…
         where = address or "a private Ray"
         if address == "auto":
