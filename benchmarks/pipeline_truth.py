@@ -1,0 +1,155 @@
+"""The whole pipeline against motion-capture truth: `build-dataset` on rendered takes, and the
+kept clips' stored angles against what the person did over the same times (issue 30, item 2).
+
+Each take is `test.bvh` 31–51 s (issue 30's acceptance stretch) rendered by `gesturebank.synth`
+(cached by checksum) from one camera 3 m away, turned 0°, 30° and 60° from the front, in both
+looks; the build runs with its defaults (detector, lifter, QC), its detections cached like any
+build's. Two truths, both on each clip's own 100 Hz clock:
+
+- pipeline truth: the true Pepper angles (`truth.npz` `angles`) through the build's own processing
+  (`datasets.process.process_angles`: continuous, low-passed, the same reach mode and speed
+  limit), i.e. what a perfect detector and lifter would have stored;
+- unlimited truth: the same, low-passed and continuous but not brought into Pepper's reach.
+
+Scored with `lift.scoring.score_angles`: arm-angle MAE over the eight arm joints, the worst arm
+joint, Pepper-FK hand error (cm) and head direction error (°). "kept" is the accepted clips'
+seconds of the rendered seconds; a rejected take names QC's reasons.
+
+    .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
+    .venv/bin/python benchmarks/pipeline_truth.py --quick     # 3 s at 0°, 640×360, tshirt
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from gesturebank.config import Config, SynthConfig
+from gesturebank.datasets import open as open_dataset
+from gesturebank.datasets.build import build_dataset
+from gesturebank.datasets.process import process_angles
+from gesturebank.datasets.takes import discover_takes
+from gesturebank.footage import SPEECH
+from gesturebank.lift.scoring import ARM_JOINTS, score_angles
+from gesturebank.robot import pepper
+from gesturebank.robot.pepper import JOINTS
+from gesturebank.samples import default_samples_dir, fetch_samples
+from gesturebank.synth.take import Performer, cached_render, render_cache
+from gesturebank.synth.truth import Truth
+
+BVH = "bvhtools/testBvhFiles/test.bvh"
+START_S, LENGTH_S = 31.0, 20.0  # issue 30's acceptance stretch
+QUICK_LENGTH_S, QUICK_SIZE = 3.0, (640, 360)
+
+
+def render(config: Config, *, azimuth: float, look: str, length_s: float,
+           size: tuple[int, int]) -> Truth:  # fmt: skip
+    samples = default_samples_dir()
+    if not (samples / BVH).is_file():
+        fetch_samples(samples)
+    synth = SynthConfig.model_validate({
+        "azimuths_deg": [azimuth], "start_s": START_S, "length_s": length_s, "look": look,
+        "width_px": size[0], "height_px": size[1],
+    })  # fmt: skip
+    speech = [samples / rel for rel in SPEECH]
+    return cached_render([Performer(samples / BVH)], config=synth, mocap=config.mocap,
+                         speech=speech, cache=render_cache(samples))  # fmt: skip
+
+
+def truths(truth: Truth, clock: np.ndarray, config: Config) -> tuple[np.ndarray, np.ndarray]:
+    """(pipeline truth, unlimited truth), each (N, 11) rad on `clock` (s in the video)."""
+    processed = process_angles(
+        raw=truth.angles, timestamps=truth.times, clock=clock, processing=config.processing,
+        retarget=config.retarget, profile=pepper.load_profile(config.robot.profile),
+    )  # fmt: skip
+    return processed.angles.astype(np.float64), processed.unlimited
+
+
+@dataclass(frozen=True)
+class Scores:
+    """Kept clips against one truth: per-joint MAE (11,) °, FK hand error cm, head error °."""
+
+    per_joint_deg: np.ndarray
+    hand_cm: float
+    head_deg: float
+
+
+@dataclass(frozen=True)
+class Measured:
+    kept_s: float
+    reasons: list[str]
+    pipeline: Scores | None  # None: no clip kept
+    unlimited: Scores | None
+
+
+def measure(truth: Truth, config: Config, out: Path) -> Measured:
+    """Build the render's video into `out` and score its kept clips against both truths."""
+    build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
+    dataset = open_dataset(out)
+    stored, pipeline_truth, unlimited = [], [], []
+    for row in dataset.clips():
+        clip = dataset.load(row["clip_id"])
+        limited_truth, free_truth = truths(truth, clip.times + clip.start_s, config)
+        stored.append(clip.angles.astype(np.float64))
+        pipeline_truth.append(limited_truth)
+        unlimited.append(free_truth)
+    reasons = sorted({r for row in dataset.rows() for r in (row.get("qc_reasons") or [])})
+    kept_s = sum(len(a) for a in stored) / config.processing.rate_hz
+    if not stored:
+        return Measured(kept_s, reasons, None, None)
+    mine = np.concatenate(stored)
+
+    def scores(true: list[np.ndarray]) -> Scores:
+        per_joint, _, hand, head = score_angles(mine, np.concatenate(true))
+        return Scores(per_joint, hand, head)
+
+    return Measured(kept_s, reasons, scores(pipeline_truth), scores(unlimited))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--azimuths", type=float, nargs="+", default=[0.0, 30.0, 60.0])
+    parser.add_argument("--looks", nargs="+", default=["tshirt", "sleeves"])
+    parser.add_argument("--quick", action="store_true", help="3 s at 0°, small, one look")
+    args = parser.parse_args()
+    config = Config()
+    azimuths, looks = ([0.0], ["tshirt"]) if args.quick else (args.azimuths, args.looks)
+    length = QUICK_LENGTH_S if args.quick else LENGTH_S
+    size = QUICK_SIZE if args.quick else (config.synth.width_px, config.synth.height_px)
+    table = Table(title=f"build-dataset (defaults: {config.detector.name}, {config.lifter.name}) "
+                  f"on renders of test.bvh {START_S:g}–{START_S + length:g} s, kept clips against "
+                  "the truth: pipeline truth | unlimited truth")  # fmt: skip
+    for col in ("look", "view", "kept s", "arm MAE °", "worst arm joint °", "hand cm", "head °",
+                "arm MAE ° (unl.)", "hand cm (unl.)", "QC reasons"):  # fmt: skip
+        table.add_column(col, justify="right")
+    with tempfile.TemporaryDirectory(prefix="pipeline-truth-") as tmp:
+        for look in looks:
+            for azimuth in azimuths:
+                truth = render(config, azimuth=azimuth, look=look, length_s=length, size=size)
+                out = Path(tmp) / f"{look}-{azimuth:g}"
+                got = measure(truth, config, out)
+                kept = f"{got.kept_s:.1f} / {length:g}"
+                reasons = "; ".join(got.reasons) or "-"
+                if got.pipeline is None or got.unlimited is None:
+                    table.add_row(look, f"{azimuth:g}°", kept, *["-"] * 6, reasons)
+                    continue
+                arm = got.pipeline.per_joint_deg[ARM_JOINTS]
+                worst = int(np.nanargmax(arm))
+                table.add_row(
+                    look, f"{azimuth:g}°", kept, f"{np.nanmean(arm):.1f}",
+                    f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
+                    f"{got.pipeline.hand_cm:.1f}", f"{got.pipeline.head_deg:.1f}",
+                    f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",
+                    f"{got.unlimited.hand_cm:.1f}", reasons,
+                )  # fmt: skip
+    Console(width=max(Console().width, 160)).print(table)
+
+
+if __name__ == "__main__":
+    main()
