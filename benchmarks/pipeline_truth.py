@@ -11,12 +11,16 @@ build's. Two truths, both on each clip's own 100 Hz clock:
   limit), i.e. what a perfect detector and lifter would have stored;
 - unlimited truth: the same, low-passed and continuous but not brought into Pepper's reach.
 
+Each take is built twice: with the defaults, and with QC's view limits off
+(`qc.max_facing_away_fraction` and `qc.max_sideways_fraction` at 1), since the person of this
+stretch turns round: "true away %" is QC's own facing-away rule on the true 2D joints.
+
 Scored with `lift.scoring.score_angles`: arm-angle MAE over the eight arm joints, the worst arm
 joint, Pepper-FK hand error (cm) and head direction error (°). "kept" is the accepted clips'
 seconds of the rendered seconds; a rejected take names QC's reasons.
 
     .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
-    .venv/bin/python benchmarks/pipeline_truth.py --quick     # 3 s at 0°, 640×360, tshirt
+    .venv/bin/python benchmarks/pipeline_truth.py --quick     # 3 s at 0°, 640×360, defaults
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
 from gesturebank.lift.scoring import ARM_JOINTS, score_angles
+from gesturebank.qc.metrics import facing_away
 from gesturebank.robot import pepper
 from gesturebank.robot.pepper import JOINTS
 from gesturebank.samples import default_samples_dir, fetch_samples
@@ -46,6 +51,7 @@ from gesturebank.synth.truth import Truth
 BVH = "bvhtools/testBvhFiles/test.bvh"
 START_S, LENGTH_S = 31.0, 20.0  # issue 30's acceptance stretch
 QUICK_LENGTH_S, QUICK_SIZE = 3.0, (640, 360)
+VIEWS_OFF = {"qc": {"max_facing_away_fraction": 1.0, "max_sideways_fraction": 1.0}}
 
 
 def render(config: Config, *, azimuth: float, look: str, length_s: float,
@@ -118,36 +124,44 @@ def main() -> None:
     parser.add_argument("--looks", nargs="+", default=["tshirt", "sleeves"])
     parser.add_argument("--quick", action="store_true", help="3 s at 0°, small, one look")
     args = parser.parse_args()
-    config = Config()
+    defaults = Config()
     azimuths, looks = ([0.0], ["tshirt"]) if args.quick else (args.azimuths, args.looks)
     length = QUICK_LENGTH_S if args.quick else LENGTH_S
-    size = QUICK_SIZE if args.quick else (config.synth.width_px, config.synth.height_px)
-    table = Table(title=f"build-dataset (defaults: {config.detector.name}, {config.lifter.name}) "
-                  f"on renders of test.bvh {START_S:g}–{START_S + length:g} s, kept clips against "
-                  "the truth: pipeline truth | unlimited truth")  # fmt: skip
-    for col in ("look", "view", "kept s", "arm MAE °", "worst arm joint °", "hand cm", "head °",
-                "arm MAE ° (unl.)", "hand cm (unl.)", "QC reasons"):  # fmt: skip
+    size = QUICK_SIZE if args.quick else (defaults.synth.width_px, defaults.synth.height_px)
+    table = Table(title=f"build-dataset ({defaults.detector.name}, {defaults.lifter.name}) on "
+                  f"renders of test.bvh {START_S:g}–{START_S + length:g} s, kept clips against "
+                  "the truth through the build's processing, and against the unlimited truth "
+                  "(unl.)")  # fmt: skip
+    for col in ("look", "view", "true away %", "QC", "kept s", "arm MAE °", "worst arm joint °",
+                "hand cm", "head °", "arm MAE ° (unl.)", "hand cm (unl.)",
+                "QC reasons"):  # fmt: skip
         table.add_column(col, justify="right")
+    configs = {"defaults": defaults}
+    if not args.quick:
+        configs["views off"] = Config.model_validate(VIEWS_OFF)
     with tempfile.TemporaryDirectory(prefix="pipeline-truth-") as tmp:
         for look in looks:
             for azimuth in azimuths:
-                truth = render(config, azimuth=azimuth, look=look, length_s=length, size=size)
-                out = Path(tmp) / f"{look}-{azimuth:g}"
-                got = measure(truth, config, out)
-                kept = f"{got.kept_s:.1f} / {length:g}"
-                reasons = "; ".join(got.reasons) or "-"
-                if got.pipeline is None or got.unlimited is None:
-                    table.add_row(look, f"{azimuth:g}°", kept, *["-"] * 6, reasons)
-                    continue
-                arm = got.pipeline.per_joint_deg[ARM_JOINTS]
-                worst = int(np.nanargmax(arm))
-                table.add_row(
-                    look, f"{azimuth:g}°", kept, f"{np.nanmean(arm):.1f}",
-                    f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
-                    f"{got.pipeline.hand_cm:.1f}", f"{got.pipeline.head_deg:.1f}",
-                    f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",
-                    f"{got.unlimited.hand_cm:.1f}", reasons,
-                )  # fmt: skip
+                truth = render(defaults, azimuth=azimuth, look=look, length_s=length, size=size)
+                true_2d = truth.joints2d[0]
+                away = facing_away(true_2d, np.ones(true_2d.shape[:2], dtype=bool)).mean()
+                for qc, config in configs.items():
+                    got = measure(truth, config, Path(tmp) / f"{look}-{azimuth:g}-{qc}")
+                    first = (look, f"{azimuth:g}°", f"{100 * away:.0f}", qc)
+                    kept = f"{got.kept_s:.1f} / {length:g}"
+                    reasons = "; ".join(got.reasons) or "-"
+                    if got.pipeline is None or got.unlimited is None:
+                        table.add_row(*first, kept, *["-"] * 6, reasons)
+                        continue
+                    arm = got.pipeline.per_joint_deg[ARM_JOINTS]
+                    worst = int(np.nanargmax(arm))
+                    table.add_row(
+                        *first, kept, f"{np.nanmean(arm):.1f}",
+                        f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
+                        f"{got.pipeline.hand_cm:.1f}", f"{got.pipeline.head_deg:.1f}",
+                        f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",
+                        f"{got.unlimited.hand_cm:.1f}", reasons,
+                    )  # fmt: skip
     Console(width=max(Console().width, 160)).print(table)
 
 
