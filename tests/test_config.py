@@ -141,7 +141,7 @@ def test_the_commented_example_ships_in_the_package_and_is_the_repository_file()
     from gesturebank.cli import app
     from gesturebank.config import commented_example
 
-    packaged = Path(config.__file__).parent / "data" / "gesturebank.toml"
+    packaged = Path(config.__file__).parents[1] / "data" / "gesturebank.toml"
     assert packaged.samefile(EXAMPLE)  # one file: the package's is a link to the top-level one
     text = commented_example()
     assert text == EXAMPLE.read_text(encoding="utf-8") and text.count("\n# ") > 100

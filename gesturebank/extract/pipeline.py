@@ -70,6 +70,20 @@ class ExtractionInfo:
 
 
 @dataclass(frozen=True)
+class Detections:
+    """What `detect_people` found in one video: everybody (`multi`, (T, P, K, 3)), the shot
+    cuts, the detector's name, whether the detections came from the cache (None: the detector
+    is not cached), and the frames decoded on the way for the preview strip — (source time,
+    RGB thumbnail); none when nothing was decoded (a cache hit)."""
+
+    multi: MultiPose2D
+    shots: Shots
+    detector: str
+    cache_hit: bool | None
+    preview: tuple[tuple[float, np.ndarray], ...] = ()
+
+
+@dataclass(frozen=True)
 class Extraction:
     """Everybody (`multi`), the shots, the main speaker (`tracked`), the audio, and the frames
     decoded for the preview strip — (source time, RGB thumbnail) — when the video was decoded."""
@@ -193,12 +207,10 @@ def detect_people(
     *,
     cache: DetectionCache | None = None,
     preview_times: np.ndarray | None = None,
-) -> tuple[MultiPose2D, Shots, str, bool | None, list[tuple[float, np.ndarray]]]:
+) -> Detections:
     """Everybody the configured detector finds in the selected frames, and the shot cuts,
-    through the cache (config.build.cache_detections).
-
-    Returns (MultiPose2D (T, P, K, 3), Shots, detector name, cache hit — None when not cached,
-    preview frames decoded on the way at `preview_times` — none on a cache hit).
+    through the cache (config.build.cache_detections); the preview frames are the ones decoded
+    on the way at `preview_times`.
     """
     config = config or Config()
     path = Path(video_path)
@@ -215,7 +227,7 @@ def detect_people(
         cached = store.load(key)
         log.info("%s: detection cache %s", path, "miss" if cached is None else "hit")
         if cached is not None:
-            return cached[0], cached[1], det.name, True, []
+            return Detections(cached[0], cached[1], det.name, True)
     try:
         multi, shots = _run(det, path, config, taps)
     except GesturebankError as exc:
@@ -227,21 +239,23 @@ def detect_people(
             store.save(key, multi, shots)
         except OSError as exc:  # e.g. a full disk: the cache only saves time, the take goes on
             log.warning("%s: detection cache not written (%s)", path, exc.strerror or exc)
-    return multi, shots, det.name, None if key is None else False, taps.preview
+    return Detections(multi, shots, det.name, None if key is None else False, tuple(taps.preview))
 
 
 def _detect_chunks(
     path: Path, config: Config, plan: list[tuple[Chunk, VideoConfig]], chunks: DetectionCache
-) -> tuple[MultiPose2D, Shots, str, bool]:
+) -> Detections:
     """`detect_people` of a long video, chunk by chunk through `chunks` (what the build's chunk
-    tasks left there is read, the rest detected), stitched. The last item: every chunk was
-    cached."""
+    tasks left there is read, the rest detected), stitched. A cache hit: every chunk was
+    cached. No preview frames."""
     parts, hits, name = [], [], ""
     for chunk, video in plan:
-        multi, shots, name, hit, _ = detect_people(path, detecting(config, video), cache=chunks)
-        parts.append((chunk, multi, shots))
-        hits.append(bool(hit))
-    return (*stitch(parts=parts), name, all(hits))
+        found = detect_people(path, detecting(config, video), cache=chunks)
+        name = found.detector
+        parts.append((chunk, found.multi, found.shots))
+        hits.append(bool(found.cache_hit))
+    multi, shots = stitch(parts=parts)
+    return Detections(multi, shots, name, all(hits))
 
 
 def preview_times(info: VideoInfo, config: Config, n: int = N_PREVIEW) -> np.ndarray:
@@ -286,14 +300,11 @@ def extract_take(
     t0 = time.perf_counter()
     times = preview_times(info, config)
     plan = [] if chunks is None else video_chunks(str(path), config)
-    preview: list[tuple[float, np.ndarray]] = []
-    hit: bool | None
     if chunks is not None and plan:
-        multi, shots, name, hit = _detect_chunks(path, config, plan, chunks)
+        found = _detect_chunks(path, config, plan, chunks)
     else:
-        multi, shots, name, hit, preview = detect_people(
-            path, config, cache=cache, preview_times=times
-        )
+        found = detect_people(path, config, cache=cache, preview_times=times)
+    multi, shots, preview = found.multi, found.shots, list(found.preview)
     detect_s = time.perf_counter() - t0
     if not preview and len(times):  # detections from the cache: the frames were not decoded
         preview = [(t, thumbnail(image)) for t, image in frames_at(path, times.tolist())]
@@ -309,11 +320,11 @@ def extract_take(
     present = np.isfinite(tracked.pose.keypoints[..., 0]).any(axis=1)
     summary = ExtractionInfo(
         video=info,
-        detector=name,
+        detector=found.detector,
         n_frames=len(multi),
         person_fraction=anybody,
         main_fraction=float(present.mean()),
-        cache_hit=hit,
+        cache_hit=found.cache_hit,
         audio_source=source,
         detect_seconds=detect_s,
     )

@@ -133,7 +133,8 @@ def test_a_chunked_detection_has_the_frames_and_people_of_one_pass(
 
     video = samples / "sports2d" / "Demo" / "demo.mp4"
     config = Config.model_validate({"build": {"chunk_s": 2.6, "chunk_overlap_s": 1.0}})
-    one, shots_one, *_ = detect_people(video, config, cache=DetectionCache(tmp_path / "one"))
+    found = detect_people(video, config, cache=DetectionCache(tmp_path / "one"))
+    one, shots_one = found.multi, found.shots
     plan = video_chunks(str(video), config)
     assert len(plan) == 3
     chunks = DetectionCache(tmp_path / "chunks")

@@ -208,13 +208,13 @@ def test_mediapipe_finds_the_person_on_pose2sim_cam01(cam01_pose) -> None:
 def sports2d_people(samples: Path, base: Path) -> MultiPose2D:
     """Everybody on the Sports2D demo with the default detector (blazepose) through the
     pipeline, cached in the session's temp dir."""
-    multi, _, name, _, _ = detect_people(
+    found = detect_people(
         samples / "sports2d" / "Demo" / "demo.mp4",
         Config(),
         cache=DetectionCache(base / "detections"),
     )
-    assert name == "blazepose"
-    return multi
+    assert found.detector == "blazepose"
+    return found.multi
 
 
 def test_blazepose_finds_both_people_on_sports2d(samples: Path, tmp_path_factory) -> None:
@@ -310,7 +310,8 @@ def test_openpose_json_from_real_two_person_detections(
     write_openpose(tmp_path / "demo_json", frames, stem="demo")
     config = Config()
     config.detector.name = "openpose-json"
-    back, _, name, hit, _ = detect_people(copy, config, cache=DetectionCache(tmp_path / "c"))
+    found = detect_people(copy, config, cache=DetectionCache(tmp_path / "c"))
+    back, name, hit = found.multi, found.detector, found.cache_hit
     assert name == "openpose-json" and hit is None  # JSON is read, never cached
     assert back.skeleton == "body25" and len(back) == 230
     np.testing.assert_allclose(back.timestamps, np.arange(230) / 30, atol=1e-6)

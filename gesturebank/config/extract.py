@@ -1,0 +1,165 @@
+"""Options of the extract stage: the frames used (`[video]`), the 2D detector (`[detector]`),
+shot cuts (`[shots]`) and the tracks the main speaker is chosen from (`[tracking]`).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from gesturebank.config.section import Section
+
+
+class VideoConfig(Section):
+    stride: int = Field(1, ge=1, description="Use every Nth decoded frame (1 = all frames).")
+    start_s: float = Field(0.0, ge=0, description="Start of the used time range, seconds.")
+    end_s: float | None = Field(
+        None, gt=0, description="End of the used time range, seconds (none = end of video)."
+    )
+    max_fps: float | None = Field(
+        30.0,
+        gt=0,
+        description="Footage above this frame rate is detected on a regular subset of its "
+        "frames (a frame is kept when at least 0.75 / max_fps s passed since the last kept one); "
+        "timestamps stay the real ones. The 4 Hz low-pass keeps nothing above 15 Hz; none = "
+        "every frame.",
+    )
+
+    @model_validator(mode="after")
+    def _range(self) -> VideoConfig:
+        if self.end_s is not None and self.end_s <= self.start_s:
+            raise ValueError("end_s must be greater than start_s")
+        return self
+
+
+class DetectorConfig(Section):
+    name: str = Field(
+        "blazepose",
+        description="2D detector: 'blazepose' (multi-person BlazePose on the TFLite runtime), "
+        "'mediapipe' (mediapipe's single-person solution, the reference), 'openpose-json' or a "
+        "plug-in name.",
+    )
+    model_complexity: int = Field(
+        1,
+        ge=0,
+        le=2,
+        description="BlazePose model: only 1 (Full) is bundled with mediapipe 0.10.14; "
+        "0 and 2 would need a download.",
+    )
+    min_detection_confidence: float = Field(
+        0.5, ge=0, le=1, description="Person detector threshold; lower it for small or far people."
+    )
+    min_tracking_confidence: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Pose presence below which a person's track is lost and the detector runs "
+        "again.",
+    )
+    max_people: int = Field(
+        4,
+        ge=1,
+        le=8,
+        description="Most people followed per frame ('blazepose'; the 'mediapipe' reference "
+        "follows one). Each costs one landmark pass per frame.",
+    )
+    detect_every_s: float = Field(
+        0.5,
+        gt=0,
+        description="'blazepose': the person detector runs at least this often (seconds) to find "
+        "people who come in; at once when a track is lost or fewer than max_people are tracked "
+        "only at this interval.",
+    )
+    small_people: bool = Field(
+        False,
+        description="'blazepose': also look for small people (down to ~1/4 of the frame height, "
+        "e.g. a far bystander) in overlapping squares of half the frame's short side, each time "
+        "the person detector runs (frames whose short side is at least 448 px). On a 1088x1920 "
+        "frame that is 15 more detector passes per run (each ~0.7 of a landmark pass), and each "
+        "small person found costs a landmark pass per frame.",
+    )
+    smoothing: bool = Field(
+        True, description="One-euro smoothing of the landmarks on the video's own timestamps."
+    )
+    smoothing_min_cutoff: float = Field(
+        0.05, gt=0, description="One-euro minimum cut-off of image landmarks, Hz (mediapipe: 0.05)."
+    )
+    smoothing_beta: float = Field(
+        80.0, ge=0, description="One-euro speed coefficient of image landmarks (mediapipe: 80)."
+    )
+    world_smoothing_min_cutoff: float = Field(
+        0.1, gt=0, description="One-euro minimum cut-off of world landmarks, Hz (mediapipe: 0.1)."
+    )
+    world_smoothing_beta: float = Field(
+        40.0, ge=0, description="One-euro speed coefficient of world landmarks (mediapipe: 40)."
+    )
+    json_suffix: str = Field(
+        "_json",
+        description="Folder '<video stem><suffix>' next to a video holds precomputed "
+        "OpenPose-format JSON keypoints.",
+    )
+
+
+class ShotsConfig(Section):
+    """Shot boundaries (scene cuts) found in the decoded frames (config section `shots`)."""
+
+    detector: Literal["content", "none"] = Field(
+        "content",
+        description="'content': PySceneDetect's ContentDetector on the frames the detector sees; "
+        "'none': a take is one shot (footage known to be uncut).",
+    )
+    threshold: float = Field(
+        27.0,
+        gt=0,
+        description="ContentDetector threshold on the HSV change between frames (0–255; "
+        "PySceneDetect's default 27). Lower it to find softer cuts, raise it against false cuts "
+        "on fast camera motion.",
+    )
+    min_shot_s: float = Field(
+        0.5,
+        ge=0,
+        description="Shortest shot, seconds: a cut closer than this to the last is ignored.",
+    )
+
+
+class TrackingConfig(Section):
+    size_weight: float = Field(
+        1.0, ge=0, description="Weight of upper-body size in speaker choice."
+    )
+    center_weight: float = Field(1.0, ge=0, description="Weight of closeness to image centre.")
+    confidence_weight: float = Field(1.0, ge=0, description="Weight of mean keypoint confidence.")
+    persistence_weight: float = Field(
+        1.0, ge=0, description="Weight of the share of the shot in which the person is seen."
+    )
+    speech_weight: float = Field(
+        1.0,
+        ge=0,
+        description="Weight of how well the person's head and hand motion follows the speech "
+        "envelope of the take's audio (0 = ignore the audio).",
+    )
+    speech_window_s: float = Field(
+        4.0,
+        gt=0,
+        description="Sliding window of the motion–speech cross-correlation, seconds.",
+    )
+    gate: float = Field(
+        0.25,
+        gt=0,
+        description="Largest match distance between frames, as a fraction of the image "
+        "diagonal; beyond it a detection starts a new identity.",
+    )
+    max_lost_s: float = Field(
+        2.0, gt=0, description="A track unseen for longer than this (seconds) ends."
+    )
+    predict_s: float = Field(
+        0.2,
+        ge=0,
+        description="Over gaps up to this long (s) a track's pose is moved on by its velocity.",
+    )
+    switch_window_s: float = Field(
+        0.5,
+        gt=0,
+        description="A track appearing within this many seconds of another vanishing is "
+        "reported as an identity switch.",
+    )

@@ -1,0 +1,153 @@
+"""Options of the QC (`[qc]`): the thresholds every clip is judged by."""
+
+from __future__ import annotations
+
+from pydantic import Field
+
+from gesturebank.config.section import Section
+
+
+class QCConfig(Section):
+    """Thresholds of the QC (config section `qc`), judged per clip. Every one is a share of time,
+    seconds, a value on the analysis clock or a size in shoulder widths, so footage at any frame
+    rate is judged alike. Defaults were set on the real sample takes (benchmarks/qc.py);
+    loosen them for unusual footage rather than editing clips."""
+
+    analysis_rate_hz: float = Field(
+        30.0,
+        gt=0,
+        description="Uniform clock the raw angles are resampled to for jerk and jitter, Hz, so "
+        "clips filmed at different frame rates compare (noise jerk grows as rate⁵).",
+    )
+    jitter_above_hz: float = Field(
+        7.0, gt=0, description="Power above this frequency of the raw angles counts as jitter, Hz."
+    )
+    max_head_unknown_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Largest share of the clip in which the head angles are unknown (face unseen).",
+    )
+    max_arms_unknown_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Largest share of the clip in which both arms are unknown (one unseen arm "
+        "is only masked).",
+    )
+    max_bone_cv: float = Field(
+        0.25,
+        ge=0,
+        description="Largest coefficient of variation of a 3D bone length over the frames in "
+        "which both its ends were seen (rigid body: 0).",
+    )
+    max_limit_fraction: float | None = Field(
+        None,
+        ge=0,
+        le=1,
+        description="Opt-in filter (the old rule, 0.6 before): largest share of frames with some "
+        "joint beyond the robot's reach. None = motion beyond reach is reported "
+        "(out_of_reach_fraction, out_of_reach/<Joint>), not judged: the clip keeps its best "
+        "reachable version of the motion.",
+    )
+    max_frozen_at_limit_s: float | None = Field(
+        2.0,
+        gt=0,
+        description="Longest the robot may stand frozen at a limit, seconds: a joint within "
+        "frozen_limit_tol of a limit while the person's (unlimited) angle moves more than "
+        "frozen_min_motion. None = not judged.",
+    )
+    frozen_limit_tol: float = Field(
+        0.02, gt=0, description="A joint this close to a limit (rad) counts as held there."
+    )
+    frozen_min_motion: float = Field(
+        0.2,
+        ge=0,
+        description="Range of the person's angle (rad) over a span held at a limit above which "
+        "the robot is frozen while the person moves.",
+    )
+    max_speed_factor: float = Field(
+        1.5,
+        gt=0,
+        le=1.5,
+        description="Invariant: no processed angle steps between two samples more than this × "
+        "the robot profile's joint speed allows (a jump, e.g. across the joint's range).",
+    )
+    max_jitter_fraction: float = Field(
+        0.15, ge=0, le=1, description="Largest share of raw-angle power above jitter_above_hz."
+    )
+    max_swap_events: int = Field(
+        0,
+        ge=0,
+        description="Left/right exchanges of the arms left after repair tolerated in a clip.",
+    )
+    max_spike: float = Field(
+        0.75,
+        gt=0,
+        description="Largest one-frame jump of a seen keypoint out and back, in shoulder widths.",
+    )
+    max_frozen_fraction: float = Field(
+        0.1, ge=0, le=1, description="Largest share of frames where the pose is exactly repeated."
+    )
+    min_motion_range: float = Field(
+        0.035,
+        ge=0,
+        description="A clip whose every joint moves less than this (5–95 % range, rad; "
+        "0.035 rad = 2°) is static.",
+    )
+    max_facing_away_fraction: float = Field(
+        0.3,
+        ge=0,
+        le=1,
+        description="Largest share of frames in which the speaker faces away (their right "
+        "shoulder right of their left in the image; youtube-gesture-dataset: 30 %).",
+    )
+    max_sideways_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Largest share of frames in which the speaker is seen from the side (nose "
+        "outside the shoulders; youtube-gesture-dataset: 50 %).",
+    )
+    min_shoulder_width: float = Field(
+        0.03,
+        ge=0,
+        description="Smallest median shoulder width, as a share of the frame height: smaller "
+        "speakers are too far for a reliable pose (youtube-gesture-dataset: 100 px of 720).",
+    )
+    min_image_change: float = Field(
+        0.05,
+        ge=0,
+        description="Smallest median change between frames (the shot detector's HSV content "
+        "value): below it the video is a still picture.",
+    )
+    max_people: float = Field(
+        5.0,
+        gt=0,
+        description="Most people in the frame on average (youtube-gesture-dataset: 5).",
+    )
+    max_trimmed_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Largest share of a take's video that trimming audio and video to their "
+        "common span may drop (a .wav much shorter than its video is often the wrong file); "
+        "above it the build warns and the take's clips are rejected.",
+    )
+    max_jerk_raw: float | None = Field(
+        None,
+        gt=0,
+        description="Absolute ceiling on the raw jerk J (Eq. 3.21, rad² s⁻⁵); none = only the "
+        "dataset-relative check.",
+    )
+    outlier_metrics: list[str] = Field(
+        ["jerk_raw", "jerk"],
+        description="Metrics checked for dataset-relative outliers (robust z of their log).",
+    )
+    outlier_z: float = Field(3.5, gt=0, description="Robust z-score above which a clip stands out.")
+    outlier_min_ratio: float = Field(
+        3.0, ge=1, description="…and its metric must also exceed this × the dataset median."
+    )
+    outlier_min_clips: int = Field(
+        5, ge=3, description="Fewer clips than this: no dataset-relative check."
+    )

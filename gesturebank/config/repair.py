@@ -1,0 +1,60 @@
+"""Options of the repair stage (`[repair]`): the main speaker's keypoints mended before they are
+lifted and judged.
+"""
+
+from __future__ import annotations
+
+from pydantic import Field
+
+from gesturebank.config.section import Section
+
+
+class RepairConfig(Section):
+    """Repair of the main speaker's keypoints before they are judged (config section `repair`)."""
+
+    hampel_half_window_s: float = Field(
+        0.1,
+        gt=0,
+        description="Half the Hampel filter window, seconds: round(0.1 s × fps) frames each side, "
+        "i.e. the 7-frame window of Pose2Sim and Sports2D at 30 fps, scaled with the frame rate.",
+    )
+    hampel_z: float = Field(
+        2.0,
+        gt=0,
+        description="A keypoint whose modified z-score 0.6745·|x − median| / MAD in its window "
+        "exceeds this is an outlier, replaced from its neighbours (Pose2Sim, Sports2D: 2).",
+    )
+    hampel_floor: float = Field(
+        0.02,
+        ge=0,
+        description="Smallest MAD, in shoulder widths, so that a keypoint held still is not "
+        "'repaired' for sub-pixel noise.",
+    )
+    max_gap_s: float = Field(
+        0.25,
+        ge=0,
+        description="Gaps in a keypoint up to this long (seconds) are interpolated; longer ones "
+        "stay missing (masked).",
+    )
+    swaps: bool = Field(
+        True,
+        description="Repair left/right swaps of monocular video: runs of frames whose left and "
+        "right labels disagree with their neighbours are flipped back.",
+    )
+    max_swap_s: float = Field(
+        1.0, gt=0, description="Longest run of swapped frames that is flipped back, seconds."
+    )
+    visible_confidence: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Keypoints less confident than this (BlazePose visibility) count as unseen: "
+        "the angles that need them are masked (NaN) there.",
+    )
+    max_spike: float = Field(
+        0.75,
+        gt=0,
+        description="A keypoint that still jumps out and back by more than this in one frame "
+        "after repair (in 2D or in the lifted 3D), in shoulder widths, is unseen in that frame "
+        "(masked); qc.max_spike judges what is left.",
+    )
