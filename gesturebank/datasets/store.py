@@ -333,6 +333,22 @@ def clip_npz(out: Path, take_id: str, clip_id: str) -> Path:
 
 
 # --------------------------------------------------------------------------------------------------
+# Reading a clip (the one reader of a clip's .npz)
+
+
+def read_clip_arrays(path: Path) -> dict[str, np.ndarray]:
+    """All arrays of the clip file `path` as plain numpy (never unpickled); numpy's OSError or
+    ValueError when it cannot be read (each caller words its own message)."""
+    with np.load(path, allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
+
+
+def read_clip(path: Path) -> Clip:
+    """The clip in the file `path`, typed (`read_clip_arrays`, then `Clip.from_arrays`)."""
+    return Clip.from_arrays(read_clip_arrays(path))
+
+
+# --------------------------------------------------------------------------------------------------
 # Writing
 
 
@@ -511,8 +527,7 @@ class Dataset:
             raise InputError(f"{self.path}: no clip {clip_id!r} in the manifest")
         path = clip_npz(self.path, self._take_of[clip_id], clip_id)
         try:
-            with np.load(path, allow_pickle=False) as data:
-                return {k: data[k] for k in data.files}
+            return read_clip_arrays(path)
         except (OSError, ValueError) as exc:
             raise InputError(f"{path}: cannot read clip ({exc})") from None
 

@@ -369,8 +369,7 @@ def _load_clip(out: Path, take_id: str, clip_id: str) -> Clip | str:
     """The clip's arrays, or why they cannot be read."""
     path = store.clip_npz(out, take_id, clip_id)
     try:
-        with np.load(path, allow_pickle=False) as data:
-            clip = Clip.from_arrays({k: data[k] for k in data.files})
+        clip = store.read_clip(path)
     except (OSError, ValueError, InputError) as exc:
         return f"cannot read {path.name}: {exc}"
     return clip if len(clip.times) and len(clip.timestamps) else f"{path.name} has no frames"
