@@ -79,7 +79,7 @@ def build(root: Path, quick: bool) -> Path:
         (videos / "talking").mkdir(parents=True, exist_ok=True)
         (videos / "talking" / path.name).symlink_to(path)
     out = root / "dataset"
-    build_dataset(discover_takes(videos), videos, out, Config(), dashboard=False)
+    build_dataset(discover_takes(videos), videos, out, Config())
     return out
 
 

@@ -40,6 +40,7 @@ from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import make_footage
 from gesturebank.qc.metrics import frozen_fraction, spike_sizes, swap_events
+from gesturebank.report import dashboard_after_build
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.skeletons import to_coco17
 
@@ -110,7 +111,7 @@ def main() -> None:
     videos = footage(root, args.quick)
     out = root / "clips-out"
     start = time.perf_counter()
-    summary = build_dataset(discover_takes(videos), videos, out, Config())
+    summary = dashboard_after_build(build_dataset(discover_takes(videos), videos, out, Config()))
     build_s = time.perf_counter() - start
     old = round1(videos, root)
     kept = kept_checks(out)

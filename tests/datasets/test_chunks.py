@@ -39,7 +39,6 @@ def _build(
         videos,
         out,
         config,
-        dashboard=False,
         on_chunk=lambda *call: (chunks if chunks is not None else []).append(call),
     )
     assert not summary.failed, summary.failed
@@ -112,7 +111,7 @@ def test_a_rerun_reads_the_chunks_back(lecture: Path, chunked: Path, tmp_path: P
             "lifter": {"name": "geometric"},
         }
     )
-    summary = build_dataset(discover_takes(lecture), lecture, out, config, dashboard=False)
+    summary = build_dataset(discover_takes(lecture), lecture, out, config)
     assert summary.count("built") == 1 and not summary.failed
     after = {p: p.stat().st_mtime_ns for p in (out / store.CHUNKS_DIR).glob("*.npz")}
     assert after == before

@@ -31,7 +31,7 @@ def build(videos: dict[str, Path], out: Path, **config: object) -> Path:
         (folder / name).mkdir(parents=True)
         (folder / name / path.name).symlink_to(path)
     summary = build_dataset(
-        discover_takes(folder), folder, out / "ds", Config.model_validate(config), dashboard=False
+        discover_takes(folder), folder, out / "ds", Config.model_validate(config)
     )
     assert not summary.failed, summary.failed
     return out / "ds"

@@ -19,7 +19,8 @@ from gesturebank.datasets import store
 from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
-from gesturebank.qc.dashboard import reason_kind, write_dashboard
+from gesturebank.report import write_dashboard
+from gesturebank.report.data import reason_kind
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.skeletons import COCO17, COCO17_BONES
 from gesturebank.testing.browser import CHROMIUM, Browser, Tab
