@@ -89,14 +89,14 @@ def kept_checks(out: Path) -> dict[str, tuple[float, float, float]]:
     ds = open_dataset(out)
     found: dict[str, list[tuple[float, float, float]]] = {}
     for row in ds.clips("accepted"):
-        clip = ds.load(row["clip_id"])
+        clip = ds.load(row.clip.clip_id)
         xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(float)
         seen = np.where(clip.valid[..., None], xy, np.nan)
         joints = np.where(clip.valid[..., None], clip.pose3d.joints, np.nan)
         spike = max(float(np.nanmax(spike_sizes(p), initial=0.0)) for p in (seen, joints))
         swaps = float(max(swap_events(seen), swap_events(joints)))
         frozen = max(frozen_fraction(seen), frozen_fraction(joints))
-        found.setdefault(row["take_id"], []).append((spike, swaps, frozen))
+        found.setdefault(row.take.take_id, []).append((spike, swaps, frozen))
     return {t: tuple(max(v[i] for v in vals) for i in range(3)) for t, vals in found.items()}  # type: ignore[misc]
 
 

@@ -73,10 +73,10 @@ def test_chunked_on_two_workers_gives_the_clips_of_one_pass(
     # three chunks of 20 s were detected (cached in OUT_DIR), the cut at 30 s inside the second
     assert len(list((chunked / store.CHUNKS_DIR).glob("*.npz"))) == 3
     assert not (tmp_path / "one" / store.CHUNKS_DIR).exists()
-    rows = {r["clip_id"]: r for r in one.rows()}
-    assert rows.keys() == {r["clip_id"] for r in two.rows()}
+    rows = {r.clip.clip_id: r for r in one.rows()}
+    assert rows.keys() == {r.clip.clip_id for r in two.rows()}
     assert one.clip_ids() and one.clip_ids() == two.clip_ids()
-    spans = sorted((r["start_s"], r["end_s"]) for r in rows.values() if r["kind"] == "clip")
+    spans = sorted((r.clip.start_s, r.clip.end_s) for r in rows.values() if r.clip.kind == "clip")
     assert any(a < 20.0 < b for a, b in spans) or any(a < 40.0 < b for a, b in spans)
     diffs = []
     for clip_id in one.clip_ids(None):

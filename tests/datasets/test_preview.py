@@ -53,8 +53,8 @@ def test_preview_shows_person_and_robot_on_one_clock_with_audio(
 ) -> None:
     ds = datasets.open(demo_dataset)
     row = ds.clips("accepted")[0]
-    clip = ds.load(row["clip_id"])
-    out = _write(demo_dataset, row["clip_id"], tmp_path / "clip.mp4")
+    clip = ds.load(row.clip.clip_id)
+    out = _write(demo_dataset, row.clip.clip_id, tmp_path / "clip.mp4")
 
     fps = RENDER.frame_rate
     codes, drawn = [], []
