@@ -500,15 +500,15 @@ class ManifestRow:
     clip: ClipRecord
 
     def __getitem__(self, key: str) -> Any:
-        """The manifest column `key`, as rows were dicts before (deprecated: use `.clip` and
+        """The manifest column `key`, as when rows were dicts (deprecated: read `.clip` or
         `.take`)."""
-        warnings.warn(
-            f"row[{key!r}]: manifest rows are records now, read row.clip.{key} or row.take.{key}",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        for record in (self.clip, self.take):
+        for name, record in (("clip", self.clip), ("take", self.take)):
             if key in {f.name for f in fields(record)}:
+                warnings.warn(
+                    f"row[{key!r}] is deprecated: manifest rows are records, read row.{name}.{key}",
+                    DeprecationWarning,
+                    stacklevel=2,
+                )
                 return getattr(record, key)
         raise KeyError(key)
 
