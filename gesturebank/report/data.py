@@ -123,6 +123,10 @@ def kept_share(record: store.TakeRecord) -> float:
     return record.usable_s / record.visible_s if record.visible_s > 0 else 0.0
 
 
+# --------------------------------------------------------------------------------------------------
+# Index: data
+
+
 def jerk_data(records: Sequence[store.TakeRecord], joints: Sequence[str]) -> dict[str, Any]:
     """Jerk per clip (Fig. 4.7) and mean jerk per joint over the accepted clips (Fig. 4.9)."""
     clips = [(r, c) for r in records for c in r.data_clips]
