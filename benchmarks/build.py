@@ -38,6 +38,7 @@ from rich.table import Table
 from gesturebank.config import Config
 from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
+from gesturebank.report import dashboard_after_build
 from gesturebank.samples import default_samples_dir, fetch_samples
 
 
@@ -72,6 +73,7 @@ def run(videos: Path, root: Path, workers: int, threads: int | None = None) -> d
         config,
         on_result=lambda _: done.append(time.perf_counter()),
     )
+    summary = dashboard_after_build(summary)  # as build-dataset does
     total = time.perf_counter() - start
     wall = done[-1] - start  # until the last take is written; QC and the dashboard follow
     built = [r for r in summary.results if r.outcome == "built"]

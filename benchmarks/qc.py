@@ -79,7 +79,7 @@ def build(root: Path, quick: bool) -> Path:
         (videos / "talking").mkdir(parents=True, exist_ok=True)
         (videos / "talking" / path.name).symlink_to(path)
     out = root / "dataset"
-    build_dataset(discover_takes(videos), videos, out, Config(), dashboard=False)
+    build_dataset(discover_takes(videos), videos, out, Config())
     return out
 
 
@@ -92,21 +92,21 @@ def clean_variants(
     clean: list[tuple[str, Clip]] = []
     excluded: Counter[str] = Counter()
     for row in ds.clips(None):
-        clip = ds.load(row["clip_id"])
-        if row["take_id"] in defective:
+        clip = ds.load(row.clip.clip_id)
+        if row.take.take_id in defective:
             excluded["listed as defective"] += 1
             continue
         if clip.valid[:, _SEEN].all(axis=1).mean() < MIN_SEEN:
             excluded[f"head or an arm unseen in > {1 - MIN_SEEN:.0%} of frames"] += 1
             continue
-        clean.append((row["clip_id"], clip))
+        clean.append((row.clip.clip_id, clip))
         for t0 in np.arange(0.0, clip.times[-1] - win + 1e-9, stride):
             part = window(clip, t0, t0 + win)
             if not part.valid[:, _SEEN].all():
                 excluded["windows: head or an arm unseen somewhere"] += 1
                 continue
-            clean.append((f"{row['clip_id']}@{t0:.1f}", part))
-            clean.append((f"{row['clip_id']}@{t0:.1f}/mirror", rederive(mirror(part))))
+            clean.append((f"{row.clip.clip_id}@{t0:.1f}", part))
+            clean.append((f"{row.clip.clip_id}@{t0:.1f}/mirror", rederive(mirror(part))))
     return clean, excluded
 
 

@@ -64,7 +64,6 @@ def run(videos: Path, out: Path, settings: dict[str, object]) -> dict[str, float
         videos,
         out,
         config,
-        dashboard=False,
         on_result=lambda _: done.append(time.perf_counter()),
     )
     assert not summary.failed, summary.failed

@@ -40,6 +40,7 @@ from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import make_footage
 from gesturebank.qc.metrics import frozen_fraction, spike_sizes, swap_events
+from gesturebank.report import dashboard_after_build
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.skeletons import to_coco17
 
@@ -88,14 +89,14 @@ def kept_checks(out: Path) -> dict[str, tuple[float, float, float]]:
     ds = open_dataset(out)
     found: dict[str, list[tuple[float, float, float]]] = {}
     for row in ds.clips("accepted"):
-        clip = ds.load(row["clip_id"])
+        clip = ds.load(row.clip.clip_id)
         xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(float)
         seen = np.where(clip.valid[..., None], xy, np.nan)
         joints = np.where(clip.valid[..., None], clip.pose3d.joints, np.nan)
         spike = max(float(np.nanmax(spike_sizes(p), initial=0.0)) for p in (seen, joints))
         swaps = float(max(swap_events(seen), swap_events(joints)))
         frozen = max(frozen_fraction(seen), frozen_fraction(joints))
-        found.setdefault(row["take_id"], []).append((spike, swaps, frozen))
+        found.setdefault(row.take.take_id, []).append((spike, swaps, frozen))
     return {t: tuple(max(v[i] for v in vals) for i in range(3)) for t, vals in found.items()}  # type: ignore[misc]
 
 
@@ -110,7 +111,7 @@ def main() -> None:
     videos = footage(root, args.quick)
     out = root / "clips-out"
     start = time.perf_counter()
-    summary = build_dataset(discover_takes(videos), videos, out, Config())
+    summary = dashboard_after_build(build_dataset(discover_takes(videos), videos, out, Config()))
     build_s = time.perf_counter() - start
     old = round1(videos, root)
     kept = kept_checks(out)

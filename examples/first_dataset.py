@@ -65,26 +65,26 @@ def main() -> None:
     rows = ds.clips("accepted") or ds.clips(None)
     print(f"{ds.path}: {len(ds)} clips, {ds.info.usable_s:.1f} s accepted")
     for row in rows:
-        print(f"  {row['clip_id']}  subject {row['subject']}  {row['duration_s']:.1f} s")
+        print(f"  {row.clip.clip_id}  subject {row.take.subject}  {row.clip.duration_s:.1f} s")
     row = rows[0]
 
     # 2. plot one clip
-    png = plot_clip(ds, row["clip_id"], args.out / "clip.png")
+    png = plot_clip(ds, row.clip.clip_id, args.out / "clip.png")
     print(f"plot: {png}")
 
     # 3. train on the speaker's own recordings (subject-dependent split), a few epochs
     config = TrainConfig.model_validate({"mlp": {"max_epochs": args.epochs}})
     model_dir = args.out / "model"
     result = train_command(
-        args.dataset, "mlp", "sd", subject=row["subject"], out_dir=model_dir, config=config,
+        args.dataset, "mlp", "sd", subject=row.take.subject, out_dir=model_dir, config=config,
         quiet=True,
     )  # fmt: skip
     best = f"best validation loss {result.best_val_loss:.4f}"
     print(f"model: {model_dir} ({result.epochs} epochs, {best})")
 
     # 4. synthesise: speech → 11 angles at 100 Hz, normalised with the speaker's audio stats
-    speech = args.speech or Path(ds.info.videos_dir) / row["source"]
-    angles = synthesize_command(model_dir, speech, args.out / "angles.csv", znorm=row["subject"])
+    speech = args.speech or Path(ds.info.videos_dir) / row.take.source
+    angles = synthesize_command(model_dir, speech, args.out / "angles.csv", znorm=row.take.subject)
     print(f"angles: {args.out / 'angles.csv'} ({len(angles)} frames for {speech.name})")
 
 

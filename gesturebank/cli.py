@@ -302,6 +302,7 @@ def build_dataset(
         ensure_writable(out_dir)
     from gesturebank.datasets.build import build_dataset as build
     from gesturebank.datasets.progress import BuildProgress
+    from gesturebank.report import dashboard_after_build
 
     console = Console(quiet=quiet)
     with BuildProgress(takes, console) as progress, user_errors():
@@ -314,6 +315,7 @@ def build_dataset(
             on_result=progress.result,
             on_chunk=progress.chunk,
         )
+        summary = dashboard_after_build(summary)
     _print_summary(console, summary)
     if summary.error:
         typer.echo(f"error: {summary.error}", err=True)
@@ -755,7 +757,7 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
     from gesturebank.datasets.pipeline import CONTENT_SECTIONS
     from gesturebank.datasets.refresh import refresh
     from gesturebank.fileio import output_errors
-    from gesturebank.qc.dashboard import write_dashboard
+    from gesturebank.report import write_dashboard
 
     with user_errors():
         built = store.read_dataset_json(out_dir).config

@@ -35,13 +35,16 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 
 @pytest.fixture(scope="session")
 def demo_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A dataset built once per session from the real talking demo clips (local pool)."""
+    """A dataset built once per session from the real talking demo clips (local pool), with its
+    QC dashboard."""
     from gesturebank.config import Config
     from gesturebank.datasets.build import build_dataset
     from gesturebank.datasets.takes import discover_takes
+    from gesturebank.report import write_dashboard
 
     videos = samples / "talking"
     out = tmp_path_factory.mktemp("demo-dataset")
     summary = build_dataset(discover_takes(videos), videos, out, Config())
     assert not summary.failed, summary.failed
+    write_dashboard(out)  # as build-dataset does after the build
     return out

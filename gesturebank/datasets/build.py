@@ -5,7 +5,7 @@ Each take is built by `datasets.pipeline.build_take` (extract → repair → cli
 dataset folder (`datasets.store`) as soon as it is done. A take that fails anywhere is recorded
 as `failed` with its one-line reason and the build goes on. When every take is done,
 `datasets.refresh` judges all clips together and writes the manifest, dataset.json and the
-splits; then the dashboard is written.
+splits. The QC dashboard (`report`) is written by the caller: the CLI, after the build.
 
 One build at a time holds OUT_DIR's lock (`datasets.lock`); pool workers die with the build
 (`datasets.lifeline`); SIGTERM stops it as Ctrl-C does. A take that cannot be written (a full
@@ -75,7 +75,7 @@ class BuildSummary:
     notes: list[str] = field(default_factory=list)
     interrupted: int = 0  # the signal that stopped the build (SIGINT, SIGTERM); 0: it ran through
     error: str = ""  # one line when the dataset's shared files could not be written (full disk)
-    dashboard: Path | None = None
+    dashboard: Path | None = None  # the QC dashboard's index, when the caller wrote it
     takes: list[store.TakeRecord] = field(default_factory=list)  # final records (after QC)
 
     def count(self, outcome: Outcome) -> int:
@@ -95,6 +95,15 @@ class BuildSummary:
     @property
     def visible_s(self) -> float:
         return sum(r.visible_s for r in self.takes if not r.failed)
+
+
+def cannot_write(out: Path, exc: OSError) -> str:
+    """The one line a build ends with when a file shared by the whole dataset (the manifest,
+    dataset.json, the dashboard) cannot be written."""
+    return (
+        f"{exc.filename or out}: cannot write ({exc.strerror or exc}); finished takes are "
+        "kept: free some space and run the same command again"
+    )
 
 
 def with_threads(config: Config, workers: int, cores: int) -> Config:
@@ -214,7 +223,6 @@ def build_dataset(
     config: Config,
     *,
     force: bool = False,
-    dashboard: bool = True,
     on_result: Callable[[TakeResult], None] | None = None,
     on_chunk: Callable[[str, int, int], None] | None = None,
 ) -> BuildSummary:
@@ -237,7 +245,6 @@ def build_dataset(
             out,
             config,
             force=force,
-            dashboard=dashboard,
             on_result=on_result,
             on_chunk=on_chunk,
         )
@@ -250,7 +257,6 @@ def _build(
     config: Config,
     *,
     force: bool,
-    dashboard: bool,
     on_result: Callable[[TakeResult], None] | None,
     on_chunk: Callable[[str, int, int], None] | None,
 ) -> BuildSummary:
@@ -306,14 +312,7 @@ def _build(
     ids = [t.take_id for t in takes]
     try:
         summary.notes = refresh(out, config, take_ids=ids, videos_dir=videos_dir)
-        if dashboard:
-            from gesturebank.qc.dashboard import write_dashboard
-
-            summary.dashboard = write_dashboard(out)
     except OSError as exc:  # a full disk: the finished takes are kept, a re-run completes it
-        summary.error = (
-            f"{exc.filename or out}: cannot write ({exc.strerror or exc}); finished takes are "
-            "kept: free some space and run the same command again"
-        )
+        summary.error = cannot_write(out, exc)
     summary.takes = store.take_records(out, ids)
     return summary

@@ -14,13 +14,12 @@ import os
 import wave
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from rich import box
 from rich.table import Table
 
-from gesturebank.datasets.store import STATUSES, Dataset, Status
+from gesturebank.datasets.store import STATUSES, Dataset, ManifestRow, Status
 from gesturebank.errors import InputError
 
 # The robot's body parts, by the joints that move them (`pepper.JOINTS` names).
@@ -70,23 +69,23 @@ class ClipRow:
         )
 
 
-def _row(r: dict[str, Any]) -> ClipRow:
-    joints = r["masked"]
+def _row(r: ManifestRow) -> ClipRow:
+    joints = r.clip.masked
     masked = {
         part: share
         for part, names in PARTS.items()
         if (share := max(float(joints.get(j, 0.0)) for j in names)) > 0
     }
     return ClipRow(
-        r["clip_id"],
-        r["take_id"],
-        r["subject"],
-        r["source"],
-        float(r["start_s"]),
-        float(r["end_s"]),
-        float(r["duration_s"]),
-        r["qc_status"],
-        tuple(r["qc_reasons"] or ()),
+        r.clip.clip_id,
+        r.take.take_id,
+        r.take.subject,
+        r.take.source,
+        r.clip.start_s,
+        r.clip.end_s,
+        r.clip.duration_s,
+        r.clip.qc_status,
+        r.clip.qc_reasons,
         masked,
     )
 

@@ -60,10 +60,12 @@ def take_clips(dataset: PathLike, take_id: str) -> list[str]:
     ds = datasets.open(dataset)
     rows = ds.clips(None)
     ids = [
-        r["clip_id"] for r in sorted(rows, key=lambda r: r["start_s"]) if r["take_id"] == take_id
+        r.clip.clip_id
+        for r in sorted(rows, key=lambda r: r.clip.start_s)
+        if r.take.take_id == take_id
     ]
     if not ids:
-        takes = sorted({r["take_id"] for r in ds.rows()})
+        takes = sorted({r.take.take_id for r in ds.rows()})
         raise InputError(
             f"{dataset}: no take {take_id!r} with clips{suggest(take_id, takes, what='take')}"
         )
@@ -86,15 +88,14 @@ def clip_source(dataset: PathLike, clip_id: str) -> ClipSource:
     from gesturebank import datasets
 
     ds = datasets.open(dataset)
-    row = next((r for r in ds.clips(None) if r["clip_id"] == clip_id), None)
+    row = next((r for r in ds.clips(None) if r.clip.clip_id == clip_id), None)
     if row is None:
         known = ds.clip_ids(None)
         raise InputError(f"{dataset}: no clip {clip_id!r}{suggest(clip_id, known)}")
-    video = Path(ds.info.videos_dir) / row["source"]  # sources are relative to the videos folder
+    video = Path(ds.info.videos_dir) / row.take.source  # sources: relative to the videos folder
     if not video.is_file():
         raise InputError(f"{video}: the source video of clip {clip_id} is gone")
-    reasons = tuple(row["qc_reasons"] or ())
-    return ClipSource(ds.load(clip_id), video, row["qc_status"], reasons)
+    return ClipSource(ds.load(clip_id), video, row.clip.qc_status, row.clip.qc_reasons)
 
 
 # --------------------------------------------------------------------------------------------------

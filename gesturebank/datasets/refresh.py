@@ -35,7 +35,6 @@ def _remeasure(
     """The record with every clip measured with the current settings (`recheck`: every clip
     measured again from its arrays, so the invariants of `qc.invariants` are applied to what
     the folder holds now)."""
-    from gesturebank.datasets.clip import Clip
     from gesturebank.qc.metrics import clip_metrics
     from gesturebank.robot import pepper
 
@@ -46,9 +45,7 @@ def _remeasure(
     clips = []
     for c in record.clips:
         if c.kind == "clip" and (recheck or c.measured != digest):
-            path = store.clip_npz(out, record.take_id, c.clip_id)
-            with np.load(path, allow_pickle=False) as data:
-                clip = Clip.from_arrays({k: data[k] for k in data.files})
+            clip = store.read_clip(store.clip_npz(out, record.take_id, c.clip_id))
             # metrics of the whole take (trimmed_fraction) are not in the clip: kept as measured
             metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc)}
             c = replace(c, metrics=metrics, measured=digest)

@@ -24,8 +24,9 @@ import json
 import os
 import shutil
 import tempfile
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -333,6 +334,22 @@ def clip_npz(out: Path, take_id: str, clip_id: str) -> Path:
 
 
 # --------------------------------------------------------------------------------------------------
+# Reading a clip (the one reader of a clip's .npz)
+
+
+def read_clip_arrays(path: Path) -> dict[str, np.ndarray]:
+    """All arrays of the clip file `path` as plain numpy (never unpickled); numpy's OSError or
+    ValueError when it cannot be read (each caller words its own message)."""
+    with np.load(path, allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
+
+
+def read_clip(path: Path) -> Clip:
+    """The clip in the file `path`, typed (`read_clip_arrays`, then `Clip.from_arrays`)."""
+    return Clip.from_arrays(read_clip_arrays(path))
+
+
+# --------------------------------------------------------------------------------------------------
 # Writing
 
 
@@ -470,6 +487,63 @@ def write_manifest(out: Path, takes: Sequence[TakeRecord]) -> pa.Table:
 # The reader
 
 
+@dataclass(frozen=True)
+class ManifestRow:
+    """One row of the manifest: a clip (or a span that gave none) and the take it belongs to.
+
+    The take is what the manifest and dataset.json hold of it: everything but its tracking
+    report, audio sums and preview times (`read_record` reads those), with `clips` the take's
+    rows (none for a failed take, whose one row is a span with the reason it failed).
+    """
+
+    take: TakeRecord
+    clip: ClipRecord
+
+    def __getitem__(self, key: str) -> Any:
+        """The manifest column `key`, as when rows were dicts (deprecated: read `.clip` or
+        `.take`)."""
+        for name, record in (("clip", self.clip), ("take", self.take)):
+            if key in {f.name for f in fields(record)}:
+                warnings.warn(
+                    f"row[{key!r}] is deprecated: manifest rows are records, read row.{name}.{key}",
+                    DeprecationWarning,
+                    stacklevel=2,
+                )
+                return getattr(record, key)
+        raise KeyError(key)
+
+
+def _manifest_rows(table: pa.Table, info: DatasetInfo) -> list[ManifestRow]:
+    """The manifest's rows as records, in the manifest's order (a take's rows are together)."""
+    by_take: dict[str, list[tuple[dict[str, Any], ClipRecord]]] = {}
+    for r in table.to_pylist():
+        for key in ("metrics", "repairs", "masked"):
+            r[key] = dict(r[key] or [])
+        r["qc_reasons"] = tuple(r["qc_reasons"] or ())
+        by_take.setdefault(r["take_id"], []).append((r, ClipRecord.from_json_dict(r)))
+    rows = []
+    for take_id, parts in by_take.items():
+        first = parts[0][0]
+        summary = info.takes.get(take_id)
+        failed = summary is not None and summary.status == "failed"
+        take = TakeRecord(
+            take_id=take_id,
+            subject=first["subject"],
+            source=first["source"],
+            config_digest=first["config_digest"],
+            failed="; ".join(parts[0][1].qc_reasons) if failed else "",
+            detector=first["detector"],
+            lifter=first["lifter"],
+            video_fps=float(first["video_fps"]),
+            seconds=summary.seconds if summary else 0.0,
+            visible_s=summary.visible_s if summary else 0.0,
+            clips=() if failed else tuple(c for _, c in parts),
+            traits=dict(first["traits"] or []),
+        )
+        rows += [ManifestRow(take, c) for _, c in parts]
+    return rows
+
+
 class Dataset:
     """A built dataset folder, read lazily: a clip's arrays are loaded when asked for."""
 
@@ -480,30 +554,29 @@ class Dataset:
             self.manifest: pa.Table = pq.read_table(self.path / MANIFEST)
         except (OSError, pa.ArrowInvalid) as exc:
             raise InputError(f"{self.path / MANIFEST}: cannot read ({exc})") from None
-        self._rows = self.manifest.to_pylist()
-        for r in self._rows:
-            for key in ("metrics", "repairs", "masked", "traits"):
-                r[key] = dict(r[key] or [])
-        self._take_of = {r["clip_id"]: r["take_id"] for r in self._rows if r["kind"] == "clip"}
+        self._rows = _manifest_rows(self.manifest, self.info)
+        self._take_of = {
+            r.clip.clip_id: r.take.take_id for r in self._rows if r.clip.kind == "clip"
+        }
 
     def __len__(self) -> int:
         """Clips with arrays (accepted or rejected)."""
         return len(self._take_of)
 
-    def rows(self) -> list[dict[str, Any]]:
-        """Every manifest row (clips and spans) as a dict; maps as dicts."""
-        return [dict(r) for r in self._rows]
+    def rows(self) -> list[ManifestRow]:
+        """Every manifest row (clips and spans), each a clip record with its take's."""
+        return list(self._rows)
 
-    def clips(self, status: Status | None = "accepted") -> list[dict[str, Any]]:
+    def clips(self, status: Status | None = "accepted") -> list[ManifestRow]:
         """Manifest rows of the clips with arrays with this QC status (any when None)."""
         return [
-            dict(r)
+            r
             for r in self._rows
-            if r["kind"] == "clip" and (status is None or r["qc_status"] == status)
+            if r.clip.kind == "clip" and (status is None or r.clip.qc_status == status)
         ]
 
     def clip_ids(self, status: Status | None = "accepted") -> list[str]:
-        return [r["clip_id"] for r in self.clips(status)]
+        return [r.clip.clip_id for r in self.clips(status)]
 
     def load_arrays(self, clip_id: str) -> dict[str, np.ndarray]:
         """All arrays of one clip as plain numpy (never unpickled)."""
@@ -511,8 +584,7 @@ class Dataset:
             raise InputError(f"{self.path}: no clip {clip_id!r} in the manifest")
         path = clip_npz(self.path, self._take_of[clip_id], clip_id)
         try:
-            with np.load(path, allow_pickle=False) as data:
-                return {k: data[k] for k in data.files}
+            return read_clip_arrays(path)
         except (OSError, ValueError) as exc:
             raise InputError(f"{path}: cannot read clip ({exc})") from None
 
@@ -520,7 +592,7 @@ class Dataset:
         """One clip, typed."""
         return Clip.from_arrays(self.load_arrays(clip_id))
 
-    def __iter__(self) -> Iterator[tuple[dict[str, Any], Clip]]:
+    def __iter__(self) -> Iterator[tuple[ManifestRow, Clip]]:
         """(manifest row, Clip) of every clip with arrays, loaded one at a time."""
         for row in self.clips(None):
-            yield row, self.load(row["clip_id"])
+            yield row, self.load(row.clip.clip_id)

@@ -76,7 +76,7 @@ def split_items(
     if part not in ("train", "val", "test"):
         raise InputError(f"split part must be train, val or test, got {part!r}")
     folder = dataset.path / SPLITS_DIR
-    n_frames = {r["clip_id"]: int(r["n_frames"]) for r in dataset.clips(None)}
+    n_frames = {r.clip.clip_id: r.clip.n_frames for r in dataset.clips(None)}
     if variant == "si":
         if fold is None:
             raise InputError("a subject-independent split needs a fold number")
@@ -103,7 +103,7 @@ def _missing_fold(dataset: Dataset, fold: int) -> InputError:
     if folds:
         return InputError(f"{folder}: no fold {fold}; the dataset has folds {folds[0]}–{folds[-1]}")
     try:  # the rule that decided not to write them, asked again
-        subject_independent(dataset.rows(), config=dataset.info.config.splits)
+        subject_independent(dataset.manifest.to_pylist(), config=dataset.info.config.splits)
     except InputError as exc:
         return InputError(f"{dataset.path}: {exc}; train with --variant sd")
     return InputError(f"{folder}: no subject-independent folds (rewrite them: gesturebank qc)")
@@ -131,7 +131,7 @@ def znorm_stats(dataset: Dataset, subject: str) -> tuple[np.ndarray, np.ndarray]
 
 def load_segments(dataset: Dataset, items: Sequence[SplitItem]) -> list[Segment]:
     """Load the items' frames, z-normalise audio per subject, build targets and masks."""
-    subjects = {r["clip_id"]: r["subject"] for r in dataset.clips(None)}
+    subjects = {r.clip.clip_id: r.take.subject for r in dataset.clips(None)}
     stats: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     cache: dict[str, dict[str, np.ndarray]] = {}
     out = []

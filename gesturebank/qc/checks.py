@@ -2,8 +2,8 @@
 
 Pure functions over metrics (`qc.metrics.clip_metrics` keys). A clip is `rejected` when any
 check fails; each failed check adds one reason with its numbers (degrees and seconds in the
-text). Rejected clips stay in the dataset, flagged, so they can be looked at (`qc.dashboard`) and
-re-admitted by changing the thresholds.
+text). Rejected clips stay in the dataset, flagged, so they can be looked at (the dashboard,
+`report`) and re-admitted by changing the thresholds.
 
 What is stored is judged as well as what was measured: the processed angles' steps (the speed
 invariant, `qc.invariants`), their jerk (the jerk invariant and the relative check on `jerk`)

@@ -39,7 +39,6 @@ def _build(
         videos,
         out,
         config,
-        dashboard=False,
         on_chunk=lambda *call: (chunks if chunks is not None else []).append(call),
     )
     assert not summary.failed, summary.failed
@@ -74,10 +73,10 @@ def test_chunked_on_two_workers_gives_the_clips_of_one_pass(
     # three chunks of 20 s were detected (cached in OUT_DIR), the cut at 30 s inside the second
     assert len(list((chunked / store.CHUNKS_DIR).glob("*.npz"))) == 3
     assert not (tmp_path / "one" / store.CHUNKS_DIR).exists()
-    rows = {r["clip_id"]: r for r in one.rows()}
-    assert rows.keys() == {r["clip_id"] for r in two.rows()}
+    rows = {r.clip.clip_id: r for r in one.rows()}
+    assert rows.keys() == {r.clip.clip_id for r in two.rows()}
     assert one.clip_ids() and one.clip_ids() == two.clip_ids()
-    spans = sorted((r["start_s"], r["end_s"]) for r in rows.values() if r["kind"] == "clip")
+    spans = sorted((r.clip.start_s, r.clip.end_s) for r in rows.values() if r.clip.kind == "clip")
     assert any(a < 20.0 < b for a, b in spans) or any(a < 40.0 < b for a, b in spans)
     diffs = []
     for clip_id in one.clip_ids(None):
@@ -112,7 +111,7 @@ def test_a_rerun_reads_the_chunks_back(lecture: Path, chunked: Path, tmp_path: P
             "lifter": {"name": "geometric"},
         }
     )
-    summary = build_dataset(discover_takes(lecture), lecture, out, config, dashboard=False)
+    summary = build_dataset(discover_takes(lecture), lecture, out, config)
     assert summary.count("built") == 1 and not summary.failed
     after = {p: p.stat().st_mtime_ns for p in (out / store.CHUNKS_DIR).glob("*.npz")}
     assert after == before

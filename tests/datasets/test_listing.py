@@ -36,16 +36,16 @@ def test_clips_lists_every_clip_with_its_verdict(demo_dataset: Path) -> None:
     assert r.returncode == 0, r.stderr
     rows = {row["clip"]: row for row in _csv(r.stdout)}
     manifest = datasets.open(demo_dataset).clips(None)
-    assert set(rows) == {m["clip_id"] for m in manifest} == {KEPT, REJECTED, OUTDOOR}
+    assert set(rows) == {m.clip.clip_id for m in manifest} == {KEPT, REJECTED, OUTDOOR}
     assert rows[KEPT]["take"] == "lab__cam01_arctic" and rows[KEPT]["subject"] == "lab"
     assert rows[REJECTED]["status"] == "rejected" and "facing away" in rows[REJECTED]["reasons"]
     assert rows[KEPT]["status"] == "accepted" and rows[KEPT]["reasons"] == ""
     for m in manifest:  # span and seconds as the manifest has them
-        row = rows[m["clip_id"]]
-        assert float(row["start_s"]) == pytest.approx(m["start_s"], abs=1e-3)
-        assert float(row["end_s"]) == pytest.approx(m["end_s"], abs=1e-3)
-        assert float(row["seconds"]) == pytest.approx(m["duration_s"], abs=0.01)
-        worst_left = max(m["masked"][j] for j in m["masked"] if j.startswith("L"))
+        row = rows[m.clip.clip_id]
+        assert float(row["start_s"]) == pytest.approx(m.clip.start_s, abs=1e-3)
+        assert float(row["end_s"]) == pytest.approx(m.clip.end_s, abs=1e-3)
+        assert float(row["seconds"]) == pytest.approx(m.clip.duration_s, abs=0.01)
+        worst_left = max(m.clip.masked[j] for j in m.clip.masked if j.startswith("L"))
         assert ("left arm" in row["masked"]) == (worst_left > 0)
 
 

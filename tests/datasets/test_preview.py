@@ -53,8 +53,8 @@ def test_preview_shows_person_and_robot_on_one_clock_with_audio(
 ) -> None:
     ds = datasets.open(demo_dataset)
     row = ds.clips("accepted")[0]
-    clip = ds.load(row["clip_id"])
-    out = _write(demo_dataset, row["clip_id"], tmp_path / "clip.mp4")
+    clip = ds.load(row.clip.clip_id)
+    out = _write(demo_dataset, row.clip.clip_id, tmp_path / "clip.mp4")
 
     fps = RENDER.frame_rate
     codes, drawn = [], []
@@ -81,7 +81,7 @@ def test_preview_shows_person_and_robot_on_one_clock_with_audio(
 
     # frame k: the left half shows the source frame at or before clip time k / fps, the right
     # half the clip's 100 Hz frame at or before it — the same moment within one frame
-    source = Path(ds.info.videos_dir) / row["source"]
+    source = Path(ds.info.videos_dir) / row.take.source
     times = _source_times(source) - clip.start_s
     period = float(np.median(np.diff(times)))
     left = np.array([times[a] for a, _ in codes])

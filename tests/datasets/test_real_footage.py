@@ -13,6 +13,7 @@ from gesturebank import footage
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.build import build_dataset
+from gesturebank.datasets.store import ManifestRow
 from gesturebank.datasets.takes import discover_takes
 
 SCALE = 0.5  # the standard takes at half length: 5 s of motion each
@@ -31,7 +32,7 @@ def build(videos: dict[str, Path], out: Path, **config: object) -> Path:
         (folder / name).mkdir(parents=True)
         (folder / name / path.name).symlink_to(path)
     summary = build_dataset(
-        discover_takes(folder), folder, out / "ds", Config.model_validate(config), dashboard=False
+        discover_takes(folder), folder, out / "ds", Config.model_validate(config)
     )
     assert not summary.failed, summary.failed
     return out / "ds"
@@ -41,16 +42,18 @@ def test_30_and_60_fps_copies_get_the_same_verdicts(takes, tmp_path: Path) -> No
     """Both analysed at their own rate (no max_fps): every threshold is in seconds, shares of
     time or shoulder widths, so the verdicts and the kept seconds agree."""
     ds = open_dataset(build(takes, tmp_path, video={"max_fps": None}))
-    by_take: dict[str, list[dict]] = {}
+    by_take: dict[str, list[ManifestRow]] = {}
     for row in ds.rows():
-        by_take.setdefault(row["take_id"], []).append(row)
+        by_take.setdefault(row.take.take_id, []).append(row)
     a, b = by_take["fps30__fps30"], by_take["fps60__fps60"]
-    assert [(r["kind"], r["qc_status"]) for r in a] == [(r["kind"], r["qc_status"]) for r in b]
+    assert [(r.clip.kind, r.clip.qc_status) for r in a] == [
+        (r.clip.kind, r.clip.qc_status) for r in b
+    ]
     for ra, rb in zip(a, b, strict=True):
-        assert ra["duration_s"] == pytest.approx(rb["duration_s"], abs=0.1)
+        assert ra.clip.duration_s == pytest.approx(rb.clip.duration_s, abs=0.1)
         for key in ("jitter_fraction", "head_unknown_fraction", "arms_unknown_fraction"):
-            if key in ra["metrics"]:
-                assert ra["metrics"][key] == pytest.approx(rb["metrics"][key], abs=0.05), key
+            if key in ra.clip.metrics:
+                assert ra.clip.metrics[key] == pytest.approx(rb.clip.metrics[key], abs=0.05), key
     assert ds.info.takes["fps60__fps60"].usable_s > 0
 
 
@@ -83,10 +86,10 @@ def test_a_two_person_scene_builds_into_accepted_clips(takes, tmp_path: Path) ->
     the chosen person has their back to every camera: rejected as facing away, rightly.)"""
     ds = open_dataset(build({"crossing": takes["crossing"]}, tmp_path))
     accepted = ds.clips("accepted")
-    assert accepted, [r["qc_reasons"] for r in ds.rows()]
+    assert accepted, [r.clip.qc_reasons for r in ds.rows()]
     seen_two = False
     for row in accepted:
-        clip = ds.load(row["clip_id"])
+        clip = ds.load(row.clip.clip_id)
         seen_two |= bool(clip.n_people.max() >= 2)  # the woman was in the frame
         hips_y = clip.pose2d.keypoints[:, [23, 24], 1]  # BlazePose hips: the man stands higher
         assert np.nanmedian(hips_y) < 0.55 * clip.pose2d.image_size[1]

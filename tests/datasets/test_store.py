@@ -2,6 +2,7 @@
 dataset.json, the lazy reader — and what a user's script sees without gesturebank."""
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -134,7 +135,7 @@ def test_reader_and_schema_1_message(tmp_path: Path) -> None:
     loaded = ds.load("s1_a__c001")
     np.testing.assert_array_equal(loaded.angles, takes["s1_a"][1].angles)
     assert loaded.pose2d.skeleton == takes["s1_a"][1].pose2d.skeleton
-    assert [row["clip_id"] for row, _ in ds] == ["s1_a__c000", "s1_a__c001"]
+    assert [row.clip.clip_id for row, _ in ds] == ["s1_a__c000", "s1_a__c001"]
     with pytest.raises(InputError, match="no clip 'nope'"):
         ds.load("nope")
     (out / "dataset.json").write_text(json.dumps({"schema_version": 1}))
@@ -142,6 +143,34 @@ def test_reader_and_schema_1_message(tmp_path: Path) -> None:
         gesturebank.datasets.open(out)
     assert "schema_version 1" in str(exc.value) and "rebuild" in str(exc.value)
     assert "\n" not in str(exc.value)
+
+
+def test_rows_are_the_records_the_manifest_holds(tmp_path: Path) -> None:
+    """A manifest row is a clip's (or span's) record with its take's: as the take's JSON has
+    them, but for what the manifest does not hold (tracking, audio sums, preview times, the
+    measuring digest); a failed take is one span. Dict access still answers, deprecated."""
+    out = write_dataset(tmp_path, {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)]})
+    failed = store.TakeRecord("s2_b", "s2", "s2_b.mp4", "x", failed="no audio track", seconds=3.0)
+    store.write_record(out, failed)
+    refresh(out, Config())
+    rows = gesturebank.datasets.open(out).rows()
+    assert [(r.clip.clip_id, r.clip.kind) for r in rows] == [
+        ("s1_a__c000", "clip"),
+        ("s1_a__c001", "clip"),
+        ("s2_b", "span"),
+    ]
+    assert rows[2].clip.qc_status == "failed" and rows[2].clip.qc_reasons == ("no audio track",)
+    for row in rows:
+        record = store.read_record(out, row.take.take_id)
+        assert record is not None
+        clips = tuple(replace(c, measured="") for c in record.clips)
+        held = replace(record, tracking={}, audio={}, preview_times=(), clips=clips)
+        assert json.dumps(row.take.to_json_dict()) == json.dumps(held.to_json_dict())
+    assert rows[0].take is rows[1].take  # one record per take
+    with pytest.warns(DeprecationWarning, match=r"row.take.subject"):
+        assert rows[0]["subject"] == "s1"
+    with pytest.warns(DeprecationWarning, match=r"row.clip.n_frames"):
+        assert rows[1]["n_frames"] == rows[1].clip.n_frames > 0
 
 
 def test_open_names_the_problem(tmp_path: Path) -> None:

@@ -127,11 +127,11 @@ def test_refresh_rejudges_every_clip_and_keeps_rejected_ones(tmp_path) -> None:
     bad = rederive(corrupt(synthetic_clip(seed=0, clip_id="bad_take__c000"), "swap", 2, seed=1))
     out = write_dataset(tmp_path, {**clips, "bad_take": [bad]})
     ds = open_dataset(out)
-    rows = {r["clip_id"]: r for r in ds.clips(None)}
+    rows = {r.clip.clip_id: r for r in ds.clips(None)}
     assert len(rows) == 7  # the rejected clip stays in the dataset, flagged
-    assert rows["bad_take__c000"]["qc_status"] == "rejected"
-    assert any("left/right arms swapped" in r for r in rows["bad_take__c000"]["qc_reasons"])
-    assert "jerk_raw/HeadPitch" in rows["subj1_take__c000"]["metrics"]
+    assert rows["bad_take__c000"].clip.qc_status == "rejected"
+    assert any("left/right arms swapped" in r for r in rows["bad_take__c000"].clip.qc_reasons)
+    assert "jerk_raw/HeadPitch" in rows["subj1_take__c000"].clip.metrics
     assert ds.info.clip_counts == {"accepted": 6, "rejected": 1, "failed": 0}
     assert ds.info.takes["bad_take"].usable_s == 0 and ds.info.takes["subj1_take"].accepted == 1
     # looser thresholds re-admit it without rebuilding, and are saved in dataset.json

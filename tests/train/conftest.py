@@ -52,7 +52,7 @@ def real_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
     assert not summary.failed, summary.failed
     # QC may reject these clips; the test is about training on real data, not its quality,
     # so the SI folds are rewritten to include rejected clips.
-    records = gds.open(out).rows()
+    records = gds.open(out).manifest.to_pylist()
     for fold in subject_independent(records, config=SplitsConfig(include_rejected=True)):
         path = out / SPLITS_DIR / f"si_fold_{fold['fold']:02d}.json"
         path.write_text(json.dumps(fold, indent=1))

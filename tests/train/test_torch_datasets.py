@@ -33,7 +33,7 @@ def _segment(n: int, *, unknown: slice | None = None, seed: int = 0, tid: str = 
 
 def test_si_items_are_whole_clips_of_disjoint_subjects(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
-    subject = {r["clip_id"]: r["subject"] for r in ds.clips(None)}
+    subject = {r.clip.clip_id: r.take.subject for r in ds.clips(None)}
     parts = {p: split_items(ds, "si", p, fold=1) for p in ("train", "val", "test")}
     subjects = {p: {subject[t] for t, _, _ in items} for p, items in parts.items()}
     assert len(subjects["train"]) == 2 and len(subjects["val"]) == 1 == len(subjects["test"])

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -16,10 +17,12 @@ import pytest
 
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
+from gesturebank.datasets.build import BuildSummary
 from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
-from gesturebank.qc.dashboard import reason_kind, write_dashboard
+from gesturebank.report import dashboard_after_build, write_dashboard
+from gesturebank.report.data import reason_kind
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.skeletons import COCO17, COCO17_BONES
 from gesturebank.testing.browser import CHROMIUM, Browser, Tab
@@ -304,6 +307,24 @@ def test_each_metric_is_shown_beside_its_threshold_and_the_failed_one_marked(
     assert not any(f for f, _ in kept.values()) and kept["people"][1][3] == "✓"
     labels = [cells[0] for _, cells in kept.values()]
     assert not [x for x in labels if "_" in x], labels  # no raw key leaks
+
+
+def test_after_a_build_the_dashboard_is_written_or_says_why_not(
+    dataset: Path, tmp_path: Path
+) -> None:
+    """build-dataset's last step: the index in the summary; a build that could not write its
+    shared files gets no dashboard; one that cannot be written ends the build in one line."""
+    summary = dashboard_after_build(BuildSummary(dataset))
+    assert summary.dashboard == dataset / "qc" / "index.html" and not summary.error
+    stopped = dashboard_after_build(BuildSummary(tmp_path, error="dataset.json: disk full"))
+    assert stopped.dashboard is None and not (tmp_path / "qc").exists()
+    blocked = tmp_path / "blocked"
+    shutil.copytree(dataset, blocked)
+    shutil.rmtree(blocked / "qc")
+    (blocked / "qc").write_text("not a folder")
+    failed = dashboard_after_build(BuildSummary(blocked))
+    assert failed.dashboard is None and "cannot write" in failed.error
+    assert "finished takes are kept" in failed.error and "\n" not in failed.error
 
 
 def test_every_absolute_check_has_its_threshold_for_the_dashboard() -> None:
