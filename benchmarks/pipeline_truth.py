@@ -100,12 +100,12 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
     dataset = open_dataset(out)
     stored, pipeline_truth, unlimited = [], [], []
     for row in dataset.clips():
-        clip = dataset.load(row["clip_id"])
+        clip = dataset.load(row.clip.clip_id)
         limited_truth, free_truth = truths(truth, clip.times + clip.start_s, config)
         stored.append(clip.angles.astype(np.float64))
         pipeline_truth.append(limited_truth)
         unlimited.append(free_truth)
-    reasons = sorted({r for row in dataset.rows() for r in (row.get("qc_reasons") or [])})
+    reasons = sorted({r for row in dataset.rows() for r in row.clip.qc_reasons})
     kept_s = sum(len(a) for a in stored) / config.processing.rate_hz
     if not stored:
         return Measured(kept_s, reasons, None, None)
