@@ -29,6 +29,7 @@ from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
 from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.repair import repair_pose2d, repair_pose3d, validity
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
@@ -141,7 +142,6 @@ def usable_frames(valid: np.ndarray) -> np.ndarray:
 def _single_view(take: Take, config: Config, chunks: DetectionCache | None) -> _View:
     from gesturebank.extract.pipeline import extract_take
     from gesturebank.lift import LIFTERS, TakeViews
-    from gesturebank.qc.repair import repair_pose2d, validity
 
     if config.lifter.name == "multiview":  # known before the slow extraction starts
         raise InputError(
@@ -190,7 +190,6 @@ def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _V
     from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
-    from gesturebank.qc.repair import repair_pose2d, repair_pose3d
 
     assert take.calibration is not None
     # any subset of the calibrated cameras, by name (a broken camera left out)
@@ -333,7 +332,6 @@ def _clip(
     profile: pepper.RobotProfile,
 ) -> Clip:
     """The arrays of frames [span.start, span.stop) on the clip's own clock."""
-    from gesturebank.qc.repair import repair_pose3d
     from gesturebank.robot.retarget import angle_support, pepper_angles
 
     a, b = span.start, span.stop
