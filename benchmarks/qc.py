@@ -34,8 +34,8 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config, QCConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.qc.checks import verdicts
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.robot import pepper

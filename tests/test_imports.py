@@ -149,12 +149,8 @@ ARCHITECTURE = ROOT.parent / "docs" / "architecture.md"
 KNOWN_UPWARD = {
     # issue 34, item 1: `Clip` moves to gesturebank.clip, qc judges without datasets, and the
     # dashboard becomes gesturebank.report (floor 6), which the CLI calls
-    ("gesturebank.qc.dashboard", "gesturebank.datasets.clip"): 34,
     ("gesturebank.qc.dashboard", "gesturebank.datasets.cut"): 34,
     ("gesturebank.qc.dashboard", "gesturebank.datasets.store"): 34,
-    ("gesturebank.qc.invariants", "gesturebank.datasets.clip"): 34,
-    ("gesturebank.qc.metrics", "gesturebank.datasets.clip"): 34,
-    ("gesturebank.qc.metrics", "gesturebank.datasets.process"): 34,
     # issue 34, item 2: robot/online.py takes a FrameModel; timeline.from_clip moves up
     ("gesturebank.robot.online", "gesturebank.train.model_folder"): 34,
     ("gesturebank.robot.timeline", "gesturebank.datasets"): 34,

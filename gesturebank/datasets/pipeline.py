@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
@@ -29,6 +29,8 @@ from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
 from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.qc.checks import absolute_reasons
+from gesturebank.qc.metrics import clip_metrics, measure_settings, spike_sizes
 from gesturebank.repair import repair_pose2d, repair_pose3d, validity
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
@@ -97,8 +99,6 @@ def lifter_name(take: Take, config: Config) -> str:
 
 def measure_digest(config: Config) -> str:
     """What the stored metrics were measured with (qc.metrics.measure_settings)."""
-    from gesturebank.qc.metrics import measure_settings
-
     text = json.dumps(
         {"qc": measure_settings(config.qc), "robot": config.robot.profile}, sort_keys=True
     )
@@ -121,8 +121,6 @@ def _coco17_mask(mask: np.ndarray, skeleton: str) -> np.ndarray:
 def still_spiking(points: np.ndarray, valid: np.ndarray, max_spike: float) -> np.ndarray:
     """`(T, 17)` COCO-17 keypoints of `points (T, 17, C)` that, seen (`valid`), still jump out
     and back by more than `max_spike` shoulder widths in one frame (what repair left)."""
-    from gesturebank.qc.metrics import spike_sizes
-
     seen = np.where(valid[..., None], np.asarray(points, np.float64), np.nan)
     out = np.zeros(valid.shape, dtype=bool)
     with np.errstate(invalid="ignore"):
@@ -397,8 +395,6 @@ def build_take(
     chunks: where videos longer than build.chunk_s find their chunks' detections (None: every
     video is detected in one pass)."""
     from gesturebank.extract.audio_features import features
-    from gesturebank.qc.checks import absolute_reasons
-    from gesturebank.qc.metrics import clip_metrics
 
     if take.mocap:
         view = _mocap_view(take, config)

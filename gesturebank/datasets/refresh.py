@@ -19,12 +19,16 @@ from pathlib import Path
 import numpy as np
 
 from gesturebank import __version__
+from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.card import read_takes_toml, write_card
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
+from gesturebank.qc.checks import verdicts
+from gesturebank.qc.metrics import clip_metrics
+from gesturebank.robot import pepper
 
 log = logging.getLogger(__name__)
 
@@ -35,10 +39,6 @@ def _remeasure(
     """The record with every clip measured with the current settings (`recheck`: every clip
     measured again from its arrays, so the invariants of `qc.invariants` are applied to what
     the folder holds now)."""
-    from gesturebank.datasets.clip import Clip
-    from gesturebank.qc.metrics import clip_metrics
-    from gesturebank.robot import pepper
-
     digest = measure_digest(config)
     if not recheck and all(c.measured == digest for c in record.data_clips):
         return record
@@ -58,8 +58,6 @@ def _remeasure(
 
 def _judge(records: list[store.TakeRecord], config: Config) -> list[store.TakeRecord]:
     """Records with every clip's verdict from the absolute and dataset-relative checks."""
-    from gesturebank.qc.checks import verdicts
-
     metrics = {c.clip_id: c.metrics for r in records for c in r.data_clips}
     result = verdicts(metrics, config.qc)
     judged = []
@@ -137,7 +135,6 @@ def refresh(
     qc`: the invariants re-applied to what the folder holds). Returns notes (e.g. why no
     subject-independent split was written)."""
     from gesturebank.extract.audio_features import feature_dim
-    from gesturebank.robot import pepper
 
     out = Path(out)
     if videos_dir is None:

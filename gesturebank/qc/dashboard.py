@@ -33,9 +33,9 @@ from urllib.parse import quote
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import QCConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.cut import frame_ends
 from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic

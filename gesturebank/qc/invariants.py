@@ -22,8 +22,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import QCConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.robot.pepper import JOINTS, RobotProfile, normalise
 
 NAMES = ("speed", "jerk", "mask", "limits", "angles01", "audio")

@@ -30,13 +30,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from gesturebank.clip import Clip
 from gesturebank.config import ProcessingConfig, QCConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
 from gesturebank.qc.invariants import invariant_metrics
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
-from gesturebank.robot.reach import out_of_reach
+from gesturebank.robot.reach import out_of_reach, unlimited_angles
 from gesturebank.skeletons import COCO17, to_coco17
 
 if TYPE_CHECKING:
@@ -411,8 +411,6 @@ def reach_metrics(
     `out_of_reach_fraction` (frames with any joint beyond); `frozen_at_limit_s/<Joint>` and its
     maximum `frozen_at_limit_s` (`frozen_spans_s`: the robot held within qc.frozen_limit_tol of
     a limit while the person's angle moves more than qc.frozen_min_motion)."""
-    from gesturebank.datasets.process import unlimited_angles
-
     nan = float("nan")
     n = len(clip.times)
     known = np.asarray(clip.mask, dtype=bool)

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.refresh import refresh

@@ -14,9 +14,9 @@ import cv2
 import numpy as np
 import pytest
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
 from gesturebank.qc.dashboard import reason_kind, write_dashboard

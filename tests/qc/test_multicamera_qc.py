@@ -9,8 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from gesturebank.clip import Clip
 from gesturebank.config import QCConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.geometry import Camera, CameraGroup
 from gesturebank.qc import metrics as M
 from gesturebank.robot import pepper
