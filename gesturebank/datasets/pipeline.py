@@ -15,7 +15,7 @@ import json
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -429,7 +429,9 @@ def build_take(
     for k, span in enumerate(cutting.clips):
         clip = _clip(view, span, f"{take.take_id}__c{k:03d}", take.take_id, feats, config, profile)
         # trimmed_fraction: of the whole take, so each of its clips carries it
-        metrics = {**clip_metrics(clip, profile=profile, qc=config.qc), "trimmed_fraction": trimmed}
+        metrics = replace(
+            clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
+        )
         reasons = absolute_reasons(metrics, config.qc)
         clips.append(clip)
         rows.append(
@@ -442,7 +444,7 @@ def build_take(
                 qc_reasons=tuple(reasons),
                 duration_s=clip.duration_s,
                 n_frames=len(clip.times),
-                metrics=metrics,
+                metrics=metrics.to_dict(),
                 repairs={
                     "keypoints": int(clip.repaired.sum()),
                     "frames": int(clip.repaired.any(axis=1).sum()),

@@ -27,6 +27,7 @@ from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
 from gesturebank.qc.checks import verdicts
+from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.robot import pepper
 
@@ -50,7 +51,7 @@ def _remeasure(
             with np.load(path, allow_pickle=False) as data:
                 clip = Clip.from_arrays({k: data[k] for k in data.files})
             # metrics of the whole take (trimmed_fraction) are not in the clip: kept as measured
-            metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc)}
+            metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc).to_dict()}
             c = replace(c, metrics=metrics, measured=digest)
         clips.append(c)
     return store.with_clips(record, clips)
@@ -58,7 +59,7 @@ def _remeasure(
 
 def _judge(records: list[store.TakeRecord], config: Config) -> list[store.TakeRecord]:
     """Records with every clip's verdict from the absolute and dataset-relative checks."""
-    metrics = {c.clip_id: c.metrics for r in records for c in r.data_clips}
+    metrics = {c.clip_id: ClipMetrics.from_dict(c.metrics) for r in records for c in r.data_clips}
     result = verdicts(metrics, config.qc)
     judged = []
     for r in records:

@@ -179,7 +179,7 @@ def write_dataset(
                     qc_reasons=tuple(reasons),
                     duration_s=clip.duration_s,
                     n_frames=len(clip.times),
-                    metrics=metrics,
+                    metrics=metrics.to_dict(),
                     repairs={"keypoints": int(clip.repaired.sum())},
                     masked={
                         j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)
