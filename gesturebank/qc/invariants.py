@@ -9,8 +9,8 @@
 - angles01: `angles01` is `angles` normalised (Eq. 3.13–3.14);
 - audio: the audio features are finite and as many frames as the angles.
 
-Each is stored as `invariant/<name>` (−1 = holds, else the first frame that breaks it; speed,
-jerk: the worst one) with the numbers its reason quotes (no NaN, so that two builds compare
+Each is a field of `InvariantMetrics`, stored as `invariant/<name>` (−1 = holds, else the first
+frame that breaks it; speed, jerk: the worst one) with the numbers its reason quotes (no NaN, so that two builds compare
 equal); `invariant_reasons` turns them into one reason each that names the invariant and the
 frame.
 """
