@@ -10,9 +10,9 @@
 - audio: the audio features are finite and as many frames as the angles.
 
 Each is a field of `InvariantMetrics`, stored as `invariant/<name>` (−1 = holds, else the first
-frame that breaks it; speed, jerk: the worst one) with the numbers its reason quotes (no NaN, so that two builds compare
-equal); `invariant_reasons` turns them into one reason each that names the invariant and the
-frame.
+frame that breaks it; speed, jerk: the worst one) with the numbers its reason quotes (no NaN, so
+that two builds compare equal); `invariant_reasons` turns them into one reason each that names
+the invariant and the frame.
 """
 
 from __future__ import annotations
