@@ -34,9 +34,10 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config, QCConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.qc.checks import verdicts
+from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
@@ -136,7 +137,7 @@ def main() -> None:
     if not dataset.is_dir():
         build(args.out, args.quick)
 
-    def measure(clip: Clip) -> dict[str, float]:
+    def measure(clip: Clip) -> ClipMetrics:
         return clip_metrics(clip, profile=profile, qc=qc)
 
     clean, excluded = clean_variants(dataset, args.window, args.stride, set(args.defective))

@@ -159,8 +159,8 @@ def mocap_motion(seconds: float) -> Motion:
 
 def dataset_motions(out: Path) -> list[Motion]:
     """Every clip of a built dataset, from its stored 3D pose and seen keypoints."""
+    from gesturebank.clip import Clip
     from gesturebank.datasets import store
-    from gesturebank.datasets.clip import Clip
 
     motions = []
     for record in store.take_records(out):

@@ -14,8 +14,8 @@ import numpy as np
 from pydantic import BaseModel
 
 import gesturebank
+from gesturebank.clip import Clip
 from gesturebank.config import Config
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.store import MANIFEST_SCHEMA, ClipRecord, DatasetInfo, TakeRecord
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.skeletons import COCO17

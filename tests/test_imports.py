@@ -147,10 +147,6 @@ ARCHITECTURE = ROOT.parent / "docs" / "architecture.md"
 # Imports that run up a floor today, (importer, imported) module by module, each with the issue
 # that removes it. A new upward import fails; so does an entry here that no longer occurs.
 KNOWN_UPWARD = {
-    # issue 34, item 1: `Clip` moves to gesturebank.clip and qc judges without datasets
-    ("gesturebank.qc.invariants", "gesturebank.datasets.clip"): 34,
-    ("gesturebank.qc.metrics", "gesturebank.datasets.clip"): 34,
-    ("gesturebank.qc.metrics", "gesturebank.datasets.process"): 34,
     # issue 34, item 2: robot/online.py takes a FrameModel; timeline.from_clip moves up
     ("gesturebank.robot.online", "gesturebank.train.model_folder"): 34,
     ("gesturebank.robot.timeline", "gesturebank.datasets"): 34,

@@ -45,7 +45,7 @@ from gesturebank.config.lift import (
     ResolvedConfig,
 )
 from gesturebank.config.mocap import MocapConfig, MocapUnits
-from gesturebank.config.qc import QCConfig
+from gesturebank.config.qc import MetricName, QCConfig
 from gesturebank.config.repair import RepairConfig
 from gesturebank.config.robot import PlaybackConfig, RenderConfig, RetargetConfig, RobotConfig
 from gesturebank.config.section import Section
@@ -88,6 +88,7 @@ __all__ = [
     "LSTMConfig",
     "LifterConfig",
     "MLPConfig",
+    "MetricName",
     "MocapConfig",
     "MocapUnits",
     "MultiviewConfig",

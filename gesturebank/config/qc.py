@@ -2,9 +2,36 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field
 
 from gesturebank.config.section import Section
+
+# A clip metric a check can name: the single-number fields of qc's ClipMetrics (config sits below
+# qc, so the names are written here too; tests/qc/test_clip_metrics.py keeps the two equal).
+MetricName = Literal[
+    "duration_s",
+    "jerk_raw",
+    "jerk",
+    "head_unknown_fraction",
+    "arms_unknown_fraction",
+    "torso_gap_s",
+    "bone_cv_max",
+    "swap_events",
+    "frozen_fraction",
+    "spike_max",
+    "out_of_reach_fraction",
+    "frozen_at_limit_s",
+    "jitter_fraction",
+    "motion_range",
+    "facing_away_fraction",
+    "sideways_fraction",
+    "shoulder_width",
+    "image_change",
+    "people",
+    "trimmed_fraction",
+]
 
 
 class QCConfig(Section):
@@ -140,7 +167,7 @@ class QCConfig(Section):
         description="Absolute ceiling on the raw jerk J (Eq. 3.21, rad² s⁻⁵); none = only the "
         "dataset-relative check.",
     )
-    outlier_metrics: list[str] = Field(
+    outlier_metrics: list[MetricName] = Field(
         ["jerk_raw", "jerk"],
         description="Metrics checked for dataset-relative outliers (robust z of their log).",
     )

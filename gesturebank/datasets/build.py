@@ -61,7 +61,7 @@ PIPELINE_MODULES = (
     "gesturebank.filters",
     "gesturebank.lift.blazepose_world",
     "gesturebank.qc.metrics",
-    "gesturebank.qc.repair",
+    "gesturebank.repair",
     "gesturebank.robot.retarget",
     "scipy.signal",
     "scenedetect",

@@ -15,13 +15,13 @@ import json
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
@@ -29,6 +29,9 @@ from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
 from gesturebank.poses import Pose2D, Pose3D
+from gesturebank.qc.checks import absolute_reasons
+from gesturebank.qc.metrics import clip_metrics, measure_settings, spike_sizes
+from gesturebank.repair import repair_pose2d, repair_pose3d, validity
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
@@ -96,8 +99,6 @@ def lifter_name(take: Take, config: Config) -> str:
 
 def measure_digest(config: Config) -> str:
     """What the stored metrics were measured with (qc.metrics.measure_settings)."""
-    from gesturebank.qc.metrics import measure_settings
-
     text = json.dumps(
         {"qc": measure_settings(config.qc), "robot": config.robot.profile}, sort_keys=True
     )
@@ -120,8 +121,6 @@ def _coco17_mask(mask: np.ndarray, skeleton: str) -> np.ndarray:
 def still_spiking(points: np.ndarray, valid: np.ndarray, max_spike: float) -> np.ndarray:
     """`(T, 17)` COCO-17 keypoints of `points (T, 17, C)` that, seen (`valid`), still jump out
     and back by more than `max_spike` shoulder widths in one frame (what repair left)."""
-    from gesturebank.qc.metrics import spike_sizes
-
     seen = np.where(valid[..., None], np.asarray(points, np.float64), np.nan)
     out = np.zeros(valid.shape, dtype=bool)
     with np.errstate(invalid="ignore"):
@@ -141,7 +140,6 @@ def usable_frames(valid: np.ndarray) -> np.ndarray:
 def _single_view(take: Take, config: Config, chunks: DetectionCache | None) -> _View:
     from gesturebank.extract.pipeline import extract_take
     from gesturebank.lift import LIFTERS, TakeViews
-    from gesturebank.qc.repair import repair_pose2d, validity
 
     if config.lifter.name == "multiview":  # known before the slow extraction starts
         raise InputError(
@@ -190,7 +188,6 @@ def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _V
     from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
-    from gesturebank.qc.repair import repair_pose2d, repair_pose3d
 
     assert take.calibration is not None
     # any subset of the calibrated cameras, by name (a broken camera left out)
@@ -333,7 +330,6 @@ def _clip(
     profile: pepper.RobotProfile,
 ) -> Clip:
     """The arrays of frames [span.start, span.stop) on the clip's own clock."""
-    from gesturebank.qc.repair import repair_pose3d
     from gesturebank.robot.retarget import angle_support, pepper_angles
 
     a, b = span.start, span.stop
@@ -399,8 +395,6 @@ def build_take(
     chunks: where videos longer than build.chunk_s find their chunks' detections (None: every
     video is detected in one pass)."""
     from gesturebank.extract.audio_features import features
-    from gesturebank.qc.checks import absolute_reasons
-    from gesturebank.qc.metrics import clip_metrics
 
     if take.mocap:
         view = _mocap_view(take, config)
@@ -435,7 +429,9 @@ def build_take(
     for k, span in enumerate(cutting.clips):
         clip = _clip(view, span, f"{take.take_id}__c{k:03d}", take.take_id, feats, config, profile)
         # trimmed_fraction: of the whole take, so each of its clips carries it
-        metrics = {**clip_metrics(clip, profile=profile, qc=config.qc), "trimmed_fraction": trimmed}
+        metrics = replace(
+            clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
+        )
         reasons = absolute_reasons(metrics, config.qc)
         clips.append(clip)
         rows.append(
@@ -448,7 +444,7 @@ def build_take(
                 qc_reasons=tuple(reasons),
                 duration_s=clip.duration_s,
                 n_frames=len(clip.times),
-                metrics=metrics,
+                metrics=metrics.to_dict(),
                 repairs={
                     "keypoints": int(clip.repaired.sum()),
                     "frames": int(clip.repaired.any(axis=1).sum()),

@@ -27,8 +27,8 @@ import av
 import cv2
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config, PlaybackConfig, RenderConfig, VideoConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open
 from gesturebank.robot import pepper

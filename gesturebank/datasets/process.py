@@ -13,9 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from gesturebank.config import ProcessingConfig, RetargetConfig
-from gesturebank.filters import GapReport, butter_lowpass, interpolate_at
+from gesturebank.filters import GapReport
 from gesturebank.robot import pepper
-from gesturebank.robot.reach import continuous, out_of_reach, reach_map, speed_limit
+from gesturebank.robot.reach import out_of_reach, reach_map, speed_limit, unlimited_angles
 
 
 @dataclass(frozen=True)
@@ -30,26 +30,6 @@ class ProcessedAngles:
     unlimited: np.ndarray
     gaps: GapReport
     out_of_reach_fraction: float
-
-
-def unlimited_angles(
-    *,
-    raw: np.ndarray,
-    timestamps: np.ndarray,
-    clock: np.ndarray,
-    processing: ProcessingConfig,
-    profile: pepper.RobotProfile,
-) -> tuple[np.ndarray, GapReport]:
-    """`raw (T, 11)` rad at `timestamps (T,)` → the person's angles on `clock (N,)`, low-passed
-    and continuous, not yet limited: `(N, 11)` float64 and the gaps met. An angle beyond ±π
-    (an arm overhead and behind, a head turned away) stays on the branch it reached, so it is
-    never filtered as a sweep across the joint's range nor wrapped to the other side of it,
-    until it comes back inside `profile`'s limits on another branch (`reach.continuous`)."""
-    p = processing
-    steady = continuous(raw, profile.lower, profile.upper)
-    angles, gaps = interpolate_at(steady, timestamps, clock, max_gap_s=p.max_gap_s)
-    smooth = butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order)
-    return smooth, gaps
 
 
 def process_angles(

@@ -25,6 +25,10 @@ from gesturebank.datasets.card import read_takes_toml, write_card
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
+from gesturebank.qc.checks import verdicts
+from gesturebank.qc.clip_metrics import ClipMetrics
+from gesturebank.qc.metrics import clip_metrics
+from gesturebank.robot import pepper
 
 log = logging.getLogger(__name__)
 
@@ -35,9 +39,6 @@ def _remeasure(
     """The record with every clip measured with the current settings (`recheck`: every clip
     measured again from its arrays, so the invariants of `qc.invariants` are applied to what
     the folder holds now)."""
-    from gesturebank.qc.metrics import clip_metrics
-    from gesturebank.robot import pepper
-
     digest = measure_digest(config)
     if not recheck and all(c.measured == digest for c in record.data_clips):
         return record
@@ -47,7 +48,7 @@ def _remeasure(
         if c.kind == "clip" and (recheck or c.measured != digest):
             clip = store.read_clip(store.clip_npz(out, record.take_id, c.clip_id))
             # metrics of the whole take (trimmed_fraction) are not in the clip: kept as measured
-            metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc)}
+            metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc).to_dict()}
             c = replace(c, metrics=metrics, measured=digest)
         clips.append(c)
     return store.with_clips(record, clips)
@@ -55,9 +56,7 @@ def _remeasure(
 
 def _judge(records: list[store.TakeRecord], config: Config) -> list[store.TakeRecord]:
     """Records with every clip's verdict from the absolute and dataset-relative checks."""
-    from gesturebank.qc.checks import verdicts
-
-    metrics = {c.clip_id: c.metrics for r in records for c in r.data_clips}
+    metrics = {c.clip_id: ClipMetrics.from_dict(c.metrics) for r in records for c in r.data_clips}
     result = verdicts(metrics, config.qc)
     judged = []
     for r in records:
@@ -134,7 +133,6 @@ def refresh(
     qc`: the invariants re-applied to what the folder holds). Returns notes (e.g. why no
     subject-independent split was written)."""
     from gesturebank.extract.audio_features import feature_dim
-    from gesturebank.robot import pepper
 
     out = Path(out)
     if videos_dir is None:

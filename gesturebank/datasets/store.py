@@ -8,7 +8,7 @@ by take.
     out/manifest.parquet          one row per clip and per dropped span (`MANIFEST_SCHEMA`)
     out/takes/<take_id>.json      the take's record (`TakeRecord`, its clips and dropped spans);
                                   written last, so it marks a take as done
-    out/takes/<take_id>/<clip_id>.npz   the arrays of one clip (`datasets.clip.Clip`)
+    out/takes/<take_id>/<clip_id>.npz   the arrays of one clip (`gesturebank.clip.Clip`)
     out/takes/<take_id>/preview.jpg     a strip of video frames for the dashboard
 
 A take's clips are written into a hidden temporary folder that replaces the take's folder when
@@ -35,8 +35,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config
-from gesturebank.datasets.clip import Clip
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 

@@ -1,6 +1,6 @@
 """QC verdicts: absolute thresholds on each clip's metrics plus dataset-relative outliers.
 
-Pure functions over metrics (`qc.metrics.clip_metrics` keys). A clip is `rejected` when any
+Pure functions over metrics (`qc.clip_metrics.ClipMetrics`). A clip is `rejected` when any
 check fails; each failed check adds one reason with its numbers (degrees and seconds in the
 text). Rejected clips stay in the dataset, flagged, so they can be looked at (the dashboard,
 `report`) and re-admitted by changing the thresholds.
@@ -26,6 +26,7 @@ from typing import Literal
 import numpy as np
 
 from gesturebank.config import QCConfig
+from gesturebank.qc.clip_metrics import ClipMetrics, number
 from gesturebank.qc.invariants import invariant_reasons
 from gesturebank.robot.pepper import JOINTS
 
@@ -81,95 +82,95 @@ def is_outlier_reason(key: str, reason: str) -> bool:
     return reason.startswith(f"{LABELS.get(key, key)} ") and "× dataset median" in reason
 
 
-def _num(metrics: Mapping[str, float], key: str) -> float:
-    value = metrics.get(key, float("nan"))
-    return float(value) if value is not None else float("nan")
-
-
-def absolute_reasons(metrics: Mapping[str, float], config: QCConfig) -> list[str]:
+def absolute_reasons(metrics: ClipMetrics, config: QCConfig) -> list[str]:
     """Reasons (empty when none) of the absolute checks on one clip's metrics; NaN metrics are
     not measured and fail nothing."""
     c = config
-    m = {k: _num(metrics, k) for k in metrics}
+    m = metrics
     reasons = []
 
-    def over(key: str, limit: float, text: str) -> None:
-        if m.get(key, math.nan) > limit:
-            reasons.append(text.format(v=m[key], lim=limit))
+    def over(value: float | None, limit: float, text: str) -> None:
+        if number(value) > limit:
+            reasons.append(text.format(v=value, lim=limit))
 
-    def under(key: str, limit: float, text: str) -> None:
-        if m.get(key, math.nan) < limit:
-            reasons.append(text.format(v=m[key], lim=limit))
+    def under(value: float | None, limit: float, text: str) -> None:
+        if number(value) < limit:
+            reasons.append(text.format(v=value, lim=limit))
 
     over(
-        "head_unknown_fraction",
+        m.head_unknown_fraction,
         c.max_head_unknown_fraction,
         "head unseen in {v:.0%} of the clip (max {lim:.0%})",
     )
     over(
-        "arms_unknown_fraction",
+        m.arms_unknown_fraction,
         c.max_arms_unknown_fraction,
         "both arms unseen in {v:.0%} of the clip (max {lim:.0%})",
     )
-    over("bone_cv_max", c.max_bone_cv, "3D bone length varies by {v:.0%} (max {lim:.0%})")
+    over(m.bone_cv_max, c.max_bone_cv, "3D bone length varies by {v:.0%} (max {lim:.0%})")
     if c.max_limit_fraction is not None:  # opt-in: reach is reported, not judged, by default
         over(
-            "out_of_reach_fraction",
+            m.out_of_reach_fraction,
             c.max_limit_fraction,
             "a joint beyond the robot's reach in {v:.0%} of frames (max {lim:.0%})",
         )
-    if m.get("frozen_at_limit_s", math.nan) > (c.max_frozen_at_limit_s or math.inf):
-        joint = max(JOINTS, key=lambda j: m.get(f"frozen_at_limit_s/{j}", -1.0))
+    if m.frozen_at_limit_s > (c.max_frozen_at_limit_s or math.inf):
+        # a joint not measured (NaN) is never the one named
+        frozen = {
+            j: s if math.isfinite(s) else -1.0
+            for j, s in zip(JOINTS, m.frozen_at_limit_s_per_joint, strict=True)
+        }
+        joint = max(JOINTS, key=lambda j: frozen[j])
         reasons.append(
             f"robot frozen at a limit: {joint} held within {c.frozen_limit_tol:g} rad of its "
-            f"limit for {m['frozen_at_limit_s']:.1f} s while the person's angle moves more than "
+            f"limit for {m.frozen_at_limit_s:.1f} s while the person's angle moves more than "
             f"{c.frozen_min_motion:g} rad (max {c.max_frozen_at_limit_s:g} s)"
         )
     over(
-        "jitter_fraction",
+        m.jitter_fraction,
         c.max_jitter_fraction,
         f"jitter: {{v:.0%}} of raw motion power above {c.jitter_above_hz:g} Hz (max {{lim:.0%}})",
     )
-    over("swap_events", c.max_swap_events, "left/right arms swapped {v:.0f}× (max {lim:.0f})")
+    over(m.swap_events, c.max_swap_events, "left/right arms swapped {v:.0f}× (max {lim:.0f})")
     over(
-        "spike_max", c.max_spike, "keypoint jumps {v:.2f} shoulder widths in one frame (max {lim})"
+        m.spike_max, c.max_spike, "keypoint jumps {v:.2f} shoulder widths in one frame (max {lim})"
     )
     over(
-        "frozen_fraction",
+        m.frozen_fraction,
         c.max_frozen_fraction,
         "pose frozen (exactly repeated) in {v:.0%} of frames (max {lim:.0%})",
     )
-    if m.get("motion_range", math.nan) < c.min_motion_range:
+    if m.motion_range < c.min_motion_range:
         reasons.append(
-            f"static: no joint moves more than {np.degrees(m['motion_range']):.1f}° "
+            f"static: no joint moves more than {np.degrees(m.motion_range):.1f}° "
             f"(min {np.degrees(c.min_motion_range):.1f}°)"
         )
     over(
-        "facing_away_fraction",
+        m.facing_away_fraction,
         c.max_facing_away_fraction,
         "facing away in {v:.0%} of frames (max {lim:.0%})",
     )
     over(
-        "sideways_fraction",
+        m.sideways_fraction,
         c.max_sideways_fraction,
         "seen from the side in {v:.0%} of frames (max {lim:.0%})",
     )
     under(
-        "shoulder_width",
+        m.shoulder_width,
         c.min_shoulder_width,
         "too small: shoulders {v:.1%} of the frame height (min {lim:.1%})",
     )
-    under("image_change", c.min_image_change, "still picture: image change {v:.3f} (min {lim:g})")
-    over("people", c.max_people, "too many people: {v:.1f} on average (max {lim:g})")
+    under(m.image_change, c.min_image_change, "still picture: image change {v:.3f} (min {lim:g})")
+    over(m.people, c.max_people, "too many people: {v:.1f} on average (max {lim:g})")
     over(
-        "trimmed_fraction",
+        m.trimmed_fraction,
         c.max_trimmed_fraction,
         "audio and video overlap in part: trimming to their common span drops {v:.0%} of the "
         "take's video (max {lim:.0%})",
     )
     if c.max_jerk_raw is not None:
-        over("jerk_raw", c.max_jerk_raw, "raw jerk {v:.3g} rad²/s⁵ (max {lim:.3g})")
-    return reasons + invariant_reasons(metrics, c)
+        over(m.jerk_raw, c.max_jerk_raw, "raw jerk {v:.3g} rad²/s⁵ (max {lim:.3g})")
+    return reasons + invariant_reasons(m.invariants, c)
 
 
 def robust_z(values: np.ndarray) -> tuple[np.ndarray, float]:
@@ -187,7 +188,7 @@ def robust_z(values: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def relative_reasons(
-    metrics_by_clip: Mapping[str, Mapping[str, float]], config: QCConfig
+    metrics_by_clip: Mapping[str, ClipMetrics], config: QCConfig
 ) -> dict[str, list[str]]:
     """Dataset-relative outlier reasons per clip id (see the module docstring)."""
     ids = list(metrics_by_clip)
@@ -195,7 +196,7 @@ def relative_reasons(
     if len(ids) < config.outlier_min_clips:
         return out
     for key in config.outlier_metrics:
-        values = np.array([_num(metrics_by_clip[i], key) for i in ids])
+        values = np.array([metrics_by_clip[i].value(key) for i in ids])
         with np.errstate(divide="ignore", invalid="ignore"):
             logs = np.where(values > 0, np.log(values), np.nan)
         z, med_log = robust_z(logs)
@@ -210,10 +211,10 @@ def relative_reasons(
 
 
 def verdicts(
-    metrics_by_clip: Mapping[str, Mapping[str, float]], config: QCConfig | None = None
+    metrics_by_clip: Mapping[str, ClipMetrics], config: QCConfig | None = None
 ) -> dict[str, Verdict]:
     """(status, reasons) per clip id: "rejected" with every failed check's reason, else
-    "accepted". `metrics_by_clip` holds the clips of one dataset (`clip_metrics` keys)."""
+    "accepted". `metrics_by_clip` holds the clips of one dataset."""
     c = config or QCConfig()
     relative = relative_reasons(metrics_by_clip, c)
     result: dict[str, Verdict] = {}

@@ -25,18 +25,19 @@ Both are sums over the 11 joints (as Fig. 4.7); per-joint values are `jerk_raw/<
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
+from gesturebank.clip import Clip
 from gesturebank.config import ProcessingConfig, QCConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
+from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.invariants import invariant_metrics
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
-from gesturebank.robot.reach import out_of_reach
+from gesturebank.robot.reach import out_of_reach, unlimited_angles
 from gesturebank.skeletons import COCO17, to_coco17
 
 if TYPE_CHECKING:
@@ -403,16 +404,24 @@ def frozen_spans_s(
     return out
 
 
+class ReachMetrics(NamedTuple):
+    """The reach fields of `ClipMetrics` (`reach_metrics`)."""
+
+    out_of_reach_fraction: float
+    out_of_reach_per_joint: tuple[float, ...]
+    frozen_at_limit_s_per_joint: tuple[float, ...]
+    frozen_at_limit_s: float
+
+
 def reach_metrics(
     clip: Clip, *, profile: RobotProfile, qc: QCConfig, rate_hz: float
-) -> dict[str, float]:
-    """Motion beyond the robot's reach, reported: `out_of_reach/<Joint>` (share of the joint's
-    known frames in which the person's low-passed angle lies beyond its limits) and
-    `out_of_reach_fraction` (frames with any joint beyond); `frozen_at_limit_s/<Joint>` and its
-    maximum `frozen_at_limit_s` (`frozen_spans_s`: the robot held within qc.frozen_limit_tol of
-    a limit while the person's angle moves more than qc.frozen_min_motion)."""
-    from gesturebank.datasets.process import unlimited_angles
-
+) -> ReachMetrics:
+    """Motion beyond the robot's reach, reported: per joint (`out_of_reach/<Joint>`) the share
+    of its known frames in which the person's low-passed angle lies beyond its limits, and
+    `out_of_reach_fraction` (frames with any joint beyond); per joint the longest time frozen at
+    a limit (`frozen_at_limit_s/<Joint>`) and its maximum `frozen_at_limit_s` (`frozen_spans_s`:
+    the robot held within qc.frozen_limit_tol of a limit while the person's angle moves more
+    than qc.frozen_min_motion)."""
     nan = float("nan")
     n = len(clip.times)
     known = np.asarray(clip.mask, dtype=bool)
@@ -428,30 +437,23 @@ def reach_metrics(
             profile=profile,
         )
     beyond = out_of_reach(person, profile) & known
-    m: dict[str, float] = {}
-    m["out_of_reach_fraction"] = float(beyond.any(axis=1).mean()) if n else nan
     a = np.asarray(clip.angles, dtype=np.float64)
     held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
     frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
-    for j, name in enumerate(JOINTS):
+    return ReachMetrics(
+        out_of_reach_fraction=float(beyond.any(axis=1).mean()) if n else nan,
         # 0 for a joint never seen (no NaN, so that two builds compare equal)
-        m[f"out_of_reach/{name}"] = float(np.sum(beyond[:, j]) / max(1, np.sum(known[:, j])))
-        m[f"frozen_at_limit_s/{name}"] = float(frozen[j])
-    m["frozen_at_limit_s"] = float(frozen.max())
-    return m
+        out_of_reach_per_joint=tuple(
+            float(np.sum(beyond[:, j]) / max(1, np.sum(known[:, j]))) for j in range(len(JOINTS))
+        ),
+        frozen_at_limit_s_per_joint=tuple(float(frozen[j]) for j in range(len(JOINTS))),
+        frozen_at_limit_s=float(frozen.max()),
+    )
 
 
-def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str, float]:
-    """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure).
-
-    Keys: duration_s; jerk_raw and jerk (sums over joints, Eq. 3.21) and their per-joint
-    `jerk_raw/<Joint>`, `jerk/<Joint>`; head_unknown_fraction, arms_unknown_fraction (shares of
-    the 100 Hz clock); torso_gap_s (longest stretch with a shoulder unseen); bone_cv_max;
-    out_of_reach_fraction, out_of_reach/<Joint>, frozen_at_limit_s(/<Joint>) (`reach_metrics`);
-    the invariants (`qc.invariants`, `invariant/<name>`); jitter_fraction; swap_events;
-    frozen_fraction; spike_max (shoulder widths); motion_range (rad); facing_away_fraction,
-    sideways_fraction, shoulder_width (share of the frame height), image_change, people (mean
-    people in the frame).
+def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetrics:
+    """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure;
+    `ClipMetrics` says what each is). trimmed_fraction, of the whole take, is left to the build.
 
     A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged by its 3D:
     spikes, swaps and freezes of the triangulated joints only, facing away and sideways as every
@@ -459,7 +461,6 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     largest. The stored 2D (the reference camera's) is then only drawn, not judged.
     """
     nan = float("nan")
-    m: dict[str, float] = {"duration_s": clip.duration_s}
     rate = 1.0 / float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 100.0
     hz = qc.analysis_rate_hz
     raw_u = np.empty((0, len(JOINTS)))
@@ -468,41 +469,24 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
         raw_u = uniform(unwrap_angles(clip.raw_angles), clip.timestamps, hz, max_gap_s=_MAX_GAP_S)
     j_raw = jerkiness_per_joint(raw_u, hz) if len(raw_u) else np.full(len(JOINTS), nan)
     j_proc = jerkiness_per_joint(clip.angles, rate)
-    m["jerk_raw"] = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
-    m["jerk"] = float(np.nansum(j_proc)) if np.isfinite(j_proc).any() else nan
-    for name, jr, jp in zip(JOINTS, j_raw, j_proc, strict=True):
-        m[f"jerk_raw/{name}"] = float(jr)
-        m[f"jerk/{name}"] = float(jp)
+    jerk_raw = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
+    jerk = float(np.nansum(j_proc)) if np.isfinite(j_proc).any() else nan
 
     known = np.asarray(clip.mask, dtype=bool)
     head = known[:, [INDEX["HeadPitch"], INDEX["HeadYaw"]]].any(axis=1)
     arms = known[:, [INDEX["LShoulderPitch"], INDEX["RShoulderPitch"]]].any(axis=1)
-    m["head_unknown_fraction"] = float(np.mean(~head)) if len(known) else nan
-    m["arms_unknown_fraction"] = float(np.mean(~arms)) if len(known) else nan
 
     valid = np.asarray(clip.valid, dtype=bool)
     torso = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
-    m["torso_gap_s"] = longest_run_s(~torso, clip.timestamps)
     xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
     seen_xy = np.where(valid[..., None], xy, np.nan)
     joints = np.where(valid[..., None], np.asarray(clip.pose3d.joints, np.float64), np.nan)
     cv = bone_cv(joints)
-    m["bone_cv_max"] = float(np.nanmax(cv)) if np.isfinite(cv).any() else nan
     cameras = take_cameras(clip.pose3d)
     # One camera: its own 2D and the 3D lifted from it. Several: the triangulated 3D only (one
     # camera's 2D glitch is outvoted by the others, and the 3D is what the dataset keeps).
     shapes = [joints] if cameras else [seen_xy, joints]
-    m["swap_events"] = float(max(swap_events(p) for p in shapes))
     upper = [_I[j] for j in MOTION_KEYPOINTS]
-    m["frozen_fraction"] = max(frozen_fraction(p[:, upper]) for p in shapes)
-    m["spike_max"] = float(max(_max(spike_sizes(p)) for p in shapes))
-
-    m.update(reach_metrics(clip, profile=profile, qc=qc, rate_hz=rate))
-    m.update(
-        invariant_metrics(clip, profile=profile, qc=qc, jerk=m["jerk"], jerk_raw=m["jerk_raw"])
-    )
-    m["jitter_fraction"] = high_freq_fraction(raw_u, hz, qc.jitter_above_hz) if len(raw_u) else nan
-    m["motion_range"] = motion_range(clip.angles)
 
     shoulders = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
     if cameras:  # the 3D as every camera sees it; the person's size in the best camera
@@ -517,12 +501,33 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> dict[str
     else:
         away, side = facing_away(xy, valid), sideways(xy, valid)
         width_share = _shoulder_width(xy, shoulders, clip.pose2d.image_size[1])
-    m["facing_away_fraction"] = _share(away, shoulders)
-    m["sideways_fraction"] = _share(side, shoulders & valid[:, _I["nose"]])
-    m["shoulder_width"] = width_share
     change = np.asarray(clip.change, dtype=np.float64)
-    m["image_change"] = (
-        float(np.median(change[np.isfinite(change)])) if np.isfinite(change).any() else nan
+    reach = reach_metrics(clip, profile=profile, qc=qc, rate_hz=rate)
+    return ClipMetrics(
+        duration_s=clip.duration_s,
+        jerk_raw=jerk_raw,
+        jerk=jerk,
+        jerk_raw_per_joint=tuple(float(j) for j in j_raw),
+        jerk_per_joint=tuple(float(j) for j in j_proc),
+        head_unknown_fraction=float(np.mean(~head)) if len(known) else nan,
+        arms_unknown_fraction=float(np.mean(~arms)) if len(known) else nan,
+        torso_gap_s=longest_run_s(~torso, clip.timestamps),
+        bone_cv_max=float(np.nanmax(cv)) if np.isfinite(cv).any() else nan,
+        swap_events=float(max(swap_events(p) for p in shapes)),
+        frozen_fraction=max(frozen_fraction(p[:, upper]) for p in shapes),
+        spike_max=float(max(_max(spike_sizes(p)) for p in shapes)),
+        out_of_reach_fraction=reach.out_of_reach_fraction,
+        out_of_reach_per_joint=reach.out_of_reach_per_joint,
+        frozen_at_limit_s_per_joint=reach.frozen_at_limit_s_per_joint,
+        frozen_at_limit_s=reach.frozen_at_limit_s,
+        invariants=invariant_metrics(clip, profile=profile, qc=qc, jerk=jerk, jerk_raw=jerk_raw),
+        jitter_fraction=high_freq_fraction(raw_u, hz, qc.jitter_above_hz) if len(raw_u) else nan,
+        motion_range=motion_range(clip.angles),
+        facing_away_fraction=_share(away, shoulders),
+        sideways_fraction=_share(side, shoulders & valid[:, _I["nose"]]),
+        shoulder_width=width_share,
+        image_change=(
+            float(np.median(change[np.isfinite(change)])) if np.isfinite(change).any() else nan
+        ),
+        people=float(np.mean(clip.n_people)) if len(clip.n_people) else nan,
     )
-    m["people"] = float(np.mean(clip.n_people)) if len(clip.n_people) else nan
-    return m

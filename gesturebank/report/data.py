@@ -18,8 +18,8 @@ from urllib.parse import quote
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.datasets import store
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.cut import frame_ends
 from gesturebank.errors import InputError
 from gesturebank.robot.retarget import NEEDS

@@ -22,9 +22,9 @@ from urllib.parse import quote
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import QCConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.clip import Clip
 from gesturebank.qc import checks
 from gesturebank.report.data import (
     PAGES_DIR,

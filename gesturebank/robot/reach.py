@@ -6,6 +6,9 @@ robot's reach (`[retarget] reach`).
   is the middle of the range of every Pepper joint whose atan2 can cross ±π (HeadYaw,
   ShoulderPitch, ElbowYaw): a trajectory that leaves the range stays beyond the limit it left
   from instead of reappearing beyond the other one.
+- `unlimited_angles`: the person's raw angles made continuous, interpolated onto a clock and
+  low-passed, not yet limited: what the dataset's angles are made from (`datasets.process`) and
+  what the QC measures reach against.
 - `hold_free`: a free (singular) angle blended towards its previous value with a weight that
   falls to 0 where it stops moving the robot (ElbowYaw at a straight elbow).
 - `reach_map`: the person's angle → an angle the robot can take, once, where the dataset's
@@ -21,7 +24,8 @@ import math
 
 import numpy as np
 
-from gesturebank.config import RetargetConfig
+from gesturebank.config import ProcessingConfig, RetargetConfig
+from gesturebank.filters import GapReport, butter_lowpass, interpolate_at
 from gesturebank.robot import pepper
 
 TURN = 2.0 * np.pi
@@ -86,6 +90,26 @@ def _back_in_range(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
                     shift, value, own = shift + turn, value + turn, other
         out[t] = value
     return np.asarray(out, dtype=np.float64)
+
+
+def unlimited_angles(
+    *,
+    raw: np.ndarray,
+    timestamps: np.ndarray,
+    clock: np.ndarray,
+    processing: ProcessingConfig,
+    profile: pepper.RobotProfile,
+) -> tuple[np.ndarray, GapReport]:
+    """`raw (T, 11)` rad at `timestamps (T,)` → the person's angles on `clock (N,)`, low-passed
+    and continuous, not yet limited: `(N, 11)` float64 and the gaps met. An angle beyond ±π
+    (an arm overhead and behind, a head turned away) stays on the branch it reached, so it is
+    never filtered as a sweep across the joint's range nor wrapped to the other side of it,
+    until it comes back inside `profile`'s limits on another branch (`continuous`)."""
+    p = processing
+    steady = continuous(raw, profile.lower, profile.upper)
+    angles, gaps = interpolate_at(steady, timestamps, clock, max_gap_s=p.max_gap_s)
+    smooth = butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order)
+    return smooth, gaps
 
 
 def hold_free(values: np.ndarray, weight: np.ndarray, *, start: float = 0.0) -> np.ndarray:

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.refresh import refresh
@@ -179,7 +179,7 @@ def write_dataset(
                     qc_reasons=tuple(reasons),
                     duration_s=clip.duration_s,
                     n_frames=len(clip.times),
-                    metrics=metrics,
+                    metrics=metrics.to_dict(),
                     repairs={"keypoints": int(clip.repaired.sum())},
                     masked={
                         j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)

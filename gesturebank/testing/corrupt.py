@@ -29,8 +29,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from gesturebank.clip import Clip
 from gesturebank.config import ProcessingConfig, RetargetConfig, RobotConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.process import process_angles
 from gesturebank.robot import pepper
 from gesturebank.robot.retarget import angle_support, pepper_angles

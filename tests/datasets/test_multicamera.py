@@ -14,7 +14,7 @@ from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
-from gesturebank.qc.repair import repair_pose2d, repair_pose3d
+from gesturebank.repair import repair_pose2d, repair_pose3d
 
 QCA = "<QCA_Camera_Calibration></QCA_Camera_Calibration>"
 

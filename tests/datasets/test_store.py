@@ -11,9 +11,9 @@ import pyarrow.parquet as pq
 import pytest
 
 import gesturebank.datasets
+from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets import store
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.refresh import refresh
 from gesturebank.errors import InputError
 from gesturebank.testing.clips import synthetic_clip, write_dataset

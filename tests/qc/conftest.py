@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from gesturebank.datasets.clip import Clip
+from gesturebank.clip import Clip
 from gesturebank.testing.clips import synthetic_clip
 
 

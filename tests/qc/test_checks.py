@@ -10,6 +10,7 @@ from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import QCConfig, absolute_reasons, robust_z, verdicts
+from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.testing.clips import synthetic_clip, write_dataset
 from gesturebank.testing.corrupt import corrupt, rederive
 
@@ -35,9 +36,16 @@ GOOD = {
 }
 
 
+typed = ClipMetrics.from_dict
+
+
+def _typed(metrics_by_clip: dict[str, dict[str, float]]) -> dict[str, ClipMetrics]:
+    return {k: typed(m) for k, m in metrics_by_clip.items()}
+
+
 def test_a_good_take_passes_and_nan_fails_nothing() -> None:
-    assert absolute_reasons(GOOD, QCConfig()) == []
-    assert absolute_reasons(dict.fromkeys(GOOD, float("nan")), QCConfig()) == []
+    assert absolute_reasons(typed(GOOD), QCConfig()) == []
+    assert absolute_reasons(typed(dict.fromkeys(GOOD, float("nan"))), QCConfig()) == []
 
 
 @pytest.mark.parametrize(
@@ -60,28 +68,28 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
     ],
 )
 def test_each_absolute_check_gives_its_reason_with_numbers(key, value, text) -> None:
-    reasons = absolute_reasons({**GOOD, key: value}, QCConfig())
+    reasons = absolute_reasons(typed({**GOOD, key: value}), QCConfig())
     assert len(reasons) == 1 and text in reasons[0]
 
 
 def test_reach_is_reported_not_judged_unless_the_old_rule_is_asked_for() -> None:
     """70 % of the frames beyond reach is no reason by default; qc.max_limit_fraction brings
     the old rule back as a filter."""
-    assert absolute_reasons(GOOD, QCConfig()) == []
-    reasons = absolute_reasons(GOOD, QCConfig(max_limit_fraction=0.6))
+    assert absolute_reasons(typed(GOOD), QCConfig()) == []
+    reasons = absolute_reasons(typed(GOOD), QCConfig(max_limit_fraction=0.6))
     assert reasons == ["a joint beyond the robot's reach in 70% of frames (max 60%)"]
 
 
 def test_a_frozen_robot_names_the_joint() -> None:
     metrics = {**GOOD, "frozen_at_limit_s": 3.0, "frozen_at_limit_s/RElbowRoll": 3.0}
-    (reason,) = absolute_reasons(metrics, QCConfig())
+    (reason,) = absolute_reasons(typed(metrics), QCConfig())
     assert reason.startswith("robot frozen at a limit: RElbowRoll held") and "3.0 s" in reason
-    assert absolute_reasons(metrics, QCConfig(max_frozen_at_limit_s=None)) == []
+    assert absolute_reasons(typed(metrics), QCConfig(max_frozen_at_limit_s=None)) == []
 
 
 def test_absolute_jerk_ceiling_is_optional() -> None:
-    assert absolute_reasons({**GOOD, "jerk_raw": 1e12}, QCConfig()) == []
-    reasons = absolute_reasons({**GOOD, "jerk_raw": 1e12}, QCConfig(max_jerk_raw=1e9))
+    assert absolute_reasons(typed({**GOOD, "jerk_raw": 1e12}), QCConfig()) == []
+    reasons = absolute_reasons(typed({**GOOD, "jerk_raw": 1e12}), QCConfig(max_jerk_raw=1e9))
     assert reasons == ["raw jerk 1e+12 rad²/s⁵ (max 1e+09)"]
 
 
@@ -97,7 +105,7 @@ def test_one_failed_subject_stands_out_as_in_fig_4_7() -> None:
     rng = np.random.default_rng(0)
     takes = {f"s{i}": {**GOOD, "jerk_raw": 1e6 * rng.lognormal(0, 0.3)} for i in range(12)}
     takes["s12"] = {**GOOD, "jerk_raw": 3e7}
-    result = verdicts(takes, QCConfig())
+    result = verdicts(_typed(takes), QCConfig())
     assert {k for k, (s, _) in result.items() if s == "rejected"} == {"s12"}
     (reason,) = result["s12"][1]
     median = np.median([m["jerk_raw"] for m in takes.values()])
@@ -106,11 +114,11 @@ def test_one_failed_subject_stands_out_as_in_fig_4_7() -> None:
 
 def test_relative_check_needs_enough_takes_and_a_real_ratio() -> None:
     few = {"a": GOOD, "b": GOOD, "c": {**GOOD, "jerk_raw": 1e9}}
-    assert all(s == "accepted" for s, _ in verdicts(few, QCConfig()).values())
+    assert all(s == "accepted" for s, _ in verdicts(_typed(few), QCConfig()).values())
     # near-identical takes: huge z but a tiny ratio must not reject
     tight = {f"t{i}": {**GOOD, "jerk_raw": 1e6 * (1 + 1e-6 * i)} for i in range(9)}
     tight["t9"] = {**GOOD, "jerk_raw": 1.5e6}
-    assert all(s == "accepted" for s, _ in verdicts(tight, QCConfig()).values())
+    assert all(s == "accepted" for s, _ in verdicts(_typed(tight), QCConfig()).values())
 
 
 def test_config_validates() -> None:

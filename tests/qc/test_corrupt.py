@@ -7,11 +7,12 @@ import pytest
 
 from gesturebank.config import QCConfig
 from gesturebank.qc import metrics as M
+from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.robot import pepper
 from gesturebank.testing.corrupt import KINDS, corrupt, mirror, rederive, window
 
 
-def measure(clip) -> dict[str, float]:
+def measure(clip) -> ClipMetrics:
     return M.clip_metrics(clip, profile=pepper.load_profile(), qc=QCConfig())
 
 
@@ -43,15 +44,15 @@ def test_each_kind_is_measured(clip) -> None:
             ("swap", 1),
         )
     }
-    assert m["spikes"]["spike_max"] == pytest.approx(2.0, rel=0.1)
-    assert m["jitter"]["jitter_fraction"] > 10 * clean["jitter_fraction"] + 0.05
-    assert m["frozen"]["frozen_fraction"] == pytest.approx(0.3, abs=0.02)
+    assert m["spikes"].spike_max == pytest.approx(2.0, rel=0.1)
+    assert m["jitter"].jitter_fraction > 10 * clean.jitter_fraction + 0.05
+    assert m["frozen"].frozen_fraction == pytest.approx(0.3, abs=0.02)
     # a dropout is unseen everywhere: head and both arms unknown for its share of the clip
-    assert m["dropout"]["head_unknown_fraction"] == pytest.approx(0.3, abs=0.03)
-    assert m["dropout"]["arms_unknown_fraction"] == pytest.approx(0.3, abs=0.03)
-    assert m["dropout"]["torso_gap_s"] == pytest.approx(0.3 * 3.0, abs=0.05)
-    assert m["swap"]["swap_events"] >= 1
-    assert m["swap"]["jerk_raw"] > 3 * clean["jerk_raw"]
+    assert m["dropout"].head_unknown_fraction == pytest.approx(0.3, abs=0.03)
+    assert m["dropout"].arms_unknown_fraction == pytest.approx(0.3, abs=0.03)
+    assert m["dropout"].torso_gap_s == pytest.approx(0.3 * 3.0, abs=0.05)
+    assert m["swap"].swap_events >= 1
+    assert m["swap"].jerk_raw > 3 * clean.jerk_raw
 
 
 def test_raw_angle_target(clip) -> None:
@@ -59,7 +60,7 @@ def test_raw_angle_target(clip) -> None:
     np.testing.assert_array_equal(bad.pose3d.joints, clip.pose3d.joints)
     assert np.std(bad.raw_angles - clip.raw_angles) == pytest.approx(0.05, rel=0.1)
     again = rederive(bad, from_pose=False)
-    assert measure(again)["jerk_raw"] > 10 * measure(clip)["jerk_raw"]
+    assert measure(again).jerk_raw > 10 * measure(clip).jerk_raw
 
 
 def test_mirror_twice_is_identity_and_mirrors_the_arms(clip) -> None:
@@ -69,7 +70,7 @@ def test_mirror_twice_is_identity_and_mirrors_the_arms(clip) -> None:
     once = rederive(mirror(clip))
     # the left arm's roll becomes minus the right arm's roll (Pepper's sign convention)
     np.testing.assert_allclose(once.raw_angles[:, 2], -clip.raw_angles[:, 6], atol=1e-3)
-    assert measure(once)["facing_away_fraction"] == 0  # a mirrored person still faces us
+    assert measure(once).facing_away_fraction == 0  # a mirrored person still faces us
 
 
 def test_window_slices_both_clocks(clip) -> None:

@@ -168,17 +168,17 @@ def test_motion_range() -> None:
 
 def test_clip_metrics_of_a_clean_synthetic_clip(clip) -> None:
     m = M.clip_metrics(clip, profile=pepper.load_profile(), qc=QCConfig())
-    assert m["duration_s"] == pytest.approx(len(clip.times) / 100)
-    assert m["jerk"] == pytest.approx(sum(m[f"jerk/{j}"] for j in pepper.JOINTS))
-    assert m["jerk_raw"] > m["jerk"] > 0  # the low-pass removes jerk
-    assert m["head_unknown_fraction"] == 0 and m["arms_unknown_fraction"] == 0
-    assert m["torso_gap_s"] == 0
-    assert m["swap_events"] == 0 and m["frozen_fraction"] == 0
-    assert m["spike_max"] < 0.1 and m["jitter_fraction"] < 0.01
-    assert m["motion_range"] > 0.2
-    assert m["facing_away_fraction"] == 0 and m["sideways_fraction"] == 0
-    assert m["people"] == 1.0
-    assert all(isinstance(v, float) for v in m.values())
+    assert m.duration_s == pytest.approx(len(clip.times) / 100)
+    assert m.jerk == pytest.approx(sum(m.jerk_per_joint))
+    assert m.jerk_raw > m.jerk > 0  # the low-pass removes jerk
+    assert m.head_unknown_fraction == 0 and m.arms_unknown_fraction == 0
+    assert m.torso_gap_s == 0
+    assert m.swap_events == 0 and m.frozen_fraction == 0
+    assert m.spike_max < 0.1 and m.jitter_fraction < 0.01
+    assert m.motion_range > 0.2
+    assert m.facing_away_fraction == 0 and m.sideways_fraction == 0
+    assert m.people == 1.0
+    assert all(isinstance(v, float) for v in m.to_dict().values())
 
 
 def test_an_unseen_arm_is_masked_not_measured(clip) -> None:
@@ -191,18 +191,18 @@ def test_an_unseen_arm_is_masked_not_measured(clip) -> None:
     m = M.clip_metrics(hidden, profile=pepper.load_profile(), qc=QCConfig())
     left = [pepper.INDEX[j] for j in ("LShoulderRoll", "LShoulderPitch", "LElbowRoll", "LElbowYaw")]
     assert not hidden.mask[:, left].any() and hidden.mask[:, pepper.INDEX["RElbowRoll"]].all()
-    assert m["arms_unknown_fraction"] == 0  # the other arm is known
-    assert m["spike_max"] < 0.1 and m["bone_cv_max"] < 0.05  # the noisy wrist is not judged
+    assert m.arms_unknown_fraction == 0  # the other arm is known
+    assert m.spike_max < 0.1 and m.bone_cv_max < 0.05  # the noisy wrist is not judged
 
 
 def test_facing_away_and_sideways(clip) -> None:
     m = M.clip_metrics(mirror_image_only(clip), profile=pepper.load_profile(), qc=QCConfig())
-    assert m["facing_away_fraction"] == 1.0
+    assert m.facing_away_fraction == 1.0
     xy = clip.pose2d.keypoints.copy()
     xy[:, IDX["nose"], 0] = xy[:, IDX["left_shoulder"], 0] + 50  # nose beyond a shoulder
     side = replace(clip, pose2d=replace(clip.pose2d, keypoints=xy))
     m = M.clip_metrics(side, profile=pepper.load_profile(), qc=QCConfig())
-    assert m["sideways_fraction"] == 1.0
+    assert m.sideways_fraction == 1.0
 
 
 def mirror_image_only(clip):
@@ -219,4 +219,4 @@ def test_the_same_motion_at_30_and_60_fps_measures_alike() -> None:
     qc, prof = QCConfig(), pepper.load_profile()
     ma, mb = M.clip_metrics(a, profile=prof, qc=qc), M.clip_metrics(b, profile=prof, qc=qc)
     for key in ("jerk_raw", "jitter_fraction", "motion_range", "shoulder_width", "spike_max"):
-        assert ma[key] == pytest.approx(mb[key], rel=0.05, abs=0.01), key
+        assert ma.value(key) == pytest.approx(mb.value(key), rel=0.05, abs=0.01), key

@@ -9,10 +9,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from gesturebank.clip import Clip
 from gesturebank.config import QCConfig
-from gesturebank.datasets.clip import Clip
 from gesturebank.geometry import Camera, CameraGroup
 from gesturebank.qc import metrics as M
+from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
 from tests.lift.test_triangulate import look_at
@@ -33,7 +34,7 @@ def rigged(clip: Clip, cameras: list[Camera]) -> Clip:
     return replace(clip, pose3d=replace(clip.pose3d, cameras=CameraGroup(cameras)))
 
 
-def measure(clip: Clip) -> dict[str, float]:
+def measure(clip: Clip) -> ClipMetrics:
     return M.clip_metrics(clip, profile=pepper.load_profile(), qc=QCConfig())
 
 
@@ -49,25 +50,25 @@ def test_the_cameras_survive_the_clip_file(clip) -> None:
 
 def test_facing_away_means_away_from_every_camera(clip) -> None:
     front = measure(rigged(clip, [camera(25, "a"), camera(-25, "b")]))
-    assert front["facing_away_fraction"] == 0 and front["sideways_fraction"] == 0
+    assert front.facing_away_fraction == 0 and front.sideways_fraction == 0
     behind = [camera(160, "c"), camera(-160, "d")]
-    assert measure(rigged(clip, behind))["facing_away_fraction"] == 1.0
+    assert measure(rigged(clip, behind)).facing_away_fraction == 1.0
     # one camera seeing the chest is enough: the hands in front of the body are triangulated
-    assert measure(rigged(clip, [*behind, camera(40, "e")]))["facing_away_fraction"] == 0
+    assert measure(rigged(clip, [*behind, camera(40, "e")])).facing_away_fraction == 0
 
 
 def test_sideways_means_from_the_side_in_every_camera(clip) -> None:
     sides = [camera(90, "l"), camera(-90, "r")]
     # (the head turns: in a few frames the nose comes back between the shoulders)
-    assert measure(rigged(clip, sides))["sideways_fraction"] > 0.95
-    assert measure(rigged(clip, [*sides, camera(180, "back")]))["sideways_fraction"] == 0
+    assert measure(rigged(clip, sides)).sideways_fraction > 0.95
+    assert measure(rigged(clip, [*sides, camera(180, "back")])).sideways_fraction == 0
 
 
 def test_the_size_is_the_best_cameras(clip) -> None:
     near, far = camera(10, "near", distance=2.0), camera(-10, "far", distance=8.0)
-    both = measure(rigged(clip, [far, near]))["shoulder_width"]
-    assert both == measure(rigged(clip, [near]))["shoulder_width"]
-    assert both > 3 * measure(rigged(clip, [far]))["shoulder_width"] > 0
+    both = measure(rigged(clip, [far, near])).shoulder_width
+    assert both == measure(rigged(clip, [near])).shoulder_width
+    assert both > 3 * measure(rigged(clip, [far])).shoulder_width > 0
 
 
 def test_a_2d_jump_of_the_reference_camera_is_not_judged_a_3d_one_is(clip) -> None:
@@ -76,12 +77,12 @@ def test_a_2d_jump_of_the_reference_camera_is_not_judged_a_3d_one_is(clip) -> No
     kp[40, IDX["left_wrist"], :2] += 300.0  # the stored 2D jumps out and back
     jumped = replace(clip, pose2d=replace(clip.pose2d, keypoints=kp))
     limit = QCConfig().max_spike
-    assert measure(jumped)["spike_max"] > limit  # one camera: its own 2D is what it has
-    assert measure(rigged(jumped, cams))["spike_max"] < 0.1
+    assert measure(jumped).spike_max > limit  # one camera: its own 2D is what it has
+    assert measure(rigged(jumped, cams)).spike_max < 0.1
     joints = clip.pose3d.joints.copy()
     joints[40, IDX["left_wrist"]] += [0.0, 0.6, 0.0]  # the triangulated wrist jumps
     spiked = rigged(replace(clip, pose3d=replace(clip.pose3d, joints=joints)), cams)
-    assert measure(spiked)["spike_max"] > limit
+    assert measure(spiked).spike_max > limit
 
 
 @pytest.mark.parametrize("azimuth", [0.0, 30.0, 160.0])

@@ -15,12 +15,13 @@ import cv2
 import numpy as np
 import pytest
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.build import BuildSummary
-from gesturebank.datasets.clip import Clip
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
+from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.report import dashboard_after_build, write_dashboard
 from gesturebank.report.data import reason_kind
 from gesturebank.robot.retarget import pepper_angles
@@ -334,13 +335,15 @@ def test_every_absolute_check_has_its_threshold_for_the_dashboard() -> None:
     for key, (field, side) in THRESHOLDS.items():
         limit = getattr(qc, field)
         past = limit * 1.5 + 1 if side == "max" else limit * 0.5
-        assert len(absolute_reasons({key: past}, qc)) == 1, key
-        assert absolute_reasons({key: limit}, qc) == [], key
+        assert len(absolute_reasons(ClipMetrics.from_dict({key: past}), qc)) == 1, key
+        assert absolute_reasons(ClipMetrics.from_dict({key: limit}), qc) == [], key
         assert fails(key, past, qc) and not fails(key, limit, qc), key
     worst = {
         k: (getattr(qc, f) * 1.5 + 1 if s == "max" else 0.0) for k, (f, s) in THRESHOLDS.items()
     }
-    assert len(absolute_reasons(worst, qc)) == len(THRESHOLDS)  # no check missing from the table
+    assert len(absolute_reasons(ClipMetrics.from_dict(worst), qc)) == len(
+        THRESHOLDS
+    )  # no check missing from the table
 
 
 def test_pages_are_small_and_fetch_nothing(dataset: Path) -> None:

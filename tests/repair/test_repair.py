@@ -1,4 +1,4 @@
-"""Keypoint repair (`gesturebank.qc.repair`): synthetic property tests and real BlazePose takes.
+"""Keypoint repair (`gesturebank.repair`): synthetic property tests and real BlazePose takes.
 
 The synthetic speaker is a BlazePose-33 person facing the camera (its left on the image's right),
 100 px between the shoulders, moving its arms; every motion is a function of time, so the same
@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from gesturebank.config import RepairConfig
 from gesturebank.poses import Pose2D, Pose3D
-from gesturebank.qc.repair import (
+from gesturebank.repair import (
     RepairReport,
     half_window,
     hampel_outliers,
