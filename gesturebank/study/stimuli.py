@@ -173,7 +173,7 @@ def stimuli_command(
     from gesturebank.study.posters import poster_path, write_poster
     from gesturebank.train import model_folder
     from gesturebank.train.commands import synthesize_command
-    from gesturebank.train.compare import _names
+    from gesturebank.train.eval.compare import _names
 
     if not model_dirs:
         raise InputError("stimuli needs at least one model folder")

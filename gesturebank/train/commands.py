@@ -18,7 +18,7 @@ from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import apply_znorm, features
 from gesturebank.train import model_folder
-from gesturebank.train.evaluate import (
+from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     LEGEND,
     SEED_MEASURES,
@@ -32,10 +32,11 @@ from gesturebank.train.evaluate import (
 from gesturebank.train.export import OnnxModel, export_onnx
 from gesturebank.train.loss_plot import write_loss_png
 from gesturebank.train.model_folder import LOSS_PNG, MODEL_ONNX
-from gesturebank.train.models import build_model
-from gesturebank.train.models import predict as torch_predict
+from gesturebank.train.models.build import build_model
 from gesturebank.train.registry import MODELS
-from gesturebank.train.trainer import TrainResult, torch_settings, train
+from gesturebank.train.torch_runtime import predict as torch_predict
+from gesturebank.train.torch_runtime import torch_settings
+from gesturebank.train.trainer import TrainResult, train
 
 PathLike = str | os.PathLike[str]
 
@@ -120,8 +121,8 @@ def evaluate_command(
     baselines), the seeds' and the field's measures (FGD with its autoencoder's version), and
     writes metrics.json into the model folder; returns its content.
     """
-    from gesturebank.train.fgd import label as fgd_label
-    from gesturebank.train.field import prepare
+    from gesturebank.train.eval.fgd import label as fgd_label
+    from gesturebank.train.eval.field import prepare
 
     folder = model_folder.load(model_dir)
     net, info, norm = folder.torch_model(), folder.info, folder.norm

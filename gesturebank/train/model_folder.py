@@ -32,6 +32,7 @@ from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_folder, output_errors, write_bytes_atomic
 from gesturebank.robot import pepper
+from gesturebank.train.contract import SpeechToMotion
 
 if TYPE_CHECKING:
     import onnxruntime as ort
@@ -92,7 +93,7 @@ def write(
     import torch
 
     from gesturebank.robot.timeline import reach_of
-    from gesturebank.train.models import architecture
+    from gesturebank.train.models.build import architecture
 
     torch.save(net.state_dict(), folder / WEIGHTS)
     _write_json(
@@ -100,7 +101,7 @@ def write(
         {
             "tool_version": __version__,
             "architecture": architecture(net),
-            "causal": bool(getattr(net, "causal", False)),
+            "causal": bool(net.causal) if isinstance(net, SpeechToMotion) else False,
             "variant": variant,
             "fold": fold,
             "subject": subject,
@@ -187,7 +188,7 @@ class ModelFolder:
         """The torch model with its trained weights, in eval mode."""
         import torch
 
-        from gesturebank.train.models import from_architecture
+        from gesturebank.train.models.build import from_architecture
 
         net = from_architecture(self.info["architecture"])
         net.load_state_dict(torch.load(self.file(WEIGHTS), weights_only=True))

@@ -17,9 +17,9 @@ from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.robot import pepper
 from gesturebank.train.commands import evaluate_command, synthesize_command, train_command
-from gesturebank.train.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED, shifted_truth
+from gesturebank.train.eval.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED, shifted_truth
 from gesturebank.train.model_folder import load_model
-from gesturebank.train.trainer import validation_loss
+from gesturebank.train.torch_runtime import validation_loss
 
 
 def mean_pose_val_loss(dataset: Path, fold: int) -> float:

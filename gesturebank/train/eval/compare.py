@@ -24,7 +24,7 @@ from gesturebank.datasets import open as open_dataset
 from gesturebank.errors import InputError
 from gesturebank.fileio import output_errors, write_bytes_atomic
 from gesturebank.train import model_folder
-from gesturebank.train.evaluate import (
+from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     LEGEND,
     SEED_MEASURES,
@@ -38,10 +38,10 @@ from gesturebank.train.evaluate import (
     postprocess,
     score_systems,
 )
-from gesturebank.train.fgd import label as fgd_label
-from gesturebank.train.field import prepare
-from gesturebank.train.models import predict as torch_predict
-from gesturebank.train.trainer import torch_settings
+from gesturebank.train.eval.fgd import label as fgd_label
+from gesturebank.train.eval.field import prepare
+from gesturebank.train.torch_runtime import predict as torch_predict
+from gesturebank.train.torch_runtime import torch_settings
 
 PathLike = str | os.PathLike[str]
 _BY_KEY = {c.key: c for c in (*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES)}
