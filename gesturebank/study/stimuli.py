@@ -208,7 +208,7 @@ def stimuli_command(
             if anchor == "mean-pose":
                 still = _hold(mean_pose, duration)
             else:
-                dataset = src.dataset or Path(folders[0].info["dataset"])
+                dataset = src.dataset or Path(folders[0].info.need(folders[0].path, "dataset"))
                 still = _random_clip(dataset, {src.clip_id or ""}, rng)
             conditions.append(("anchor", "anchor", None, still))
             videos = []

@@ -127,12 +127,13 @@ def evaluate_command(
     folder = model_folder.load(model_dir)
     net, info, norm = folder.torch_model(), folder.info, folder.norm
     cfg = folder.train_config
-    ds = open_dataset(dataset or info["dataset"])
+    ds = open_dataset(dataset or info.need(folder.path, "dataset"))
+    variant: str = info.need(folder.path, "variant")
     inputs = prepare(
         ds,
-        variant=info["variant"],
-        fold=info["fold"],
-        subject=info["subject"],
+        variant=variant,
+        fold=info.fold,
+        subject=info.subject,
         part=split,
         config=cfg,
     )
@@ -140,14 +141,14 @@ def evaluate_command(
     profile = folder.profile
     with torch_settings(cfg.seed, cfg.threads):
         pred01 = [torch_predict(net, s.audio) for s in segments]
-    name = f"{info['architecture']['kind'].upper()}-{info['variant'].upper()}"
+    name = f"{info.need(folder.path, 'architecture')['kind'].upper()}-{variant.upper()}"
     results = evaluate_segments(
         segments,
         pred01,
         name=name,
         mean_pose01=np.asarray(norm["mean_pose01"]),
         profile=profile,
-        rate_hz=float(info["rate_hz"]),
+        rate_hz=float(info.need(folder.path, "rate_hz")),
         config=cfg,
         donors=inputs.donors,
         fgd=inputs.fgd,
@@ -158,8 +159,8 @@ def evaluate_command(
         "model": name,
         "split": split,
         "dataset": str(ds.path.resolve()),
-        "fold": info["fold"],
-        "subject": info["subject"],
+        "fold": info.fold,
+        "subject": info.subject,
         "fgd_version": fgd_version,
         "per_subject": results,
         "average": average(results),
@@ -210,11 +211,9 @@ def synthesize_command(
     pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(
         apply_znorm(feats, mean, std), z_seed=cfg.seed
     )
-    angles = postprocess(pred01, folder.profile, float(info["rate_hz"]), cfg)
+    angles = postprocess(pred01, folder.profile, float(info.need(folder.path, "rate_hz")), cfg)
     times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
-    reach = info.get("reach")  # older model folders do not say
-    line = Timeline.of(
-        times, angles, profile=folder.profile.name, reach=reach if isinstance(reach, str) else None
-    )
+    # older model folders do not say
+    line = Timeline.of(times, angles, profile=folder.profile.name, reach=info.reach)
     write_timeline(out_csv, line)
     return angles

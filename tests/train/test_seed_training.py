@@ -53,7 +53,7 @@ def test_every_seed_model_beats_the_mean_pose(
     result = train_command(synthetic_dataset, kind, "si", 0, None, out, TINY, quiet=True)
     assert result.best_val_loss < 0.5 * baseline, (result.best_val_loss, baseline)
     folder = load(out)
-    assert folder.info["architecture"]["kind"] == kind
+    assert folder.info.architecture["kind"] == kind
     # offline synthesis's graph gives what the trained torch model gives
     model, _, _ = load_model(out)
     ds = gds.open(synthetic_dataset)
@@ -128,7 +128,7 @@ def test_cli_trains_a_seed_model_and_live_refuses_it_in_one_line(
         capture_output=True, text=True, timeout=300, check=False,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
-    assert load(out).info["architecture"]["kind"] == "cvae"
+    assert load(out).info.architecture["kind"] == "cvae"
     wav = next((samples / "speech").glob("*.wav"))
     r = subprocess.run(
         [gesturebank, "live", str(out), "--backend", "record", "--input", str(wav),

@@ -71,7 +71,7 @@ def test_training_is_deterministic_and_restores_the_best_weights(
     ds = gds.open(synthetic_dataset)
     val = load_segments(ds, split_items(ds, "si", "val", fold=1))
     assert validation_loss(model, val) == pytest.approx(a.best_val_loss, rel=1e-6)
-    assert info["result"]["best_epoch"] == a.best_epoch
+    assert info.result.best_epoch == a.best_epoch
 
 
 def test_early_stopping_after_patience(synthetic_dataset: Path, tmp_path: Path) -> None:
@@ -104,8 +104,8 @@ def test_subject_dependent_training_and_model_folder(
         "model_step.onnx",
     } <= names
     info = json.loads((out / "model.json").read_text())
-    assert info["variant"] == "sd" and info["subject"] == "s1"
-    assert TrainConfig.model_validate(info["train_config"]) == cfg
+    assert info.variant == "sd" and info.subject == "s1"
+    assert TrainConfig.model_validate(info.train_config) == cfg
     norm = json.loads((out / "normalisers.json").read_text())
     assert set(norm["audio_znorm_by_subject"]) == {"s0", "s1", "s2", "s3", "*"}
     assert len(norm["mean_pose01"]) == 11

@@ -92,22 +92,23 @@ def compare_command(
         raise InputError(f"{out}: the table is written as .csv or .md")
     folders = [model_folder.load(d) for d in model_dirs]
     first = folders[0].info
-    where = ("variant", "fold", "subject")
     for f in folders[1:]:
-        if any(f.info[k] != first[k] for k in where) or (
-            dataset is None and f.info["dataset"] != first["dataset"]
+        trained_on = (f.info.variant, f.info.fold, f.info.subject)
+        if trained_on != (first.variant, first.fold, first.subject) or (
+            dataset is None and f.info.dataset != first.dataset
         ):
             raise InputError(
                 f"{f.path}: trained on another split or dataset than {folders[0].path}; "
                 "compare scores models of one split"
             )
     cfg = config or folders[0].train_config
-    ds = open_dataset(dataset or first["dataset"])
+    ds = open_dataset(dataset or first.need(folders[0].path, "dataset"))
+    variant: str = first.need(folders[0].path, "variant")
     inputs = prepare(
         ds,
-        variant=first["variant"],
-        fold=first["fold"],
-        subject=first["subject"],
+        variant=variant,
+        fold=first.fold,
+        subject=first.subject,
         part=split,
         config=cfg,
     )
@@ -133,9 +134,9 @@ def compare_command(
     )
     rows = average(results)
     version = inputs.fgd.version if inputs.fgd else None
-    part = f"fold {first['fold']}" if first["variant"] == "si" else f"subject {first['subject']}"
+    part = f"fold {first.fold}" if variant == "si" else f"subject {first.subject}"
     title = (
-        f"{ds.path.name}, {first['variant'].upper()} {part}, {split}: mean over subjects "
+        f"{ds.path.name}, {variant.upper()} {part}, {split}: mean over subjects "
         f"({fgd_label(inputs.fgd)})"
     )
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
