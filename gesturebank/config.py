@@ -21,8 +21,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic_core import PydanticCustomError
 
 from gesturebank.errors import ConfigError
+from gesturebank.registry import plugin_section
 
 
 class Section(BaseModel):
@@ -1142,7 +1144,10 @@ class CVAEConfig(Section):
 
 
 class TrainConfig(Section):
-    """How models are trained and evaluated (section `[train]`)."""
+    """How models are trained and evaluated (section `[train]`). Another key must be a plug-in
+    model's own `[train.NAME]` section, validated by that model (`registry.plugin_section`)."""
+
+    model_config = ConfigDict(extra="allow", validate_assignment=True, frozen=False)
 
     mlp: MLPConfig = Field(default_factory=MLPConfig)
     lstm: LSTMConfig = Field(default_factory=LSTMConfig)
@@ -1184,6 +1189,18 @@ class TrainConfig(Section):
         description="Top of the speed histogram, rad/s; faster frames go in the last bin.",
     )
     eval: EvalConfig = Field(default_factory=EvalConfig)
+
+    @model_validator(mode="after")
+    def _plugin_sections(self) -> TrainConfig:
+        extra = self.__pydantic_extra__ or {}
+        for name, raw in extra.items():
+            try:
+                extra[name] = plugin_section(
+                    "gesturebank.models", name, raw, type(self).model_fields
+                )
+            except ValueError as exc:  # one line, at the [train] table: "NAME.key: problem"
+                raise PydanticCustomError("plugin_section", "{why}", {"why": str(exc)}) from None
+        return self
 
 
 class PlaybackConfig(Section):
