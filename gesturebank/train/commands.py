@@ -213,7 +213,8 @@ def synthesize_command(
     )
     angles = postprocess(pred01, folder.profile, float(info.need(folder.path, "rate_hz")), cfg)
     times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
-    # older model folders do not say
-    line = Timeline.of(times, angles, profile=folder.profile.name, reach=info.reach)
+    line = Timeline.of(  # reach None: older model folders do not say
+        times, angles, profile=folder.profile.name, reach=info.reach
+    )
     write_timeline(out_csv, line)
     return angles
