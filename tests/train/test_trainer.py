@@ -104,8 +104,8 @@ def test_subject_dependent_training_and_model_folder(
         "model_step.onnx",
     } <= names
     info = json.loads((out / "model.json").read_text())
-    assert info.variant == "sd" and info.subject == "s1"
-    assert TrainConfig.model_validate(info.train_config) == cfg
+    assert info["variant"] == "sd" and info["subject"] == "s1"
+    assert TrainConfig.model_validate(info["train_config"]) == cfg
     norm = json.loads((out / "normalisers.json").read_text())
     assert set(norm["audio_znorm_by_subject"]) == {"s0", "s1", "s2", "s3", "*"}
     assert len(norm["mean_pose01"]) == 11
