@@ -37,7 +37,8 @@ from gesturebank.extract.audio_features import frame_features
 from gesturebank.robot.online import OnnxFrameModel
 from gesturebank.train.export import OnnxModel, StreamingLSTM, export_onnx
 from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
-from gesturebank.train.models import LSTMModel, build_model
+from gesturebank.train.models.build import build_model
+from gesturebank.train.models.dissertation import LSTMModel
 from gesturebank.train.registry import MODELS
 
 WINDOW = 300  # N_τ frames the baseline re-runs every frame

@@ -7,10 +7,13 @@ and is found without touching gesturebank.
 
 from __future__ import annotations
 
+import difflib
 import importlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from importlib.metadata import entry_points
 from typing import Any, Generic, TypeVar, cast
+
+from pydantic import BaseModel, ValidationError
 
 from gesturebank.errors import InputError
 
@@ -79,3 +82,30 @@ class Registry(Generic[T]):
 
     def create(self, name: str, *args: object, **kwargs: object) -> T:
         return self.get(name)(*args, **kwargs)
+
+
+def plugin_section(group: str, name: str, raw: object, known: Iterable[str]) -> BaseModel:
+    """A plug-in's own config section `NAME` (e.g. `[train.NAME]` of a "gesturebank.models"
+    plug-in), validated by the `section_model` (a pydantic model) its class declares.
+
+    ValueError, one line "NAME: …" or "NAME.key: …", when `name` is no plug-in of `group` (with
+    the nearest of the `known` keys), the plug-in declares no section, or a value is wrong.
+    """
+    plugin = {ep.name: ep for ep in entry_points(group=group)}.get(name)
+    if plugin is None:
+        close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+        raise ValueError(f"{name}: unknown key" + (f" (did you mean {close[0]}?)" if close else ""))
+    try:
+        owner = plugin.load()
+    except Exception as exc:  # a broken plug-in must not look like a missing one
+        raise ValueError(f"{name}: plug-in {plugin.value} failed to load ({exc})") from exc
+    section = getattr(owner, "section_model", None)  # declared by `train.contract.OwnSection`
+    if not (isinstance(section, type) and issubclass(section, BaseModel)):
+        raise ValueError(f"{name}: plug-in {plugin.value} declares no section_model")
+    try:
+        return section.model_validate(raw)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        key = ".".join([name, *(str(p) for p in err["loc"])])
+        why = "unknown key" if err["type"] == "extra_forbidden" else err["msg"]
+        raise ValueError(f"{key}: {why}") from None

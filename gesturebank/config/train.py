@@ -6,9 +6,11 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import ConfigDict, Field, model_validator
+from pydantic_core import PydanticCustomError
 
 from gesturebank.config.section import Section
+from gesturebank.registry import plugin_section
 
 Variant = Literal["si", "sd"]
 
@@ -225,7 +227,10 @@ class CVAEConfig(Section):
 
 
 class TrainConfig(Section):
-    """How models are trained and evaluated (section `[train]`)."""
+    """How models are trained and evaluated (section `[train]`). Another key must be a plug-in
+    model's own `[train.NAME]` section, validated by that model (`registry.plugin_section`)."""
+
+    model_config = ConfigDict(extra="allow", validate_assignment=True, frozen=False)
 
     mlp: MLPConfig = Field(default_factory=MLPConfig)
     lstm: LSTMConfig = Field(default_factory=LSTMConfig)
@@ -267,3 +272,15 @@ class TrainConfig(Section):
         description="Top of the speed histogram, rad/s; faster frames go in the last bin.",
     )
     eval: EvalConfig = Field(default_factory=EvalConfig)
+
+    @model_validator(mode="after")
+    def _plugin_sections(self) -> TrainConfig:
+        extra = self.__pydantic_extra__ or {}
+        for name, raw in extra.items():
+            try:
+                extra[name] = plugin_section(
+                    "gesturebank.models", name, raw, type(self).model_fields
+                )
+            except ValueError as exc:  # one line, at the [train] table: "NAME.key: problem"
+                raise PydanticCustomError("plugin_section", "{why}", {"why": str(exc)}) from None
+        return self

@@ -127,7 +127,7 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
     """
     folder = model_folder.load(model_dir)
     if not folder.causal:
-        kind = folder.info.get("architecture", {}).get("kind", "?")
+        kind = (folder.info.architecture or {}).get("kind", "?")
         raise InputError(
             f"{folder.path}: model {kind!r} is not causal (it needs future audio), so it cannot "
             "run live; play it offline with `gesturebank synthesize`"
@@ -138,10 +138,7 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
         raise InputError(
             f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
         )
-    reach = folder.info.get("reach")
-    return LiveModel(
-        model, mean, std, folder.profile, folder.audio, reach if isinstance(reach, str) else None
-    )
+    return LiveModel(model, mean, std, folder.profile, folder.audio, folder.info.reach)
 
 
 # --------------------------------------------------------------------------------------------------

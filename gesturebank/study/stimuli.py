@@ -173,7 +173,7 @@ def stimuli_command(
     from gesturebank.study.posters import poster_path, write_poster
     from gesturebank.train import model_folder
     from gesturebank.train.commands import synthesize_command
-    from gesturebank.train.compare import _names
+    from gesturebank.train.eval.compare import _names
 
     if not model_dirs:
         raise InputError("stimuli needs at least one model folder")
@@ -208,7 +208,7 @@ def stimuli_command(
             if anchor == "mean-pose":
                 still = _hold(mean_pose, duration)
             else:
-                dataset = src.dataset or Path(folders[0].info["dataset"])
+                dataset = src.dataset or Path(folders[0].info.need(folders[0].path, "dataset"))
                 still = _random_clip(dataset, {src.clip_id or ""}, rng)
             conditions.append(("anchor", "anchor", None, still))
             videos = []

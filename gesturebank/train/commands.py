@@ -18,7 +18,7 @@ from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import apply_znorm, features
 from gesturebank.train import model_folder
-from gesturebank.train.evaluate import (
+from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     LEGEND,
     SEED_MEASURES,
@@ -32,10 +32,11 @@ from gesturebank.train.evaluate import (
 from gesturebank.train.export import OnnxModel, export_onnx
 from gesturebank.train.loss_plot import write_loss_png
 from gesturebank.train.model_folder import LOSS_PNG, MODEL_ONNX
-from gesturebank.train.models import build_model
-from gesturebank.train.models import predict as torch_predict
+from gesturebank.train.models.build import build_model
 from gesturebank.train.registry import MODELS
-from gesturebank.train.trainer import TrainResult, torch_settings, train
+from gesturebank.train.torch_runtime import predict as torch_predict
+from gesturebank.train.torch_runtime import torch_settings
+from gesturebank.train.trainer import TrainResult, train
 
 PathLike = str | os.PathLike[str]
 
@@ -120,18 +121,19 @@ def evaluate_command(
     baselines), the seeds' and the field's measures (FGD with its autoencoder's version), and
     writes metrics.json into the model folder; returns its content.
     """
-    from gesturebank.train.fgd import label as fgd_label
-    from gesturebank.train.field import prepare
+    from gesturebank.train.eval.fgd import label as fgd_label
+    from gesturebank.train.eval.field import prepare
 
     folder = model_folder.load(model_dir)
     net, info, norm = folder.torch_model(), folder.info, folder.norm
     cfg = folder.train_config
-    ds = open_dataset(dataset or info["dataset"])
+    ds = open_dataset(dataset or info.need(folder.path, "dataset"))
+    variant: str = info.need(folder.path, "variant")
     inputs = prepare(
         ds,
-        variant=info["variant"],
-        fold=info["fold"],
-        subject=info["subject"],
+        variant=variant,
+        fold=info.fold,
+        subject=info.subject,
         part=split,
         config=cfg,
     )
@@ -139,14 +141,14 @@ def evaluate_command(
     profile = folder.profile
     with torch_settings(cfg.seed, cfg.threads):
         pred01 = [torch_predict(net, s.audio) for s in segments]
-    name = f"{info['architecture']['kind'].upper()}-{info['variant'].upper()}"
+    name = f"{info.need(folder.path, 'architecture')['kind'].upper()}-{variant.upper()}"
     results = evaluate_segments(
         segments,
         pred01,
         name=name,
         mean_pose01=np.asarray(norm["mean_pose01"]),
         profile=profile,
-        rate_hz=float(info["rate_hz"]),
+        rate_hz=float(info.need(folder.path, "rate_hz")),
         config=cfg,
         donors=inputs.donors,
         fgd=inputs.fgd,
@@ -157,8 +159,8 @@ def evaluate_command(
         "model": name,
         "split": split,
         "dataset": str(ds.path.resolve()),
-        "fold": info["fold"],
-        "subject": info["subject"],
+        "fold": info.fold,
+        "subject": info.subject,
         "fgd_version": fgd_version,
         "per_subject": results,
         "average": average(results),
@@ -209,11 +211,10 @@ def synthesize_command(
     pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(
         apply_znorm(feats, mean, std), z_seed=cfg.seed
     )
-    angles = postprocess(pred01, folder.profile, float(info["rate_hz"]), cfg)
+    angles = postprocess(pred01, folder.profile, float(info.need(folder.path, "rate_hz")), cfg)
     times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
-    reach = info.get("reach")  # older model folders do not say
-    line = Timeline.of(
-        times, angles, profile=folder.profile.name, reach=reach if isinstance(reach, str) else None
+    line = Timeline.of(  # reach None: older model folders do not say
+        times, angles, profile=folder.profile.name, reach=info.reach
     )
     write_timeline(out_csv, line)
     return angles

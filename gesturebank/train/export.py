@@ -28,8 +28,8 @@ import numpy as np
 import torch
 
 from gesturebank.errors import InputError
+from gesturebank.train.contract import ExtraOnnxInputs, FrameWise, SpeechToMotion, Stateful
 from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX, session
-from gesturebank.train.models import MLP
 
 OPSET = 17
 
@@ -47,10 +47,11 @@ def export_onnx(model: torch.nn.Module, out_dir: Path) -> list[Path]:
     the paths."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    described: Any = model  # the registry's interface (train.registry), duck-typed
-    f = int(described.n_features)
+    if not isinstance(model, SpeechToMotion):
+        raise InputError(f"{type(model).__name__}: not a speech-to-motion model (train.contract)")
+    f = int(model.n_features)
     path = out_dir / MODEL_ONNX
-    if isinstance(model, MLP):
+    if isinstance(model, FrameWise):
         _export(
             model,
             (torch.zeros(4, f),),
@@ -60,7 +61,7 @@ def export_onnx(model: torch.nn.Module, out_dir: Path) -> list[Path]:
             dynamic_axes={"audio": {0: "frames"}, "angles01": {0: "frames"}},
         )
         return [path]
-    extra: dict[str, tuple[int, ...]] = getattr(described, "onnx_inputs", dict)()
+    extra = model.onnx_inputs() if isinstance(model, ExtraOnnxInputs) else {}
     _export(
         model,
         (torch.zeros(1, 8, f), *(torch.zeros(shape) for shape in extra.values())),
@@ -73,9 +74,9 @@ def export_onnx(model: torch.nn.Module, out_dir: Path) -> list[Path]:
             **{name: {0: "batch"} for name in extra},
         },
     )
-    if not hasattr(described, "step_module"):
+    if not isinstance(model, Stateful):
         return [path]
-    step, state_shapes = described.step_module()
+    step, state_shapes = model.step_module()
     names = ["h", "c"][: len(state_shapes)]
     step_path = out_dir / STEP_ONNX
     _export(

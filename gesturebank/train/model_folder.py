@@ -26,12 +26,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from gesturebank import __version__
 from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_folder, output_errors, write_bytes_atomic
 from gesturebank.robot import pepper
+from gesturebank.train.contract import SpeechToMotion
 
 if TYPE_CHECKING:
     import onnxruntime as ort
@@ -48,6 +50,52 @@ METRICS = "metrics.json"
 LOSS_PNG = "loss.png"
 MODEL_ONNX = "model.onnx"
 STEP_ONNX = "model_step.onnx"
+
+
+# --------------------------------------------------------------------------------------------------
+# model.json
+
+
+class TrainingRecord(BaseModel):
+    """model.json's "result": how training went (`trainer.TrainResult`)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    best_epoch: int
+    best_val_loss: float
+    epochs: int
+    max_epochs: int | None = None  # folders from before `train --epochs` do not say
+    stopped: str | None = None
+    seconds: float
+    history: list[dict[str, Any]]  # epoch, train_loss, val_loss, lr [, stage]
+
+
+class ModelInfo(BaseModel):
+    """model.json, in the order it is written. Only "audio" is required: live mode needs no more,
+    and folders written for it (or by older versions) may hold only that; the rest is None then.
+    Unknown keys are kept."""
+
+    model_config = ConfigDict(extra="allow")
+
+    tool_version: str | None = None
+    architecture: dict[str, Any] | None = None  # `models.build.architecture`: kind, sizes
+    causal: bool = True  # folders from before the key held MLP or LSTM models, both causal
+    variant: str | None = None  # "si" | "sd"
+    fold: int | None = None
+    subject: str | None = None
+    dataset: str | None = None  # the dataset folder it was trained on
+    train_config: dict[str, Any] | None = None  # the resolved TrainConfig
+    audio: AudioConfig
+    rate_hz: float | None = None  # pose frames per second
+    reach: str | None = None  # the angles' reach mode (older folders do not say)
+    result: TrainingRecord | None = None
+
+    def need(self, folder: Path, key: str) -> Any:
+        """The value of `key`; InputError (one line) when this model.json does not have it."""
+        value = getattr(self, key)
+        if value is None:
+            raise InputError(f"{folder / MODEL_JSON}: no {key!r} (a folder written by `train`?)")
+        return value
 
 
 # --------------------------------------------------------------------------------------------------
@@ -92,33 +140,34 @@ def write(
     import torch
 
     from gesturebank.robot.timeline import reach_of
-    from gesturebank.train.models import architecture
+    from gesturebank.train.models.build import architecture
 
     torch.save(net.state_dict(), folder / WEIGHTS)
+    info = ModelInfo(
+        tool_version=__version__,
+        architecture=architecture(net),
+        causal=bool(net.causal) if isinstance(net, SpeechToMotion) else False,
+        variant=variant,
+        fold=fold,
+        subject=subject,
+        dataset=str(dataset.path.resolve()),
+        train_config=config.model_dump(mode="json"),
+        audio=dataset.info.config.audio,
+        rate_hz=dataset.info.rates.pose_hz,
+        reach=reach_of(dataset.info.config),  # the angles' reach mode, for synthesize
+        result=TrainingRecord(
+            best_epoch=result.best_epoch,
+            best_val_loss=result.best_val_loss,
+            epochs=result.epochs,
+            max_epochs=result.max_epochs,
+            stopped=result.stopped,
+            seconds=result.seconds,
+            history=result.history,
+        ),
+    )
+    # python mode: json.dumps writes floats (inf, nan too) as before; "audio" in JSON mode
     _write_json(
-        folder / MODEL_JSON,
-        {
-            "tool_version": __version__,
-            "architecture": architecture(net),
-            "causal": bool(getattr(net, "causal", False)),
-            "variant": variant,
-            "fold": fold,
-            "subject": subject,
-            "dataset": str(dataset.path.resolve()),
-            "train_config": config.model_dump(mode="json"),
-            "audio": dataset.info.config.audio.model_dump(mode="json"),
-            "rate_hz": dataset.info.rates.pose_hz,
-            "reach": reach_of(dataset.info.config),  # the angles' reach mode, for synthesize
-            "result": {
-                "best_epoch": result.best_epoch,
-                "best_val_loss": result.best_val_loss,
-                "epochs": result.epochs,
-                "max_epochs": result.max_epochs,
-                "stopped": result.stopped,
-                "seconds": result.seconds,
-                "history": result.history,
-            },
-        },
+        folder / MODEL_JSON, {**info.model_dump(), "audio": info.audio.model_dump(mode="json")}
     )
     _write_json(
         folder / NORMALISERS,
@@ -151,7 +200,7 @@ class ModelFolder:
     audio config and robot profile (limits the angles are normalised to) they give."""
 
     path: Path
-    info: dict[str, Any]
+    info: ModelInfo
     norm: dict[str, Any]
     audio: AudioConfig
     profile: pepper.RobotProfile
@@ -165,11 +214,11 @@ class ModelFolder:
     def causal(self) -> bool:
         """Whether each output frame depends on past audio only (folders from before the key
         held MLP or LSTM models, both causal)."""
-        return bool(self.info.get("causal", True))
+        return self.info.causal
 
     @property
     def train_config(self) -> TrainConfig:
-        return TrainConfig.model_validate(self.info["train_config"])
+        return TrainConfig.model_validate(self.info.need(self.path, "train_config"))
 
     def file(self, name: str) -> Path:
         """The folder's file `name`; InputError (one line) when it is missing."""
@@ -187,9 +236,9 @@ class ModelFolder:
         """The torch model with its trained weights, in eval mode."""
         import torch
 
-        from gesturebank.train.models import from_architecture
+        from gesturebank.train.models.build import from_architecture
 
-        net = from_architecture(self.info["architecture"])
+        net = from_architecture(self.info.need(self.path, "architecture"))
         net.load_state_dict(torch.load(self.file(WEIGHTS), weights_only=True))
         net.eval()
         return net
@@ -213,14 +262,21 @@ def load(model_dir: PathLike) -> ModelFolder:
     for path in (_graph(folder), folder / MODEL_JSON, folder / NORMALISERS):
         _require(path, folder)
     try:
-        info = json.loads((folder / MODEL_JSON).read_text(encoding="utf-8"))
+        info = ModelInfo.model_validate(json.loads((folder / MODEL_JSON).read_text("utf-8")))
         norm = json.loads((folder / NORMALISERS).read_text(encoding="utf-8"))
-        audio = AudioConfig.model_validate(info["audio"])
+        audio = info.audio
         if not isinstance(norm["audio_znorm_by_subject"], dict):
             raise TypeError("audio_znorm_by_subject is not a table")
         name = str(norm["robot_profile"])
         limits = norm.get("limits")
         stored = _stored_profile(limits, name) if limits else None
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        where = ".".join(str(p) for p in err["loc"])
+        reason = f"{where}: {err['msg']}" if where else err["msg"]
+        raise InputError(
+            f"{folder}: unreadable model.json or normalisers.json ({reason})"
+        ) from None
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise InputError(f"{folder}: unreadable model.json or normalisers.json ({exc})") from None
     # the limits the model was trained with travel with it; older folders name the profile only
@@ -235,7 +291,7 @@ def _stored_profile(limits: dict[str, dict[str, float]], name: str) -> pepper.Ro
     return pepper.RobotProfile(name, "from the dataset", table[:, 0], table[:, 1], table[:, 2])
 
 
-def load_model(model_dir: PathLike) -> tuple[nn.Module, dict[str, Any], dict[str, Any]]:
+def load_model(model_dir: PathLike) -> tuple[nn.Module, ModelInfo, dict[str, Any]]:
     """(torch model with its trained weights, model.json, normalisers.json) of a model folder."""
     folder = load(model_dir)
     return folder.torch_model(), folder.info, folder.norm

@@ -10,10 +10,8 @@ Deterministic on CPU: the seed fixes the initial weights and the shuffling (a nu
 `torch.use_deterministic_algorithms` is on while training, and the thread count is fixed; the
 same data and config give the same weights. Global torch settings are restored afterwards.
 
-Validation loss: the model predicts every validation segment whole (`models.predict`; the LSTM
-from a zero state, as in synthesis) and L is taken over all known entries. For the LSTM that is
-~N_τ times cheaper than scoring every overlapping validation window, and it is the quantity that
-matters when the model is used.
+Validation loss: L over whole validation segments (`torch_runtime.validation_loss`), unless the
+model has its own (`contract.OwnValidation`). The optional hooks are `train.contract`'s.
 """
 
 from __future__ import annotations
@@ -22,8 +20,7 @@ import copy
 import dataclasses
 import logging
 import time
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,8 +31,9 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import FrameDataset, Segment, WindowDataset, masked_mse
 from gesturebank.errors import InputError
-from gesturebank.train.models import predict
+from gesturebank.train.contract import OwnLoss, OwnValidation, SpeechToMotion, Staged
 from gesturebank.train.schedule import Schedule, make_optimiser
+from gesturebank.train.torch_runtime import torch_settings, validation_loss
 
 log = logging.getLogger(__name__)
 
@@ -64,34 +62,6 @@ class TrainResult:
             f"stopped: {why}; kept epoch {self.best_epoch} "
             f"(validation loss {self.best_val_loss:.5f})"
         )
-
-
-@contextmanager
-def torch_settings(seed: int, threads: int) -> Iterator[None]:
-    """Seed torch, fix its threads and make it deterministic; restore the settings on exit."""
-    old_threads = torch.get_num_threads()
-    old_det = torch.are_deterministic_algorithms_enabled()
-    torch.set_num_threads(threads)
-    torch.use_deterministic_algorithms(True)
-    torch.manual_seed(seed)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(old_threads)
-        torch.use_deterministic_algorithms(old_det)
-
-
-def validation_loss(model: torch.nn.Module, segments: Sequence[Segment]) -> float:
-    """Loss L (Eq. 3.15) over the known entries of whole segments."""
-    err = 0.0
-    count = 0
-    for s in segments:
-        p = predict(model, s.audio)
-        err += float(np.sum(((p - s.target) ** 2)[s.mask]))
-        count += int(s.mask.sum())
-    if count == 0:
-        raise InputError("the validation segments have no known pose")
-    return err / count
 
 
 def make_dataset(schedule: Schedule, segments: Sequence[Segment]) -> FrameDataset | WindowDataset:
@@ -123,12 +93,13 @@ def train(
     The model must have been created under the same seed for a fully reproducible run (the
     commands build it inside `torch_settings`).
     """
-    stages = getattr(model, "stages", None)
+    if not isinstance(model, SpeechToMotion):
+        raise InputError(f"{type(model).__name__}: not a speech-to-motion model (train.contract)")
     run = (model, train_segments, val_segments, config, quiet)
-    if stages is None:
+    if not isinstance(model, Staged):
         return _train_stage(*run, description, epochs)
     done: list[TrainResult] = []
-    for name in stages(train_segments):
+    for name in model.stages(train_segments):
         done.append(_train_stage(*run, f"{description} · {name}", epochs))
     history = [{**h, "stage": float(i)} for i, r in enumerate(done) for h in r.history]
     last = done[-1]
@@ -140,6 +111,12 @@ def train(
     )
 
 
+def _masked_mse_of(
+    model: torch.nn.Module,
+) -> Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]:
+    return lambda x, y, m: masked_mse(model(x), y, m)
+
+
 def _train_stage(
     model: torch.nn.Module,
     train_segments: Sequence[Segment],
@@ -149,16 +126,18 @@ def _train_stage(
     description: str,
     epochs: int | None,
 ) -> TrainResult:
-    schedule: Schedule = model.schedule(config)  # type: ignore[operator]
+    assert isinstance(model, SpeechToMotion)  # checked by `train`
+    schedule: Schedule = model.schedule(config)
     if epochs is not None:
         schedule = dataclasses.replace(schedule, max_epochs=epochs)
     data = make_dataset(schedule, train_segments)
     batch_size, max_epochs = schedule.batch_size or len(data), schedule.max_epochs
-    loss_of = getattr(model, "loss", None) or (lambda x, y, m: masked_mse(model(x), y, m))
+    loss_of = model.loss if isinstance(model, OwnLoss) else _masked_mse_of(model)
     rng = np.random.default_rng(config.seed)
-    params = getattr(model, "stage_parameters", model.parameters)()  # a stage trains its part
+    # a stage trains its part
+    params = model.stage_parameters() if isinstance(model, Staged) else model.parameters()
     optimiser = make_optimiser(schedule, params)
-    own_val = getattr(model, "validation_loss", None)
+    own_val = model.validation_loss if isinstance(model, OwnValidation) else None
     lr = schedule.learning_rate
     stalled_since = 0  # epoch of the last rate drop
     best = (float("inf"), 0, copy.deepcopy(model.state_dict()))

@@ -23,8 +23,8 @@ from gesturebank.fileio import atomic_folder, permissions
 from gesturebank.robot import pepper
 from gesturebank.testing.speech_motion import write_speech_motion_dataset
 from gesturebank.train.commands import synthesize_command, train_command
-from gesturebank.train.compare import COLUMNS as COMPARE_COLUMNS
-from gesturebank.train.evaluate import (
+from gesturebank.train.eval.compare import COLUMNS as COMPARE_COLUMNS
+from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     HIGHER,
     LEGEND,

@@ -15,8 +15,8 @@ from gesturebank.cli import app
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.train.commands import train_command
-from gesturebank.train.compare import COLUMNS, compare_command
-from gesturebank.train.evaluate import LEGEND, MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
+from gesturebank.train.eval.compare import COLUMNS, compare_command
+from gesturebank.train.eval.evaluate import LEGEND, MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
 
 BASELINES = [NATURAL, MEAN_POSE, SHUFFLED, SHIFTED]
 

@@ -11,7 +11,8 @@ import torch
 from gesturebank.errors import InputError
 from gesturebank.train.export import OnnxModel, StreamingLSTM, export_onnx
 from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
-from gesturebank.train.models import MLP, LSTMModel, predict
+from gesturebank.train.models.dissertation import MLP, LSTMModel
+from gesturebank.train.torch_runtime import predict
 
 
 @pytest.fixture()

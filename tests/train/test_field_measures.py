@@ -15,11 +15,11 @@ from gesturebank.config import AudioConfig, EvalConfig
 from gesturebank.datasets.torch import Segment, load_segments, make_segment, split_items
 from gesturebank.extract.audio_features import features
 from gesturebank.extract.audio_io import read_audio
-from gesturebank.train import beats as B
-from gesturebank.train import fgd as F
-from gesturebank.train import metrics as M
-from gesturebank.train.evaluate import shuffled_clip
-from gesturebank.train.field import known_runs
+from gesturebank.train.eval import beats as B
+from gesturebank.train.eval import fgd as F
+from gesturebank.train.eval import metrics as M
+from gesturebank.train.eval.evaluate import shuffled_clip
+from gesturebank.train.eval.field import known_runs
 
 RATE = 100.0
 

@@ -8,16 +8,14 @@ import torch
 
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
-from gesturebank.train.models import (
-    MLP,
-    LSTMModel,
-    LSTMStep,
+from gesturebank.train.models.build import (
     architecture,
     build_model,
     from_architecture,
     n_parameters,
-    predict,
 )
+from gesturebank.train.models.dissertation import MLP, LSTMModel, LSTMStep
+from gesturebank.train.torch_runtime import predict
 
 
 def test_default_mlp_is_table_4_5_for_logfb26() -> None:

@@ -12,17 +12,18 @@ import torch
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.robot.online import OnnxFrameModel
-from gesturebank.train.aud2motion import Aud2Motion, Aud2MotionStep
-from gesturebank.train.aud2pose import Aud2Pose
-from gesturebank.train.aud2repr2pose import Aud2Repr2Pose
-from gesturebank.train.blstm import SpanBLSTM
-from gesturebank.train.cvae import CVAE, kl_to_standard_normal
-from gesturebank.train.dcccae import DCCCAE, cca_correlation
 from gesturebank.train.export import OnnxModel, export_onnx
-from gesturebank.train.layers import span_mean, windows
 from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
-from gesturebank.train.models import architecture, build_model, from_architecture, predict
+from gesturebank.train.models.aud2motion import Aud2Motion, Aud2MotionStep
+from gesturebank.train.models.aud2pose import Aud2Pose
+from gesturebank.train.models.aud2repr2pose import Aud2Repr2Pose
+from gesturebank.train.models.blstm import SpanBLSTM
+from gesturebank.train.models.build import architecture, build_model, from_architecture
+from gesturebank.train.models.cvae import CVAE, kl_to_standard_normal
+from gesturebank.train.models.dcccae import DCCCAE, cca_correlation
+from gesturebank.train.models.layers import span_mean, windows
 from gesturebank.train.registry import MODELS
+from gesturebank.train.torch_runtime import predict
 
 SEED_MODELS = ("aud2motion", "aud2pose", "blstm", "cvae", "aud2repr2pose", "dcccae")
 SMALL = TrainConfig.model_validate(

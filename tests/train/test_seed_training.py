@@ -15,12 +15,13 @@ from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.robot.online import load_frame_model
-from gesturebank.train.aud2repr2pose import Aud2Repr2Pose
 from gesturebank.train.commands import train_command
 from gesturebank.train.export import OnnxModel
 from gesturebank.train.model_folder import MODEL_ONNX, load, load_model
-from gesturebank.train.models import build_model, predict
-from gesturebank.train.trainer import EARLY_STOP, validation_loss
+from gesturebank.train.models.aud2repr2pose import Aud2Repr2Pose
+from gesturebank.train.models.build import build_model
+from gesturebank.train.torch_runtime import predict, validation_loss
+from gesturebank.train.trainer import EARLY_STOP
 from tests.train.test_trainer import mean_pose_val_loss
 
 # Tiny sizes and few epochs: seconds per model; the relation is simple enough.
@@ -52,7 +53,7 @@ def test_every_seed_model_beats_the_mean_pose(
     result = train_command(synthetic_dataset, kind, "si", 0, None, out, TINY, quiet=True)
     assert result.best_val_loss < 0.5 * baseline, (result.best_val_loss, baseline)
     folder = load(out)
-    assert folder.info["architecture"]["kind"] == kind
+    assert folder.info.architecture["kind"] == kind
     # offline synthesis's graph gives what the trained torch model gives
     model, _, _ = load_model(out)
     ds = gds.open(synthetic_dataset)
@@ -127,7 +128,7 @@ def test_cli_trains_a_seed_model_and_live_refuses_it_in_one_line(
         capture_output=True, text=True, timeout=300, check=False,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
-    assert load(out).info["architecture"]["kind"] == "cvae"
+    assert load(out).info.architecture["kind"] == "cvae"
     wav = next((samples / "speech").glob("*.wav"))
     r = subprocess.run(
         [gesturebank, "live", str(out), "--backend", "record", "--input", str(wav),
@@ -156,7 +157,7 @@ def test_every_seed_model_trains_on_real_media_and_compare_tables_them(
     No quality claim: the demo's speech and motion are unrelated."""
     from rich.console import Console
 
-    from gesturebank.train.compare import compare_command
+    from gesturebank.train.eval.compare import compare_command
 
     cfg = TINY.model_copy(update={"cvae": TINY.cvae.model_copy(update={"max_epochs": 3})})
     dirs = []

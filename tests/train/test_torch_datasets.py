@@ -19,7 +19,7 @@ from gesturebank.datasets.torch import (
     znorm_stats,
 )
 from gesturebank.errors import InputError
-from gesturebank.train import metrics as M
+from gesturebank.train.eval import metrics as M
 
 
 def _segment(n: int, *, unknown: slice | None = None, seed: int = 0, tid: str = "t"):

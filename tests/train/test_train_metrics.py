@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gesturebank.train import metrics as M
+from gesturebank.train.eval import metrics as M
 
 
 @pytest.fixture()

@@ -17,9 +17,9 @@ from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.robot import pepper
 from gesturebank.train.commands import evaluate_command, synthesize_command, train_command
-from gesturebank.train.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED, shifted_truth
+from gesturebank.train.eval.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED, shifted_truth
 from gesturebank.train.model_folder import load_model
-from gesturebank.train.trainer import validation_loss
+from gesturebank.train.torch_runtime import validation_loss
 
 
 def mean_pose_val_loss(dataset: Path, fold: int) -> float:
@@ -71,7 +71,7 @@ def test_training_is_deterministic_and_restores_the_best_weights(
     ds = gds.open(synthetic_dataset)
     val = load_segments(ds, split_items(ds, "si", "val", fold=1))
     assert validation_loss(model, val) == pytest.approx(a.best_val_loss, rel=1e-6)
-    assert info["result"]["best_epoch"] == a.best_epoch
+    assert info.result.best_epoch == a.best_epoch
 
 
 def test_early_stopping_after_patience(synthetic_dataset: Path, tmp_path: Path) -> None:

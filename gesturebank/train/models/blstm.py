@@ -6,14 +6,12 @@ schedule. Non-causal: it needs n/2 + k/2 frames of future audio.
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
 from torch import nn
 
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
-from gesturebank.train.layers import centre, span_mean, windows
+from gesturebank.train.models.layers import centre, span_mean, windows
 from gesturebank.train.schedule import Schedule, rmsprop_schedule
 
 N_ANGLES = 11
@@ -24,6 +22,7 @@ class SpanBLSTM(nn.Module):
 
     kind = "blstm"
     causal = False
+    config_sections = ("blstm",)
 
     def __init__(self, n_features: int, layers: int, units: int, receptive: int, span: int) -> None:
         super().__init__()
@@ -45,26 +44,6 @@ class SpanBLSTM(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return span_mean(self.spans(x))
-
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> SpanBLSTM:
-        c = config.blstm
-        return cls(n_features, c.layers, c.units, c.receptive, c.span)
-
-    def architecture(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "n_features": self.n_features,
-            "layers": self.layers,
-            "units": self.units,
-            "receptive": self.receptive,
-            "span": self.span,
-        }
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> SpanBLSTM:
-        keys = ("n_features", "layers", "units", "receptive", "span")
-        return cls(*(int(arch[k]) for k in keys))
 
     def schedule(self, config: TrainConfig) -> Schedule:
         return rmsprop_schedule(config.blstm, config)

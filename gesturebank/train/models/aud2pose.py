@@ -8,14 +8,12 @@ term, a training regulariser only. Non-causal: it needs C frames of future audio
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
 from torch import nn
 
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import masked_mse
-from gesturebank.train.layers import FCStack, centre, windows
+from gesturebank.train.models.layers import FCStack, centre, windows
 from gesturebank.train.schedule import Schedule, adam_schedule
 
 N_ANGLES = 11
@@ -26,6 +24,7 @@ class Aud2Pose(nn.Module):
 
     kind = "aud2pose"
     causal = False
+    config_sections = ("aud2pose",)
 
     def __init__(
         self, n_features: int, fc_layers: int, units: int, dropout: float, context: int,
@@ -55,29 +54,6 @@ class Aud2Pose(nn.Module):
             dm = m[:, 1:] & m[:, :-1]
             loss = loss + masked_mse(raw[:, 1:, N_ANGLES:], y[:, 1:] - y[:, :-1], dm)
         return loss
-
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> Aud2Pose:
-        c = config.aud2pose
-        return cls(n_features, c.fc_layers, c.units, c.dropout, c.context, c.velocity)
-
-    def architecture(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "n_features": self.n_features,
-            "fc_layers": self.fc_layers,
-            "units": self.units,
-            "dropout": self.dropout,
-            "context": self.context,
-            "velocity": self.velocity,
-        }
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> Aud2Pose:
-        return cls(
-            int(arch["n_features"]), int(arch["fc_layers"]), int(arch["units"]),
-            float(arch["dropout"]), int(arch["context"]), bool(arch["velocity"]),
-        )  # fmt: skip
 
     def schedule(self, config: TrainConfig) -> Schedule:
         return adam_schedule(config.aud2pose, config)

@@ -14,7 +14,6 @@ Non-causal (SpeechE sees C future frames).
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from typing import Any
 
 import numpy as np
 import torch
@@ -23,9 +22,9 @@ from torch import nn
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import Segment, masked_mse
 from gesturebank.errors import InputError
-from gesturebank.train.layers import FCStack, centre, windows
+from gesturebank.train.models.layers import FCStack, centre, windows
 from gesturebank.train.schedule import Schedule, adam_schedule
-from gesturebank.train.trainer import validation_loss
+from gesturebank.train.torch_runtime import validation_loss
 
 N_ANGLES = 11
 N_MOTION = 2 * N_ANGLES  # angles and velocities
@@ -69,6 +68,8 @@ class Aud2Repr2Pose(nn.Module):
 
     kind = "aud2repr2pose"
     causal = False
+    # SpeechE is Aud2Pose: its sizes are [train.aud2pose]'s, the code's [train.aud2repr2pose]'s
+    config_sections = ("aud2pose", "aud2repr2pose")
     noise_std: torch.Tensor  # buffer (22,): the DAE's input noise, set by `stages`
 
     def __init__(
@@ -148,29 +149,3 @@ class Aud2Repr2Pose(nn.Module):
             err += float(((self.denoise(clean) - clean) ** 2).sum())
             count += clean.numel()
         return err / max(count, 1)
-
-    # -- description ---------------------------------------------------------------------------
-
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> Aud2Repr2Pose:
-        s, c = config.aud2pose, config.aud2repr2pose
-        return cls(n_features, s.fc_layers, s.units, s.dropout, s.context, c.code, c.noise)
-
-    def architecture(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "n_features": self.n_features,
-            "fc_layers": self.fc_layers,
-            "units": self.units,
-            "dropout": self.dropout,
-            "context": self.context,
-            "code": self.code,
-            "noise": self.noise,
-        }
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> Aud2Repr2Pose:
-        return cls(
-            int(arch["n_features"]), int(arch["fc_layers"]), int(arch["units"]),
-            float(arch["dropout"]), int(arch["context"]), int(arch["code"]), float(arch["noise"]),
-        )  # fmt: skip

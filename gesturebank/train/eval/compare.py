@@ -24,7 +24,7 @@ from gesturebank.datasets import open as open_dataset
 from gesturebank.errors import InputError
 from gesturebank.fileio import output_errors, write_bytes_atomic
 from gesturebank.train import model_folder
-from gesturebank.train.evaluate import (
+from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     LEGEND,
     SEED_MEASURES,
@@ -38,10 +38,10 @@ from gesturebank.train.evaluate import (
     postprocess,
     score_systems,
 )
-from gesturebank.train.fgd import label as fgd_label
-from gesturebank.train.field import prepare
-from gesturebank.train.models import predict as torch_predict
-from gesturebank.train.trainer import torch_settings
+from gesturebank.train.eval.fgd import label as fgd_label
+from gesturebank.train.eval.field import prepare
+from gesturebank.train.torch_runtime import predict as torch_predict
+from gesturebank.train.torch_runtime import torch_settings
 
 PathLike = str | os.PathLike[str]
 _BY_KEY = {c.key: c for c in (*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES)}
@@ -92,22 +92,23 @@ def compare_command(
         raise InputError(f"{out}: the table is written as .csv or .md")
     folders = [model_folder.load(d) for d in model_dirs]
     first = folders[0].info
-    where = ("variant", "fold", "subject")
     for f in folders[1:]:
-        if any(f.info[k] != first[k] for k in where) or (
-            dataset is None and f.info["dataset"] != first["dataset"]
+        trained_on = (f.info.variant, f.info.fold, f.info.subject)
+        if trained_on != (first.variant, first.fold, first.subject) or (
+            dataset is None and f.info.dataset != first.dataset
         ):
             raise InputError(
                 f"{f.path}: trained on another split or dataset than {folders[0].path}; "
                 "compare scores models of one split"
             )
     cfg = config or folders[0].train_config
-    ds = open_dataset(dataset or first["dataset"])
+    ds = open_dataset(dataset or first.need(folders[0].path, "dataset"))
+    variant: str = first.need(folders[0].path, "variant")
     inputs = prepare(
         ds,
-        variant=first["variant"],
-        fold=first["fold"],
-        subject=first["subject"],
+        variant=variant,
+        fold=first.fold,
+        subject=first.subject,
         part=split,
         config=cfg,
     )
@@ -133,9 +134,9 @@ def compare_command(
     )
     rows = average(results)
     version = inputs.fgd.version if inputs.fgd else None
-    part = f"fold {first['fold']}" if first["variant"] == "si" else f"subject {first['subject']}"
+    part = f"fold {first.fold}" if variant == "si" else f"subject {first.subject}"
     title = (
-        f"{ds.path.name}, {first['variant'].upper()} {part}, {split}: mean over subjects "
+        f"{ds.path.name}, {variant.upper()} {part}, {split}: mean over subjects "
         f"({fgd_label(inputs.fgd)})"
     )
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)

@@ -1,5 +1,4 @@
-"""The two speech-to-motion models of the dissertation (§3.3, §4.3), sized by config, and the
-helpers over every registered model (`train.registry.MODELS`: build, describe, rebuild, predict).
+"""The two speech-to-motion models of the dissertation (§3.3, §4.3), sized by config.
 
 - `MLP`: N_l hidden layers of N_u ReLU units, He-initialised, and a sigmoid output over the 11
   normalised angles (§4.3.3); frame-wise, `(N, F) → (N, 11)`.
@@ -10,14 +9,10 @@ helpers over every registered model (`train.registry.MODELS`: build, describe, r
 
 from __future__ import annotations
 
-from typing import Any
-
-import numpy as np
 import torch
 from torch import nn
 
 from gesturebank.config import TrainConfig
-from gesturebank.train.registry import MODELS
 from gesturebank.train.schedule import Schedule
 
 N_ANGLES = 11
@@ -28,6 +23,8 @@ class MLP(nn.Module):
 
     kind = "mlp"
     causal = True  # frame-wise: each output sees its own frame only
+    frame_wise = True
+    config_sections = ("mlp",)
 
     def __init__(self, n_features: int, layers: int, units: int) -> None:
         super().__init__()
@@ -46,23 +43,6 @@ class MLP(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return torch.sigmoid(self.out(self.hidden(x)))  # σ_S, Eq. 3.7
 
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> MLP:
-        return cls(n_features, config.mlp.layers, config.mlp.units)
-
-    def architecture(self) -> dict[str, Any]:
-        n_layers = sum(isinstance(m, nn.Linear) for m in self.hidden)
-        return {
-            "kind": self.kind,
-            "n_features": self.n_features,
-            "layers": n_layers,
-            "units": self.out.in_features,
-        }
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> MLP:
-        return cls(int(arch["n_features"]), int(arch["layers"]), int(arch["units"]))
-
     def schedule(self, config: TrainConfig) -> Schedule:
         lr = config.learning_rate
         return Schedule("adam", lr, config.mlp.batch_size, config.mlp.max_epochs,
@@ -74,6 +54,7 @@ class LSTMModel(nn.Module):
 
     kind = "lstm"
     causal = True
+    config_sections = ("lstm",)
 
     def __init__(self, n_features: int, units: int) -> None:
         super().__init__()
@@ -92,17 +73,6 @@ class LSTMModel(nn.Module):
         """x (B, T, F), h and c (1, B, units) → (y (B, T, 11), h', c')."""
         y, (h2, c2) = self.lstm(x, (h, c))
         return torch.sigmoid(self.out(y)), h2, c2
-
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> LSTMModel:
-        return cls(n_features, config.lstm.units)
-
-    def architecture(self) -> dict[str, Any]:
-        return {"kind": self.kind, "n_features": self.n_features, "units": self.units}
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> LSTMModel:
-        return cls(int(arch["n_features"]), int(arch["units"]))
 
     def schedule(self, config: TrainConfig) -> Schedule:
         c, lr = config.lstm, config.learning_rate
@@ -130,37 +100,3 @@ class LSTMStep(nn.Module):
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         y, h2, c2 = self.model.forward_state(x[:, None, :], h, c)
         return y[:, 0, :], h2, c2
-
-
-def build_model(kind: str, n_features: int, config: TrainConfig) -> nn.Module:
-    """A freshly initialised model named `kind` (a `MODELS` name) for `n_features` inputs."""
-    cls: Any = MODELS.get(kind)  # a model class (train.registry's interface)
-    return cls.from_config(n_features, config)
-
-
-def architecture(model: nn.Module) -> dict[str, Any]:
-    """Plain-data description from which `from_architecture` rebuilds the same module."""
-    described: Any = model
-    return described.architecture()
-
-
-def from_architecture(arch: dict[str, Any]) -> nn.Module:
-    cls: Any = MODELS.get(str(arch["kind"]))
-    return cls.from_architecture(arch)
-
-
-@torch.no_grad()
-def predict(model: nn.Module, audio: np.ndarray) -> np.ndarray:
-    """Whole-segment prediction: z-normalised audio `(N, F)` → `(N, 11)` float32 in [0, 1].
-
-    Sequence models run over the whole segment (recurrent ones from a zero state, as live
-    synthesis does; the CVAE at z = 0, the prior's mean).
-    """
-    model.eval()
-    x = torch.from_numpy(np.ascontiguousarray(audio, dtype=np.float32))
-    y = model(x) if isinstance(model, MLP) else model(x[None])[0]
-    return y.numpy()
-
-
-def n_parameters(model: nn.Module) -> int:
-    return sum(p.numel() for p in model.parameters())

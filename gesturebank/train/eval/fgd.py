@@ -38,7 +38,7 @@ from gesturebank import __version__
 from gesturebank.config import EvalConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_folder, output_errors
-from gesturebank.train.trainer import torch_settings
+from gesturebank.train.torch_runtime import torch_settings
 
 F64 = NDArray[np.float64]
 FGD_DIR = "fgd"

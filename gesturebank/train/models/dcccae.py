@@ -21,16 +21,15 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Iterator, Sequence
-from typing import Any
 
 import torch
 from torch import nn
 
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import Segment, masked_mse
-from gesturebank.train.layers import span_mean, windows
+from gesturebank.train.models.layers import span_mean, windows
 from gesturebank.train.schedule import Schedule, adam_schedule
-from gesturebank.train.trainer import validation_loss
+from gesturebank.train.torch_runtime import validation_loss
 
 N_ANGLES = 11
 
@@ -69,26 +68,33 @@ class DCCCAE(nn.Module):
 
     kind = "dcccae"
     causal = False
+    config_sections = ("dcccae",)
 
-    def __init__(self, n_features: int, **sizes: Any) -> None:
+    def __init__(
+        self, n_features: int, context: int, ae_units: int, code: int, cca_weight: float,
+        cca_reg: float, regressor_layers: int, regressor_units: int, post_context: int,
+        post_code: int,
+    ) -> None:  # fmt: skip
         super().__init__()
-        self.n_features, self.sizes = n_features, dict(sizes)
-        c, h, z = int(sizes["context"]), int(sizes["ae_units"]), int(sizes["code"])
-        self.context, self.cca_weight, self.cca_reg = (
-            c,
-            float(sizes["cca_weight"]),
-            float(sizes["cca_reg"]),
-        )
+        self.n_features = n_features
+        self.sizes = {
+            "context": context, "ae_units": ae_units, "code": code, "cca_weight": cca_weight,
+            "cca_reg": cca_reg, "regressor_layers": regressor_layers,
+            "regressor_units": regressor_units, "post_context": post_context,
+            "post_code": post_code,
+        }  # fmt: skip
+        c, h, z = int(context), int(ae_units), int(code)
+        self.context, self.cca_weight, self.cca_reg = c, float(cca_weight), float(cca_reg)
         w = 2 * c + 1
         self.speech_encoder = _mlp([w * n_features, h, z])
         self.speech_decoder = _mlp([z, h, w * n_features])
         self.motion_encoder = _mlp([w * N_ANGLES, h, z])
         self.motion_decoder = _mlp([z, h, w * N_ANGLES])
-        units = int(sizes["regressor_units"])
-        self.regressor = _mlp([z] + [units] * int(sizes["regressor_layers"]) + [z])
-        self.post_context = int(sizes["post_context"])
+        units = int(regressor_units)
+        self.regressor = _mlp([z] + [units] * int(regressor_layers) + [z])
+        self.post_context = int(post_context)
         pw = (2 * self.post_context + 1) * N_ANGLES
-        self.post_filter = _mlp([pw, h, int(sizes["post_code"]), h, pw])
+        self.post_filter = _mlp([pw, h, int(post_code), h, pw])
         last = self.post_filter[-1]
         assert isinstance(last, nn.Linear)
         nn.init.zeros_(last.weight)  # residual: the identity before training
@@ -172,20 +178,3 @@ class DCCCAE(nn.Module):
                     torch.from_numpy(s.mask[None]))  # fmt: skip
             losses.append(float(self.autoencoder_loss(*args)))
         return sum(losses) / len(losses)
-
-    # -- description ---------------------------------------------------------------------------
-
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> DCCCAE:
-        c = config.dcccae
-        keys = ("context", "ae_units", "code", "cca_weight", "cca_reg", "regressor_layers",
-                "regressor_units", "post_context", "post_code")  # fmt: skip
-        return cls(n_features, **{k: getattr(c, k) for k in keys})
-
-    def architecture(self) -> dict[str, Any]:
-        return {"kind": self.kind, "n_features": self.n_features, **self.sizes}
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> DCCCAE:
-        sizes = {k: v for k, v in arch.items() if k not in ("kind", "n_features")}
-        return cls(int(arch["n_features"]), **sizes)

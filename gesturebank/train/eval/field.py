@@ -19,8 +19,8 @@ from gesturebank.config import TrainConfig
 from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
-from gesturebank.train.evaluate import _runs, segment_onsets
-from gesturebank.train.fgd import FeatureModel, chunks, feature_model
+from gesturebank.train.eval.evaluate import _runs, segment_onsets
+from gesturebank.train.eval.fgd import FeatureModel, chunks, feature_model
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,13 +8,11 @@ GRU state (`Aud2MotionStep`). The output goes through a sigmoid because targets 
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
 from torch import nn
 
 from gesturebank.config import TrainConfig
-from gesturebank.train.layers import FCStack
+from gesturebank.train.models.layers import FCStack
 from gesturebank.train.schedule import Schedule, adam_schedule
 
 N_ANGLES = 11
@@ -25,6 +23,7 @@ class Aud2Motion(nn.Module):
 
     kind = "aud2motion"
     causal = True
+    config_sections = ("aud2motion",)
 
     def __init__(self, n_features: int, fc_layers: int, units: int, dropout: float) -> None:
         super().__init__()
@@ -44,27 +43,6 @@ class Aud2Motion(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         h = x.new_zeros(1, x.shape[0], self.units)
         return self.forward_state(x, h)[0]
-
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> Aud2Motion:
-        c = config.aud2motion
-        return cls(n_features, c.fc_layers, c.units, c.dropout)
-
-    def architecture(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "n_features": self.n_features,
-            "fc_layers": self.fc_layers,
-            "units": self.units,
-            "dropout": self.dropout,
-        }
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> Aud2Motion:
-        return cls(
-            int(arch["n_features"]), int(arch["fc_layers"]), int(arch["units"]),
-            float(arch["dropout"]),
-        )  # fmt: skip
 
     def schedule(self, config: TrainConfig) -> Schedule:
         return adam_schedule(config.aud2motion, config)

@@ -11,8 +11,6 @@ uses z = 0, the prior's mean, so validation is deterministic. Seed 004's RMSprop
 
 from __future__ import annotations
 
-from typing import Any
-
 import torch
 from torch import nn
 
@@ -33,6 +31,7 @@ class CVAE(nn.Module):
 
     kind = "cvae"
     causal = False
+    config_sections = ("cvae",)
 
     def __init__(
         self, n_features: int, layers: int, units: int, latent: int, kl_weight: float
@@ -73,28 +72,6 @@ class CVAE(nn.Module):
         recon = masked_mse(self.decode(x, z), y, m)
         kl = kl_to_standard_normal(mu, logvar).sum() / m.sum().clamp_min(1.0)
         return recon + self.kl_weight * kl
-
-    @classmethod
-    def from_config(cls, n_features: int, config: TrainConfig) -> CVAE:
-        c = config.cvae
-        return cls(n_features, c.layers, c.units, c.latent, c.kl_weight)
-
-    def architecture(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "n_features": self.n_features,
-            "layers": self.layers,
-            "units": self.units,
-            "latent": self.latent,
-            "kl_weight": self.kl_weight,
-        }
-
-    @classmethod
-    def from_architecture(cls, arch: dict[str, Any]) -> CVAE:
-        return cls(
-            int(arch["n_features"]), int(arch["layers"]), int(arch["units"]),
-            int(arch["latent"]), float(arch["kl_weight"]),
-        )  # fmt: skip
 
     def schedule(self, config: TrainConfig) -> Schedule:
         return rmsprop_schedule(config.cvae, config)

@@ -38,9 +38,9 @@ from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.datasets.torch import Segment
 from gesturebank.filters import butter_lowpass
 from gesturebank.robot import pepper
-from gesturebank.train import beats as B
-from gesturebank.train import metrics as M
-from gesturebank.train.fgd import FeatureModel, chunks
+from gesturebank.train.eval import beats as B
+from gesturebank.train.eval import metrics as M
+from gesturebank.train.eval.fgd import FeatureModel, chunks
 
 MIN_RUN = 4  # frames: the shortest stretch jerkiness is defined on
 MEAN_POSE = "mean pose"
