@@ -509,10 +509,10 @@ def synthesize(
     clamp; the CSV is an angle timeline: a `#` line naming the robot profile, unit and reach
     mode, then a time_s column and one column per joint (radians).
     """
-    from gesturebank.train.commands import synthesize_command
+    from gesturebank.train.synthesis import synthesize as synthesize_angles
 
     with user_errors():
-        angles = synthesize_command(
+        angles = synthesize_angles(
             model_dir=model_dir, audio_path=audio, out_csv=out_csv, znorm=znorm
         )
     out.print(f"{len(angles)} frames written to {out_csv}", highlight=False, soft_wrap=True)

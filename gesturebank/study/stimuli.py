@@ -2,7 +2,7 @@
 
 For each speech source — an audio file (`--audio A.wav`) or a dataset clip (`--clip
 DATASET:CLIP_ID`, whose audio is cut from its source video) — one video per condition: every
-model's motion (offline synthesis, `train.commands.synthesize_command`), the ground truth (clips
+model's motion (offline synthesis, `train.synthesis.synthesize`), the ground truth (clips
 only: the clip's own angles), and an anchor (`mean-pose`: the first model's training mean pose,
 held still; `random-clip`: another clip of the first model's dataset, chosen by a seed). Every
 video of one source has the same camera (`[render]`), the same duration (the audio's) and the
@@ -172,8 +172,8 @@ def stimuli_command(
     from gesturebank.robot.render import write_video
     from gesturebank.study.posters import poster_path, write_poster
     from gesturebank.train import model_folder
-    from gesturebank.train.commands import synthesize_command
-    from gesturebank.train.compare import _names
+    from gesturebank.train.compare import model_names
+    from gesturebank.train.synthesis import synthesize
 
     if not model_dirs:
         raise InputError("stimuli needs at least one model folder")
@@ -190,7 +190,7 @@ def stimuli_command(
     mean_pose = pepper.denormalise(
         np.asarray(folders[0].norm["mean_pose01"]).reshape(1, -1), folders[0].profile
     )[0]
-    names = _names([Path(d) for d in model_dirs])
+    names = model_names([Path(d) for d in model_dirs])
     groups: list[dict[str, Any]] = []
     key: dict[str, dict[str, Any]] = {}
     used: set[str] = set()
@@ -200,7 +200,7 @@ def stimuli_command(
             conditions: list[tuple[str, str, str | None, Timeline]] = []
             for name, model_dir in zip(names, model_dirs, strict=True):
                 csv = Path(tmp) / f"{len(key) + len(conditions)}.csv"
-                synthesize_command(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
+                synthesize(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
                 conditions.append((name, "model", os.fspath(model_dir), read_timeline(csv)))
             if src.dataset is not None and src.clip_id is not None:
                 truth = from_clip(src.dataset, src.clip_id)

@@ -1,4 +1,5 @@
-"""The train / evaluate / synthesize commands, as plain functions for the CLI to wrap.
+"""The train / evaluate commands, as plain functions for the CLI to wrap (offline synthesis:
+`synthesis`).
 
 The model folder they write and read is `model_folder`'s (its docstring lists the files).
 """
@@ -16,7 +17,6 @@ from gesturebank.config import TrainConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_features import apply_znorm, features
 from gesturebank.train import model_folder
 from gesturebank.train.evaluate import (
     FIELD_MEASURES,
@@ -26,12 +26,11 @@ from gesturebank.train.evaluate import (
     average,
     evaluate_segments,
     footnotes,
-    postprocess,
     table,
 )
-from gesturebank.train.export import OnnxModel, export_onnx
+from gesturebank.train.export import export_onnx
 from gesturebank.train.loss_plot import write_loss_png
-from gesturebank.train.model_folder import LOSS_PNG, MODEL_ONNX
+from gesturebank.train.model_folder import LOSS_PNG
 from gesturebank.train.models import build_model
 from gesturebank.train.models import predict as torch_predict
 from gesturebank.train.registry import MODELS
@@ -175,45 +174,3 @@ def evaluate_command(
     for line in [LEGEND, *notes.lines]:
         out.print(line, highlight=False, soft_wrap=True)
     return report
-
-
-def synthesize_command(
-    model_dir: PathLike,
-    audio_path: PathLike,
-    out_csv: PathLike,
-    *,
-    znorm: str = "*",
-) -> np.ndarray:
-    """Offline synthesis (§4.4.1): audio file → angles `(N, 11)` rad, also written as CSV.
-
-    Features with the training audio config → z-norm (`znorm`: "*" = whole-dataset stats, as the
-    dissertation's synthesis; a subject name = that subject's; "self" = the file's own) → ONNX
-    model → ν⁻¹ → Butterworth post-smoothing → clamp. Written as an angle timeline
-    (`robot.timeline`): time_s (centre of each feature window, seconds from the first sample)
-    and the 11 joint names, under a header naming the model's robot profile and reach mode.
-    """
-    from gesturebank.extract.audio_io import read_audio
-    from gesturebank.robot.timeline import Timeline, write_timeline
-
-    folder = model_folder.load(model_dir)
-    info, cfg, audio_cfg = folder.info, folder.train_config, folder.audio
-    track = read_audio(audio_path, sample_rate=audio_cfg.sample_rate)
-    if track is None:
-        raise InputError(f"{audio_path}: no audio track")
-    feats = features(track.signal, track.sample_rate, audio_cfg)
-    if znorm == "self":
-        mean, std = feats.mean(axis=0), feats.std(axis=0)
-    else:
-        mean, std = folder.znorm(znorm)
-    # a model with a latent (the CVAE) samples z, drawn with the training seed: reproducible
-    pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(
-        apply_znorm(feats, mean, std), z_seed=cfg.seed
-    )
-    angles = postprocess(pred01, folder.profile, float(info["rate_hz"]), cfg)
-    times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
-    reach = info.get("reach")  # older model folders do not say
-    line = Timeline.of(
-        times, angles, profile=folder.profile.name, reach=reach if isinstance(reach, str) else None
-    )
-    write_timeline(out_csv, line)
-    return angles

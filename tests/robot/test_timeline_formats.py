@@ -116,10 +116,10 @@ def _from_dataset(folder: Path) -> tuple[Path, Timeline]:
 
 
 def _synthesized(folder: Path, model: Path) -> tuple[Path, Timeline]:
-    from gesturebank.train.commands import synthesize_command
+    from gesturebank.train.synthesis import synthesize
 
     wav = _write_wav(folder / "speech.wav", 1.0)
-    angles = synthesize_command(model, wav, folder / "synth.csv")
+    angles = synthesize(model, wav, folder / "synth.csv")
     audio = json.loads((model / "model.json").read_text())["audio"]
     times = np.arange(len(angles)) * audio["winstep_s"] + audio["winlen_s"] / 2
     reach = json.loads((model / "model.json").read_text())["reach"]  # its dataset's mode
