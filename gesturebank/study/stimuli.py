@@ -54,11 +54,12 @@ from typing import Any, Literal
 import numpy as np
 
 from gesturebank.config import PlaybackConfig, RenderConfig
+from gesturebank.datasets.listing import clip_timeline
 from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.robot import pepper
 from gesturebank.robot.safety import safe_angles, speed_profile
-from gesturebank.robot.timeline import Timeline, from_clip, read_timeline
+from gesturebank.robot.timeline import Timeline, read_timeline
 
 PathLike = str | os.PathLike[str]
 Anchor = Literal["mean-pose", "random-clip"]
@@ -149,7 +150,7 @@ def _random_clip(dataset: Path, avoid: set[str], rng: np.random.Generator) -> Ti
     ids = [c for c in datasets.open(dataset).clip_ids() if c not in avoid]
     if not ids:
         raise InputError(f"{dataset}: no other accepted clip for the random-clip anchor")
-    return from_clip(dataset, ids[int(rng.integers(len(ids)))])
+    return clip_timeline(dataset, ids[int(rng.integers(len(ids)))])
 
 
 def stimuli_command(
@@ -203,7 +204,7 @@ def stimuli_command(
                 synthesize(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
                 conditions.append((name, "model", os.fspath(model_dir), read_timeline(csv)))
             if src.dataset is not None and src.clip_id is not None:
-                truth = from_clip(src.dataset, src.clip_id)
+                truth = clip_timeline(src.dataset, src.clip_id)
                 conditions.append(("ground-truth", "reference", None, truth))
             if anchor == "mean-pose":
                 still = _hold(mean_pose, duration)

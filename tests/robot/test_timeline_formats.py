@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from gesturebank.config import Config, PlaybackConfig, TrainConfig
+from gesturebank.datasets.listing import clip_timeline
 from gesturebank.export.commands import export_command
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
@@ -24,7 +25,6 @@ from gesturebank.robot.commands import live_command, replay_command
 from gesturebank.robot.safety import safe_angles, speed_profile
 from gesturebank.robot.timeline import (
     Timeline,
-    from_clip,
     reach_of,
     read_timeline,
     write_timeline,
@@ -112,7 +112,7 @@ def _from_dataset(folder: Path) -> tuple[Path, Timeline]:
     write_dataset(folder / "ds", {"s1_t": [clip]})
     config = Config()
     out = export_command(src=folder / "ds", fmt="csv", out=folder / "csv", config=config)
-    return out[0], from_clip(folder / "ds", "s1_t__c000")
+    return out[0], clip_timeline(folder / "ds", "s1_t__c000")
 
 
 def _synthesized(folder: Path, model: Path) -> tuple[Path, Timeline]:
