@@ -25,8 +25,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from gesturebank import datasets
+from gesturebank.cli.train import train_command
 from gesturebank.config import TrainConfig
-from gesturebank.train.commands import train_command
 from gesturebank.train.synthesis import synthesize
 
 

@@ -16,12 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.cli.export import export_command
+from gesturebank.cli.robot import live_command, replay_command
 from gesturebank.config import Config, PlaybackConfig, TrainConfig
 from gesturebank.datasets.listing import clip_timeline
-from gesturebank.export.commands import export_command
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
-from gesturebank.robot.commands import live_command, replay_command
 from gesturebank.robot.safety import safe_angles, speed_profile
 from gesturebank.robot.timeline import (
     Timeline,
@@ -90,8 +90,8 @@ def _write_wav(path: Path, seconds: float, sr: int = 16000) -> Path:
 @pytest.fixture(scope="module")
 def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A one-epoch MLP on a small generated dataset (a causal model: `live` runs it too)."""
+    from gesturebank.cli.train import train_command
     from gesturebank.testing.speech_motion import write_speech_motion_dataset
-    from gesturebank.train.commands import train_command
 
     root = tmp_path_factory.mktemp("model")
     data = write_speech_motion_dataset(root / "ds", subjects=3, takes_per_subject=1, seconds=4.0)

@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 from rich.console import Console
 
+from gesturebank.cli.train import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import Segment
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_folder, permissions
 from gesturebank.robot import pepper
 from gesturebank.testing.speech_motion import write_speech_motion_dataset
-from gesturebank.train.commands import train_command
 from gesturebank.train.compare import COLUMNS as COMPARE_COLUMNS
 from gesturebank.train.evaluate import (
     FIELD_MEASURES,

@@ -13,10 +13,10 @@ import torch
 from rich.console import Console
 
 import gesturebank.datasets as gds
+from gesturebank.cli.train import evaluate_command, train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.robot import pepper
-from gesturebank.train.commands import evaluate_command, train_command
 from gesturebank.train.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED, shifted_truth
 from gesturebank.train.model_folder import load_model
 from gesturebank.train.synthesis import synthesize

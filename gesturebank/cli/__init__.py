@@ -21,6 +21,8 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank import __version__
+from gesturebank.cli.study import DEFAULT_HOST as DEFAULT_STUDY_HOST
+from gesturebank.cli.study import DEFAULT_PORT as DEFAULT_STUDY_PORT
 from gesturebank.config import (
     Config,
     Executor,
@@ -34,8 +36,6 @@ from gesturebank.extract.detectors import DETECTORS
 from gesturebank.lift import LIFTERS
 from gesturebank.registry import Registry
 from gesturebank.robot.backends import BACKENDS
-from gesturebank.study.commands import DEFAULT_HOST as DEFAULT_STUDY_HOST
-from gesturebank.study.commands import DEFAULT_PORT as DEFAULT_STUDY_PORT
 from gesturebank.train.registry import MODELS
 
 if TYPE_CHECKING:
@@ -409,7 +409,7 @@ def train(
     and validation loss per epoch) and an ONNX export (plus a stateful one-step ONNX model for
     the causal recurrent ones, LSTM and aud2motion, which `live` runs) into the --out folder.
     """
-    from gesturebank.train.commands import train_command
+    from gesturebank.cli.train import train_command
 
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
@@ -445,7 +445,7 @@ def evaluate(
     baselines (natural motion, the static mean pose, a shuffled clip, the ground truth shifted in
     time); metrics.json is written into the model folder.
     """
-    from gesturebank.train.commands import evaluate_command
+    from gesturebank.cli.train import evaluate_command
 
     with user_errors():
         evaluate_command(model_dir=model_dir, dataset=dataset, split=split, console=out)
@@ -570,7 +570,7 @@ def replay(
     """
     import tempfile
 
-    from gesturebank.robot.commands import replay_command
+    from gesturebank.cli.robot import replay_command
 
     with user_errors(), tempfile.TemporaryDirectory(prefix="gesturebank-replay-") as scratch:
         config = resolve_config(config_file=config_file, sets=sets, flags={})
@@ -696,7 +696,7 @@ def live(
     Per-frame latency p50/p99 is reported at the end. Causal models only (mlp, lstm,
     aud2motion); the others need future audio: play them with synthesize.
     """
-    from gesturebank.robot.commands import live_command
+    from gesturebank.cli.robot import live_command
 
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
@@ -874,7 +874,7 @@ def export(
     The robot's angles are exported clamped and speed-limited as `replay` plays them; bvh and
     trc joints are in metres (BVH offsets in centimetres), upright (y up).
     """
-    from gesturebank.export.commands import export_command
+    from gesturebank.cli.export import export_command
 
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
@@ -1011,7 +1011,7 @@ def render(
     their projections, true Pepper angles). Two or more cameras make a multi-camera take that
     build-dataset reads.
     """
-    from gesturebank.synth.commands import render_command
+    from gesturebank.cli.render import render_command
 
     with user_errors():
         wh = _size(size)
@@ -1076,7 +1076,7 @@ def study_serve(
     Prints the participants' address and the operator token that opens /export.csv and
     /key.json (stored, readable by you only, in STUDY_DIR/operator-token). Ctrl-C stops.
     """
-    from gesturebank.study.commands import serve_command
+    from gesturebank.cli.study import serve_command
 
     with user_errors():
         serve_command(
@@ -1095,7 +1095,7 @@ def study_analyse(
     confidence intervals (within the 0–100 scale), paired Wilcoxon signed-rank or t-tests per
     question and A/B shares with a binomial test, each with Holm-adjusted p beside the raw p;
     and a plot (STUDY_DIR/analysis/ratings.png)."""
-    from gesturebank.study.commands import analyse_command
+    from gesturebank.cli.study import analyse_command
 
     with user_errors():
         analyse_command(folder=study_dir, console=out, include_partial=include_partial)
@@ -1112,7 +1112,3 @@ def build_dataset_main() -> None:
     )
     single.command()(build_dataset)
     single(prog_name="build-dataset")
-
-
-if __name__ == "__main__":  # pragma: no cover
-    main()

@@ -11,13 +11,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gesturebank.config import AudioConfig, PlaybackConfig, RenderConfig, RobotConfig
+from gesturebank.datasets.listing import clip_timeline
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.audio_out import DeviceAudio, Speaking
 from gesturebank.robot.backends import create
 from gesturebank.robot.playback import PlaybackResult, play
 from gesturebank.robot.safety import check_timeline
-from gesturebank.robot.timeline import Timeline, from_clip, read_timeline
+from gesturebank.robot.timeline import Timeline, read_timeline
 
 if TYPE_CHECKING:
     from gesturebank.robot.online import Chunks, LiveResult
@@ -51,7 +52,7 @@ def replay_command(
     """
     cfg = config or PlaybackConfig()
     robot = pepper.load_profile(profile or RobotConfig().profile)
-    timeline = from_clip(angles_csv, clip) if clip else read_timeline(angles_csv)
+    timeline = clip_timeline(angles_csv, clip) if clip else read_timeline(angles_csv)
     name = f"{os.fspath(angles_csv)} clip {clip}" if clip else os.fspath(angles_csv)
     if timeline.profile and timeline.profile != robot.name:  # the file's header says so
         log.warning(
