@@ -163,8 +163,6 @@ KNOWN_UPWARD = {
     ("gesturebank.qc.invariants", "gesturebank.datasets.clip"): 34,
     ("gesturebank.qc.metrics", "gesturebank.datasets.clip"): 34,
     ("gesturebank.qc.metrics", "gesturebank.datasets.process"): 34,
-    # issue 34, item 2: robot/online.py takes a FrameModel
-    ("gesturebank.robot.online", "gesturebank.train.model_folder"): 34,
 }
 
 

@@ -21,7 +21,7 @@ from gesturebank.robot.safety import check_timeline
 from gesturebank.robot.timeline import Timeline, read_timeline
 
 if TYPE_CHECKING:
-    from gesturebank.robot.online import Chunks, LiveResult
+    from gesturebank.robot.online import Chunks, LiveModel, LiveResult
 
 log = logging.getLogger(__name__)
 
@@ -176,7 +176,6 @@ def live_command(
     # imported here: the audio-feature stack costs seconds that `replay` need not wait
     from gesturebank.robot.online import (
         LiveSynth,
-        load_frame_model,
         mic_chunks,
         run_live,
         wav_chunks,
@@ -215,6 +214,38 @@ def live_command(
         p99,
     )
     return result
+
+
+def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
+    """The model folder written by `gesturebank train` (`train.model_folder`), ready for live use:
+    its ONNX graph stepped one frame at a time (`model_step.onnx`: the LSTM's and Aud2Motion's,
+    with their state; else the MLP's `model.onnx`, inputs and outputs taken by position). Only
+    causal models run live (model.json's "causal"); the others need future audio and are refused
+    in one line (offline `synthesize` plays them).
+
+    znorm: whose audio statistics normalise the live features — "*" (the whole dataset) or a
+    subject of the training data.
+    """
+    from gesturebank.robot.online import LiveModel
+    from gesturebank.train import model_folder
+
+    folder = model_folder.load(model_dir)
+    if not folder.causal:
+        kind = folder.info.get("architecture", {}).get("kind", "?")
+        raise InputError(
+            f"{folder.path}: model {kind!r} is not causal (it needs future audio), so it cannot "
+            "run live; play it offline with `gesturebank synthesize`"
+        )
+    mean, std = folder.znorm(znorm)
+    model = model_folder.OnnxFrameModel(folder.graph)
+    if model.n_features is not None and model.n_features != len(mean):
+        raise InputError(
+            f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
+        )
+    reach = folder.info.get("reach")
+    return LiveModel(
+        model, mean, std, folder.profile, folder.audio, reach if isinstance(reach, str) else None
+    )
 
 
 def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:

@@ -10,15 +10,16 @@ import numpy as np
 import pytest
 import torch
 
-from gesturebank.cli.robot import live_command
+from gesturebank.cli.robot import live_command, load_frame_model
 from gesturebank.config import AudioConfig
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import features
 from gesturebank.extract.audio_io import read_audio
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
-from gesturebank.robot.online import LiveSynth, OnnxFrameModel, load_frame_model
+from gesturebank.robot.online import LiveSynth
 from gesturebank.testing.tiny_models import StepLSTM, write_model_dir
+from gesturebank.train.model_folder import OnnxFrameModel
 from tests.robot.test_playback import LOWER, NEUTRAL, UPPER, VELOCITY
 
 

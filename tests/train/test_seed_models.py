@@ -11,7 +11,6 @@ import torch
 
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
-from gesturebank.robot.online import OnnxFrameModel
 from gesturebank.train.aud2motion import Aud2Motion, Aud2MotionStep
 from gesturebank.train.aud2pose import Aud2Pose
 from gesturebank.train.aud2repr2pose import Aud2Repr2Pose
@@ -20,7 +19,7 @@ from gesturebank.train.cvae import CVAE, kl_to_standard_normal
 from gesturebank.train.dcccae import DCCCAE, cca_correlation
 from gesturebank.train.export import OnnxModel, export_onnx
 from gesturebank.train.layers import span_mean, windows
-from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
+from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX, OnnxFrameModel
 from gesturebank.train.models import architecture, build_model, from_architecture, predict
 from gesturebank.train.registry import MODELS
 
