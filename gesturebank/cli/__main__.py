@@ -2,4 +2,5 @@
 
 from gesturebank.cli import main
 
-main()
+if __name__ == "__main__":  # importing it (a module walk) runs nothing
+    main()

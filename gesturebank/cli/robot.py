@@ -1,16 +1,33 @@
-"""The `replay` and `live` commands, as plain functions for the CLI to wrap."""
+"""`gesturebank replay` and `live`: their options, and their work as plain functions
+(`replay_command`, `live_command`; `load_frame_model` readies a model folder for live mode)."""
 
 from __future__ import annotations
 
 import logging
 import os
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
+import typer
 
-from gesturebank.config import AudioConfig, PlaybackConfig, RenderConfig, RobotConfig
+from gesturebank.cli.options import (
+    BackendOption,
+    ConfigOption,
+    ModelDirArg,
+    OutFileOption,
+    SetOption,
+    resolve_config,
+)
+from gesturebank.cli.terminal import out, user_errors
+from gesturebank.config import (
+    AudioConfig,
+    PlaybackConfig,
+    RenderConfig,
+    RobotConfig,
+)
 from gesturebank.datasets.listing import clip_timeline
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
@@ -251,3 +268,151 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
 def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:
     yield first
     yield from rest
+
+
+def replay(
+    angles: Annotated[
+        Path,
+        typer.Argument(
+            help="Angle timeline (.csv from synthesize, export or record; a record .jsonl), "
+            "or a dataset folder with --clip."
+        ),
+    ],
+    backend: BackendOption,
+    url: Annotated[
+        str | None, typer.Option(help="naoqi: the robot's address, e.g. tcp://192.168.1.10:9559.")
+    ] = None,
+    out_file: OutFileOption = None,
+    audio: Annotated[
+        Path | None,
+        typer.Option(
+            help="Speech to play (naoqi: on the robot, the motion timed from its sound; "
+            "sim: muxed into the video)."
+        ),
+    ] = None,
+    clip: Annotated[
+        str | None,
+        typer.Option(
+            help="Play this clip of the dataset folder ANGLES instead (a clip id, or a take id "
+            "when the take has one clip; `gesturebank clips` lists them), with its source "
+            "audio unless --audio or --no-audio."
+        ),
+    ] = None,
+    no_audio: Annotated[
+        bool, typer.Option("--no-audio", help="--clip: play without the clip's source audio.")
+    ] = False,
+    compare: Annotated[
+        list[Path] | None,
+        typer.Option(help="sim: another CSV rendered side by side, with its name (repeatable)."),
+    ] = None,
+    clamp: Annotated[
+        bool, typer.Option("--clamp", help="Play angles far outside the limits clamped.")
+    ] = False,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Play an angle timeline on Pepper, a simulator render, or a file — safely.
+
+    Every backend gets angles inside the robot's limits and within a share of its joint speeds
+    (playback.max_speed_fraction); the robot moves smoothly from its current pose to the first
+    frame and back to neutral at the end, on Ctrl-C or on an error. A lost connection stops
+    playback with a one-line error. A timeline that looks wrong is refused: angles far outside
+    the limits (degrees?) unless --clamp, a gap in its times, a first frame long after 0 s.
+    """
+
+    from gesturebank.cli.robot import replay_command
+
+    with user_errors(), tempfile.TemporaryDirectory(prefix="gesturebank-replay-") as scratch:
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        if clip is not None:
+            from gesturebank.datasets.listing import clip_to_play
+
+            chosen = clip_to_play(
+                angles,
+                clip,
+                scratch=Path(scratch),
+                with_audio=audio is None and not no_audio and backend != "record",
+            )
+            for warning in chosen.warnings:
+                typer.echo(f"warning: {warning}", err=True)
+            clip, audio = chosen.clip_id, audio or chosen.audio
+        try:
+            result = replay_command(
+                angles_csv=angles,
+                backend=backend,
+                url=url,
+                out=out_file,
+                audio=audio,
+                config=config.playback,
+                clip=clip,
+                compare=compare,
+                profile=config.robot.profile,
+                clamp=clamp,
+                render=config.render,
+            )
+        except KeyboardInterrupt:  # while the sim renders: the video is never half-written
+            result = None
+    status = "interrupted" if result is None else getattr(result, "status", "done")
+    where = f" → {out_file}" if out_file else ""
+    if status == "interrupted" and backend == "sim":
+        where = f", nothing written to {out_file}"
+    out.print(f"replay {status} on {backend}{where}", highlight=False, soft_wrap=True)
+    if status == "interrupted":
+        raise typer.Exit(130)
+
+
+def live(
+    model_dir: ModelDirArg,
+    backend: BackendOption,
+    input_: Annotated[
+        str, typer.Option("--input", help="'mic' (the default microphone) or a WAV file.")
+    ] = "mic",
+    url: Annotated[str | None, typer.Option(help="naoqi: the robot's address.")] = None,
+    out_file: OutFileOption = None,
+    znorm: Annotated[
+        str, typer.Option(help="Audio z-norm stats: '*' (whole training set) or a subject.")
+    ] = "*",
+    seconds: Annotated[float | None, typer.Option(help="Stop after this many seconds.")] = None,
+    as_csv: Annotated[
+        bool,
+        typer.Option(
+            "--csv",
+            help="record: write the poses sent as an angle-timeline CSV (replay/export read it) "
+            "instead of the JSON lines of every call.",
+        ),
+    ] = False,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Live synthesis: speech from a microphone (or a WAV in real time) drives the robot.
+
+    Every 10 ms: the latest 25 ms of audio → one feature frame → the model (a stateful step for
+    the LSTM and aud2motion) → inverse normalisation → Kalman smoothing → safety → the backend.
+    Per-frame latency p50/p99 is reported at the end. Causal models only (mlp, lstm,
+    aud2motion); the others need future audio: play them with synthesize.
+    """
+    from gesturebank.cli.robot import live_command
+
+    with user_errors():
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        result = live_command(
+            model_dir=model_dir,
+            backend=backend,
+            input=input_,
+            url=url,
+            out=out_file,
+            config=config.playback,
+            render=config.render,
+            max_seconds=seconds,
+            znorm=znorm,
+            csv=as_csv,
+        )
+    p50, p99 = result.latency_ms()
+    out.print(
+        f"live {result.status}: {result.n_sent} of {result.n_chunks} frames sent, "
+        f"{result.skipped} skipped; latency p50 {p50:.2f} ms, p99 {p99:.2f} ms",
+        highlight=False,
+        soft_wrap=True,
+    )
+    if result.status == "interrupted":
+        raise typer.Exit(130)

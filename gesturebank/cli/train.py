@@ -1,19 +1,32 @@
-"""The train / evaluate commands, as plain functions for the CLI to wrap (offline synthesis:
-`synthesis`).
+"""`gesturebank train`, `evaluate`, `compare` and `synthesize`; the training and the scoring as
+plain functions (`train_command`, `evaluate_command`; the comparison is `train.compare`'s, offline
+synthesis `train.synthesis`'s).
 
-The model folder they write and read is `model_folder`'s (its docstring lists the files).
+The model folder they write and read is `train.model_folder`'s (its docstring lists the files).
 """
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
+import typer
 from rich.console import Console
 
-from gesturebank.config import TrainConfig
+from gesturebank.cli.options import (
+    ConfigOption,
+    DatasetArg,
+    ModelDirArg,
+    QuietOption,
+    SetOption,
+    SplitPart,
+    one_of,
+    resolve_config,
+)
+from gesturebank.cli.terminal import out, user_errors
+from gesturebank.config import TrainConfig, Variant
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
@@ -174,3 +187,145 @@ def evaluate_command(
     for line in [LEGEND, *notes.lines]:
         out.print(line, highlight=False, soft_wrap=True)
     return report
+
+
+def train_cmd(
+    dataset: DatasetArg,
+    model: Annotated[str, typer.Option(help=f"The network, {one_of(MODELS)}.")] = "mlp",
+    variant: Annotated[
+        Variant, typer.Option(help="'si' subject-independent (a fold) or 'sd' (one subject).")
+    ] = "si",
+    fold: Annotated[int | None, typer.Option(help="SI fold (default 0).")] = None,
+    subject: Annotated[str | None, typer.Option(help="SD subject.")] = None,
+    out_dir: Annotated[
+        Path, typer.Option("--out", help="Model folder to write (an older one is replaced whole).")
+    ] = Path("model"),
+    epochs: Annotated[
+        int | None,
+        typer.Option(
+            min=1,
+            help="Most epochs to train (replaces the model's [train.MODEL] max_epochs); early "
+            "stopping may end sooner.",
+        ),
+    ] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Train a speech-to-motion model on a dataset split: the dissertation's MLP or LSTM (§4.3)
+    or a seed model — aud2motion (causal GRU), aud2pose (BiGRU window), aud2repr2pose (motion
+    autoencoder, then speech to its code), blstm (span predictor), cvae (sampled motion), dcccae
+    (CCA-coupled autoencoders) — each with its paper's optimiser and schedule ([train.NAME]).
+
+    Training stops early when the validation loss stops falling (train.patience), else at the
+    epoch limit; the last line says which. On a terminal a progress bar shows the losses; in a
+    log, one line per epoch.
+
+    Writes weights (state dict), the resolved config, the audio normalisers, loss.png (training
+    and validation loss per epoch) and an ONNX export (plus a stateful one-step ONNX model for
+    the causal recurrent ones, LSTM and aud2motion, which `live` runs) into the --out folder.
+    """
+    from gesturebank.cli.train import train_command
+
+    with user_errors():
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        result = train_command(
+            dataset=dataset,
+            model=model,
+            variant=variant,
+            fold=fold,
+            subject=subject,
+            out_dir=out_dir,
+            config=config.train,
+            quiet=quiet,
+            epochs=epochs,
+        )
+    out.print(result.stop_line(), highlight=False, soft_wrap=True)
+    out.print(
+        f"model written to {out_dir} (loss curves: loss.png)", highlight=False, soft_wrap=True
+    )
+
+
+def evaluate(
+    model_dir: ModelDirArg,
+    dataset: Annotated[
+        Path | None, typer.Argument(help="Dataset (default: the one it was trained on).")
+    ] = None,
+    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+) -> None:
+    """Score a model like Table 5.1 of the dissertation, per subject and averaged.
+
+    L, RMSE, ΔLCCA, LCCA_Θ, ΔJ̃, CCA, FCCA, APE, and the field's measures (GENEA's acceleration,
+    jerk, speed/acceleration Hellinger distances and FGD; BEAT's beat consistency), next to four
+    baselines (natural motion, the static mean pose, a shuffled clip, the ground truth shifted in
+    time); metrics.json is written into the model folder.
+    """
+    from gesturebank.cli.train import evaluate_command
+
+    with user_errors():
+        evaluate_command(model_dir=model_dir, dataset=dataset, split=split, console=out)
+
+
+def compare(
+    model_dirs: Annotated[
+        list[Path], typer.Argument(help="Model folders written by `train`, all on one split.")
+    ],
+    dataset: Annotated[
+        Path | None,
+        typer.Option(help="Dataset (default: the one the models were trained on)."),
+    ] = None,
+    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+    table_out: Annotated[
+        Path | None, typer.Option("--out", help="Also write the table: a .csv or .md file.")
+    ] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Score several models and the baselines (natural motion, mean pose, a shuffled clip, the
+    shifted truth) on one split: one table of the seeds' and the field's measures (GENEA's
+    acceleration, jerk, Hellinger distances and FGD — its autoencoder's version in the title —
+    and BEAT's beat consistency), each the mean over subjects.
+    """
+    from gesturebank.train.compare import compare_command
+
+    with user_errors():
+        config = (
+            resolve_config(config_file=config_file, sets=sets, flags={}).train
+            if config_file or sets
+            else None
+        )
+        compare_command(
+            model_dirs=model_dirs,
+            dataset=dataset,
+            split=split,
+            config=config,
+            out=table_out,
+            console=out,
+        )
+    if table_out is not None:
+        out.print(f"table written to {table_out}", highlight=False, soft_wrap=True)
+
+
+def synthesize(
+    model_dir: ModelDirArg,
+    audio: Annotated[Path, typer.Argument(help="Speech: a WAV or any file with an audio track.")],
+    out_csv: Annotated[Path, typer.Option("--out", help="CSV of angles to write.")] = Path(
+        "angles.csv"
+    ),
+    znorm: Annotated[
+        str, typer.Option(help="Audio z-norm stats: '*' (whole dataset), a subject, or 'self'.")
+    ] = "*",
+) -> None:
+    """Offline synthesis: speech → the 11 Pepper angles at 100 Hz, as a CSV for `replay`.
+
+    Audio features → model → inverse normalisation → Butterworth post-smoothing (§4.4.1) →
+    clamp; the CSV is an angle timeline: a `#` line naming the robot profile, unit and reach
+    mode, then a time_s column and one column per joint (radians).
+    """
+    from gesturebank.train.synthesis import synthesize as synthesize_angles
+
+    with user_errors():
+        angles = synthesize_angles(
+            model_dir=model_dir, audio_path=audio, out_csv=out_csv, znorm=znorm
+        )
+    out.print(f"{len(angles)} frames written to {out_csv}", highlight=False, soft_wrap=True)
