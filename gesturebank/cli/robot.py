@@ -235,8 +235,7 @@ def live_command(
 
 def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
     """The model folder written by `gesturebank train` (`train.model_folder`), ready for live use:
-    its ONNX graph stepped one frame at a time (`model_step.onnx`: the LSTM's and Aud2Motion's,
-    with their state; else the MLP's `model.onnx`, inputs and outputs taken by position). Only
+    its ONNX graph stepped one frame at a time (`train.model_folder.OnnxFrameModel`). Only
     causal models run live (model.json's "causal"); the others need future audio and are refused
     in one line (offline `synthesize` plays them).
 

@@ -272,8 +272,10 @@ def session(path: PathLike, *, threads: int = 1) -> ort.InferenceSession:
 
 
 class OnnxFrameModel:
-    """`model_step.onnx` (or the MLP's `model.onnx`) through onnxruntime, one frame per `step`:
-    a `robot.online.FrameModel` for live mode (one thread: the graph is tiny, hand-offs cost)."""
+    """`model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state; Aud2Motion:
+    one state) or, for the MLP, `model.onnx` (`(N, F)` → `(N, 11)`), inputs and outputs taken by
+    position, through onnxruntime one frame per `step`: a `robot.online.FrameModel` for live mode
+    (one thread: the graph is tiny, hand-offs cost)."""
 
     def __init__(self, path: PathLike) -> None:
         name = os.fspath(path)
