@@ -34,9 +34,8 @@ from rich.table import Table
 
 from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.extract.audio_features import frame_features
-from gesturebank.robot.online import OnnxFrameModel
 from gesturebank.train.export import OnnxModel, StreamingLSTM, export_onnx
-from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
+from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX, OnnxFrameModel
 from gesturebank.train.models.build import build_model
 from gesturebank.train.models.dissertation import LSTMModel
 from gesturebank.train.registry import MODELS

@@ -20,11 +20,11 @@ from rich.console import Console
 from rich.table import Table
 from scipy.io import wavfile
 
+from gesturebank.cli.robot import live_command, load_frame_model
 from gesturebank.config import AudioConfig
 from gesturebank.extract.audio_features import apply_znorm, features
 from gesturebank.extract.audio_io import read_audio
-from gesturebank.robot.commands import live_command
-from gesturebank.robot.online import LiveSynth, load_frame_model
+from gesturebank.robot.online import LiveSynth
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.testing.tiny_models import write_model_dir
 

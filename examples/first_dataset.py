@@ -25,8 +25,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from gesturebank import datasets
+from gesturebank.cli.train import train_command
 from gesturebank.config import TrainConfig
-from gesturebank.train.commands import synthesize_command, train_command
+from gesturebank.train.synthesis import synthesize
 
 
 def plot_clip(dataset: datasets.Dataset, clip_id: str, out: Path) -> Path:
@@ -84,7 +85,7 @@ def main() -> None:
 
     # 4. synthesise: speech → 11 angles at 100 Hz, normalised with the speaker's audio stats
     speech = args.speech or Path(ds.info.videos_dir) / row.take.source
-    angles = synthesize_command(model_dir, speech, args.out / "angles.csv", znorm=row.take.subject)
+    angles = synthesize(model_dir, speech, args.out / "angles.csv", znorm=row.take.subject)
     print(f"angles: {args.out / 'angles.csv'} ({len(angles)} frames for {speech.name})")
 
 

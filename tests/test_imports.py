@@ -112,9 +112,17 @@ def test_no_import_cycles() -> None:
     assert not found, "import cycles:\n" + "\n".join(_describe(c, graph) for c in found)
 
 
+def _in_cli(module: str) -> bool:
+    return module == "gesturebank.cli" or module.startswith("gesturebank.cli.")
+
+
 def test_no_module_imports_the_cli() -> None:
     graph = import_graph(ROOT)
-    users = sorted(name for name, targets in graph.items() if "gesturebank.cli" in targets)
+    users = sorted(
+        name
+        for name, targets in graph.items()
+        if not _in_cli(name) and any(_in_cli(t) for t in targets)
+    )
     assert not users, f"stage modules importing gesturebank.cli: {users}"
 
 
@@ -146,11 +154,7 @@ ARCHITECTURE = ROOT.parent / "docs" / "architecture.md"
 
 # Imports that run up a floor today, (importer, imported) module by module, each with the issue
 # that removes it. A new upward import fails; so does an entry here that no longer occurs.
-KNOWN_UPWARD = {
-    # issue 34, item 2: robot/online.py takes a FrameModel; timeline.from_clip moves up
-    ("gesturebank.robot.online", "gesturebank.train.model_folder"): 34,
-    ("gesturebank.robot.timeline", "gesturebank.datasets"): 34,
-}
+KNOWN_UPWARD: dict[tuple[str, str], int] = {}
 
 
 def floors_from_doc(text: str, package: str = "gesturebank") -> dict[str, int]:

@@ -1,5 +1,5 @@
 """Finding a dataset's clips: the rows `gesturebank clips` lists, the id `replay --clip` means,
-and the source audio that goes with a clip.
+and the source audio and the angle timeline that go with a clip.
 
 A clip is named by its id (`<take id>__c000`); a take id names its clip when the take has only
 one. A wrong name is answered with the nearest ids (difflib), one line.
@@ -14,6 +14,7 @@ import os
 import wave
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from rich import box
@@ -21,6 +22,9 @@ from rich.table import Table
 
 from gesturebank.datasets.store import STATUSES, Dataset, ManifestRow, Status
 from gesturebank.errors import InputError
+
+if TYPE_CHECKING:
+    from gesturebank.robot.timeline import Timeline
 
 # The robot's body parts, by the joints that move them (`pepper.JOINTS` names).
 PARTS = {
@@ -253,3 +257,21 @@ def clip_to_play(
             source = Path(data.info.videos_dir) / row.source
             warnings.append(f"{source}: no source audio found; playing without sound")
     return ClipToPlay(row.clip_id, audio, tuple(warnings))
+
+
+def clip_timeline(dataset_dir: str | os.PathLike[str], clip_id: str) -> Timeline:
+    """The smoothed, clamped 100 Hz angles of one dataset clip and their times (seconds from
+    the clip's start), as `replay --clip` plays them; unknown angles (an unseen limb) held
+    (`robot.timeline.hold`) and marked in `known`. The dataset's robot profile and reach mode
+    come with them."""
+    from gesturebank import datasets
+    from gesturebank.robot.timeline import Timeline, reach_of
+
+    data = datasets.open(dataset_dir)
+    arrays = data.load_arrays(clip_id)
+    return Timeline.of(
+        arrays["times"],
+        arrays["angles"],
+        profile=data.info.robot_profile,
+        reach=reach_of(data.info.config),
+    )

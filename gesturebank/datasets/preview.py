@@ -168,11 +168,13 @@ def robot_track(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(command times (M,) s, angles (M, 11), clip frame index (M,)) of the clip's timeline as
     replay plays it on the sim backend, without the start and return moves."""
+    from gesturebank.datasets.listing import clip_timeline
     from gesturebank.robot.backends.sim import SimBackend
     from gesturebank.robot.playback import play
-    from gesturebank.robot.timeline import from_clip
 
-    timeline = from_clip(dataset, clip.clip_id)  # unseen limbs held, as replay --clip plays them
+    timeline = clip_timeline(
+        dataset, clip.clip_id
+    )  # unseen limbs held, as replay --clip plays them
     collector = SimBackend(Path("unused.mp4"))  # collects the commands; never closed
     play(timeline, collector, config=playback, profile=pepper.load_profile(profile))
     shown = [c for c in collector.commands if c.phase == "timeline"]

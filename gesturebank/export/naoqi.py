@@ -7,8 +7,8 @@ robot is). With speech (`audio`), the script plays it on the robot as `replay --
 --audio` does (`gesturebank.robot.backends.naoqi`): streamed to ALAudioDevice, the motion after
 frame 0 timed from the moment the robot reports its sound started.
 
-Angles must already be finite, inside the limits and slow enough (`commands` makes them so with
-the same safety as `gesturebank replay`).
+Angles must already be finite, inside the limits and slow enough (`gesturebank.cli.export` makes
+them so with the same safety as `gesturebank replay`).
 """
 
 from __future__ import annotations

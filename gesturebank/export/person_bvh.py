@@ -56,7 +56,7 @@ def _points(joints: np.ndarray) -> dict[str, np.ndarray]:
 
 def person_motion(*, joints: np.ndarray, frame_time: float) -> Motion:
     """The Motion of COCO-17 `joints (T, 17, 3)` metres (NaN = missing) every `frame_time` s,
-    in the joints' own axes (see `commands.upright` for a y-up, z-forward view)."""
+    in the joints' own axes (see `gesturebank.cli.export.upright` for a y-up, z-forward view)."""
     j = np.asarray(joints, dtype=np.float64)
     if j.ndim != 3 or j.shape[1:] != (len(COCO17), 3) or not len(j):
         raise InputError(f"person BVH: joints must have shape (T, 17, 3), got {j.shape}")

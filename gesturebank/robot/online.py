@@ -7,13 +7,11 @@ speed) → backend. Input: the microphone (sounddevice) or a WAV streamed in rea
 loop is testable without an audio device. Per-frame latency (chunk available → pose handed to the
 backend) is measured and summarised as p50/p99.
 
-The model folder is the one `gesturebank train` writes (`gesturebank.train.model_folder` reads
-it): `model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state; Aud2Motion:
-one state) or, for the MLP, `model.onnx` (`(N, F)` → `(N, 11)`), inputs and outputs taken by
-position. Only causal models run live (model.json's "causal"); the others need future audio and
-are refused in one line (offline `synthesize` plays them). Then the audio config
-the model was trained with; z-norm stats per subject and "*" for the whole dataset (the
-dissertation's online mode used the global ones); the robot profile.
+The model is any `FrameModel` with what it needs around it (`LiveModel`): the audio config it
+was trained with, z-norm stats (the dissertation's online mode used the whole dataset's) and the
+robot profile. The caller builds it: `gesturebank live` from the model folder `gesturebank train`
+writes (`gesturebank.cli.robot.load_frame_model`, which runs its ONNX graph one frame at a time
+with `gesturebank.train.model_folder.OnnxFrameModel`).
 """
 
 from __future__ import annotations
@@ -38,7 +36,6 @@ from gesturebank.robot.backends import Backend, Command
 from gesturebank.robot.clock import Clock, RealClock, VirtualClock
 from gesturebank.robot.playback import Player
 from gesturebank.robot.safety import SafetyFilter, safe_pose, speed_profile
-from gesturebank.train import model_folder
 
 log = logging.getLogger(__name__)
 
@@ -59,37 +56,6 @@ class FrameModel(Protocol):
     def reset(self) -> None:
         """Forget the state (a new utterance)."""
         ...
-
-
-class OnnxFrameModel:
-    """`model_step.onnx` through onnxruntime (one thread: the graph is tiny, hand-offs cost)."""
-
-    def __init__(self, path: PathLike) -> None:
-        name = os.fspath(path)
-        self.session = model_folder.session(path)
-        inputs = self.session.get_inputs()
-        if len(self.session.get_outputs()) != len(inputs):
-            raise InputError(f"{name}: expected inputs x[, states…] and outputs y[, states…]")
-        self.input_names = [i.name for i in inputs]
-        self.output_names = [o.name for o in self.session.get_outputs()]
-        dim = inputs[0].shape[-1]
-        self.n_features = dim if isinstance(dim, int) else None
-        self.state_shapes: list[tuple[int, ...]] = []
-        for i in inputs[1:]:  # recurrent state: (h, c) of an LSTM, h of a GRU
-            if not all(isinstance(d, int) for d in i.shape):
-                raise InputError(f"{name}: state input {i.name} needs a fixed shape, got {i.shape}")
-            self.state_shapes.append(tuple(int(d) for d in i.shape))
-        self.stateful = bool(self.state_shapes)
-        self.reset()
-
-    def reset(self) -> None:
-        self.states = [np.zeros(shape, np.float32) for shape in self.state_shapes]
-
-    def step(self, features01: np.ndarray) -> np.ndarray:
-        x = np.asarray(features01, np.float32).reshape(1, -1)
-        feed: dict[str, Any] = dict(zip(self.input_names, [x, *self.states], strict=True))
-        y, *self.states = self.session.run(self.output_names, feed)
-        return np.asarray(y, np.float32).reshape(-1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,28 +83,6 @@ class LiveModel:
 def _first_line(exc: BaseException) -> str:
     text = str(exc).strip()
     return text.splitlines()[0] if text else type(exc).__name__
-
-
-def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
-    """The model folder written by `gesturebank train` (module docstring), ready for live use.
-
-    znorm: whose audio statistics normalise the live features — "*" (the whole dataset) or a
-    subject of the training data.
-    """
-    folder = model_folder.load(model_dir)
-    if not folder.causal:
-        kind = (folder.info.architecture or {}).get("kind", "?")
-        raise InputError(
-            f"{folder.path}: model {kind!r} is not causal (it needs future audio), so it cannot "
-            "run live; play it offline with `gesturebank synthesize`"
-        )
-    mean, std = folder.znorm(znorm)
-    model = OnnxFrameModel(folder.graph)
-    if model.n_features is not None and model.n_features != len(mean):
-        raise InputError(
-            f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
-        )
-    return LiveModel(model, mean, std, folder.profile, folder.audio, folder.info.reach)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -16,9 +16,11 @@ in any order — and the JSON lines a `record` backend writes (the frames it was
 from __future__ import annotations
 
 import csv
+import importlib
 import io
 import json
 import os
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -292,23 +294,22 @@ def _from_record(name: str, text: str) -> Timeline:
 
 
 # --------------------------------------------------------------------------------------------------
-# From a dataset
+# Moved up
 
 
-def from_clip(dataset_dir: str | os.PathLike[str], clip_id: str) -> Timeline:
-    """The smoothed, clamped 100 Hz angles of one dataset clip and their times (seconds from
-    the clip's start); unknown angles (an unseen limb) held (`hold`) and marked in `known`.
-    The dataset's robot profile and reach mode come with them."""
-    from gesturebank import datasets
-
-    data = datasets.open(dataset_dir)
-    arrays = data.load_arrays(clip_id)
-    return Timeline.of(
-        arrays["times"],
-        arrays["angles"],
-        profile=data.info.robot_profile,
-        reach=reach_of(data.info.config),
+def __getattr__(name: str) -> object:
+    """`from_clip`, deprecated: it reads a dataset, two floors up; it is
+    `gesturebank.datasets.listing.clip_timeline` now. Fetched by name when it is asked for, so
+    this module imports nothing above its floor (kept for one release)."""
+    if name != "from_clip":
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(
+        "gesturebank.robot.timeline.from_clip is deprecated: use "
+        "gesturebank.datasets.listing.clip_timeline",
+        DeprecationWarning,
+        stacklevel=2,
     )
+    return importlib.import_module("gesturebank.datasets.listing").clip_timeline
 
 
 def reach_of(config: object) -> str:

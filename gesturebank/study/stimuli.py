@@ -2,7 +2,7 @@
 
 For each speech source — an audio file (`--audio A.wav`) or a dataset clip (`--clip
 DATASET:CLIP_ID`, whose audio is cut from its source video) — one video per condition: every
-model's motion (offline synthesis, `train.commands.synthesize_command`), the ground truth (clips
+model's motion (offline synthesis, `train.synthesis.synthesize`), the ground truth (clips
 only: the clip's own angles), and an anchor (`mean-pose`: the first model's training mean pose,
 held still; `random-clip`: another clip of the first model's dataset, chosen by a seed). Every
 video of one source has the same camera (`[render]`), the same duration (the audio's) and the
@@ -54,11 +54,12 @@ from typing import Any, Literal
 import numpy as np
 
 from gesturebank.config import PlaybackConfig, RenderConfig
+from gesturebank.datasets.listing import clip_timeline
 from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.robot import pepper
 from gesturebank.robot.safety import safe_angles, speed_profile
-from gesturebank.robot.timeline import Timeline, from_clip, read_timeline
+from gesturebank.robot.timeline import Timeline, read_timeline
 
 PathLike = str | os.PathLike[str]
 Anchor = Literal["mean-pose", "random-clip"]
@@ -149,7 +150,7 @@ def _random_clip(dataset: Path, avoid: set[str], rng: np.random.Generator) -> Ti
     ids = [c for c in datasets.open(dataset).clip_ids() if c not in avoid]
     if not ids:
         raise InputError(f"{dataset}: no other accepted clip for the random-clip anchor")
-    return from_clip(dataset, ids[int(rng.integers(len(ids)))])
+    return clip_timeline(dataset, ids[int(rng.integers(len(ids)))])
 
 
 def stimuli_command(
@@ -172,8 +173,8 @@ def stimuli_command(
     from gesturebank.robot.render import write_video
     from gesturebank.study.posters import poster_path, write_poster
     from gesturebank.train import model_folder
-    from gesturebank.train.commands import synthesize_command
-    from gesturebank.train.eval.compare import _names
+    from gesturebank.train.eval.compare import model_names
+    from gesturebank.train.synthesis import synthesize
 
     if not model_dirs:
         raise InputError("stimuli needs at least one model folder")
@@ -190,7 +191,7 @@ def stimuli_command(
     mean_pose = pepper.denormalise(
         np.asarray(folders[0].norm["mean_pose01"]).reshape(1, -1), folders[0].profile
     )[0]
-    names = _names([Path(d) for d in model_dirs])
+    names = model_names([Path(d) for d in model_dirs])
     groups: list[dict[str, Any]] = []
     key: dict[str, dict[str, Any]] = {}
     used: set[str] = set()
@@ -200,10 +201,10 @@ def stimuli_command(
             conditions: list[tuple[str, str, str | None, Timeline]] = []
             for name, model_dir in zip(names, model_dirs, strict=True):
                 csv = Path(tmp) / f"{len(key) + len(conditions)}.csv"
-                synthesize_command(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
+                synthesize(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
                 conditions.append((name, "model", os.fspath(model_dir), read_timeline(csv)))
             if src.dataset is not None and src.clip_id is not None:
-                truth = from_clip(src.dataset, src.clip_id)
+                truth = clip_timeline(src.dataset, src.clip_id)
                 conditions.append(("ground-truth", "reference", None, truth))
             if anchor == "mean-pose":
                 still = _hold(mean_pose, duration)

@@ -11,8 +11,9 @@
     metrics.json       written by `evaluate`
 
 Live mode needs only an ONNX graph, model.json's "audio" and normalisers.json's
-"audio_znorm_by_subject" and "robot_profile"; `load` asks for no more. Torch and onnxruntime are
-imported only when used, so live mode does not pull in torch.
+"audio_znorm_by_subject" and "robot_profile"; `load` asks for no more, and `OnnxFrameModel` steps
+the graph one frame at a time. Torch and onnxruntime are imported only when used, so live mode
+does not pull in torch.
 """
 
 from __future__ import annotations
@@ -324,3 +325,37 @@ def session(path: PathLike, *, threads: int = 1) -> ort.InferenceSession:
         text = str(exc).strip()
         reason = text.splitlines()[0] if text else type(exc).__name__
         raise InputError(f"{name}: not a loadable ONNX model ({reason})") from None
+
+
+class OnnxFrameModel:
+    """`model_step.onnx` (LSTM: `(1, F)` + state `(1, 1, H)` ×2 → `(1, 11)` + state; Aud2Motion:
+    one state) or, for the MLP, `model.onnx` (`(N, F)` → `(N, 11)`), inputs and outputs taken by
+    position, through onnxruntime one frame per `step`: a `robot.online.FrameModel` for live mode
+    (one thread: the graph is tiny, hand-offs cost)."""
+
+    def __init__(self, path: PathLike) -> None:
+        name = os.fspath(path)
+        self.session = session(path)
+        inputs = self.session.get_inputs()
+        if len(self.session.get_outputs()) != len(inputs):
+            raise InputError(f"{name}: expected inputs x[, states…] and outputs y[, states…]")
+        self.input_names = [i.name for i in inputs]
+        self.output_names = [o.name for o in self.session.get_outputs()]
+        dim = inputs[0].shape[-1]
+        self.n_features = dim if isinstance(dim, int) else None
+        self.state_shapes: list[tuple[int, ...]] = []
+        for i in inputs[1:]:  # recurrent state: (h, c) of an LSTM, h of a GRU
+            if not all(isinstance(d, int) for d in i.shape):
+                raise InputError(f"{name}: state input {i.name} needs a fixed shape, got {i.shape}")
+            self.state_shapes.append(tuple(int(d) for d in i.shape))
+        self.stateful = bool(self.state_shapes)
+        self.reset()
+
+    def reset(self) -> None:
+        self.states = [np.zeros(shape, np.float32) for shape in self.state_shapes]
+
+    def step(self, features01: np.ndarray) -> np.ndarray:
+        x = np.asarray(features01, np.float32).reshape(1, -1)
+        feed: dict[str, Any] = dict(zip(self.input_names, [x, *self.states], strict=True))
+        y, *self.states = self.session.run(self.output_names, feed)
+        return np.asarray(y, np.float32).reshape(-1)

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.cli.robot import replay_command
 from gesturebank.config import PlaybackConfig
 from gesturebank.errors import RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.naoqi import NaoqiBackend
-from gesturebank.robot.commands import replay_command
 from gesturebank.robot.playback import play
 from gesturebank.robot.timeline import Timeline, write_timeline
 from gesturebank.testing.naoqi_server import PEPPER_JOINTS, NaoqiServer
@@ -117,7 +117,7 @@ def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_p
         "import sys\n"
         "from gesturebank.errors import GesturebankError\n"
         "from gesturebank.config import PlaybackConfig\n"
-        "from gesturebank.robot.commands import replay_command\n"
+        "from gesturebank.cli.robot import replay_command\n"
         "try:\n"
         f"    replay_command({str(csv)!r}, 'naoqi', url={server.url!r},\n"
         "                   config=PlaybackConfig(start_s=0.3, return_s=0.3))\n"

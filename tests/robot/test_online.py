@@ -10,15 +10,16 @@ import numpy as np
 import pytest
 import torch
 
+from gesturebank.cli.robot import live_command, load_frame_model
 from gesturebank.config import AudioConfig
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import features
 from gesturebank.extract.audio_io import read_audio
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
-from gesturebank.robot.commands import live_command
-from gesturebank.robot.online import LiveSynth, OnnxFrameModel, load_frame_model
+from gesturebank.robot.online import LiveSynth
 from gesturebank.testing.tiny_models import StepLSTM, write_model_dir
+from gesturebank.train.model_folder import OnnxFrameModel
 from tests.robot.test_playback import LOWER, NEUTRAL, UPPER, VELOCITY
 
 
@@ -134,8 +135,8 @@ def test_live_runs_a_model_trained_by_gesturebank(
     demo_dataset: Path, tmp_path: Path, speech: Path, kind: str
 ) -> None:
     """The model folder `gesturebank train` writes is what live mode loads, as it is."""
+    from gesturebank.cli.train import train_command
     from gesturebank.config import TrainConfig
-    from gesturebank.train.commands import train_command
 
     cfg = TrainConfig.model_validate({"mlp": {"max_epochs": 3}, "lstm": {"max_epochs": 2}})
     folder = tmp_path / kind

@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.cli.robot import replay_command
 from gesturebank.config import PlaybackConfig
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import Command
 from gesturebank.robot.backends.record import RecordBackend, read_record
 from gesturebank.robot.clock import adaptive_sleep
-from gesturebank.robot.commands import replay_command
 from gesturebank.robot.playback import play
 from gesturebank.robot.safety import SafetyFilter, ramp
 from gesturebank.robot.timeline import Timeline, write_timeline

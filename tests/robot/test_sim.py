@@ -13,12 +13,12 @@ import av
 import numpy as np
 import pytest
 
+from gesturebank.cli.robot import replay_command
 from gesturebank.config import PlaybackConfig, RenderConfig
 from gesturebank.errors import InputError
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import BACKENDS, Command
 from gesturebank.robot.backends.sim import SimBackend
-from gesturebank.robot.commands import replay_command
 from gesturebank.robot.timeline import Timeline, write_timeline
 
 RATE = 16000

@@ -7,9 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.datasets.listing import clip_timeline
 from gesturebank.errors import InputError
 from gesturebank.robot.pepper import JOINTS
-from gesturebank.robot.timeline import Timeline, from_clip, read_timeline, write_timeline
+from gesturebank.robot.timeline import Timeline, read_timeline, write_timeline
 
 
 def test_round_trip(tmp_path: Path) -> None:
@@ -78,11 +79,22 @@ def test_from_clip_reads_angles_and_holds_unknown_ones(tmp_path: Path) -> None:
     audio = np.zeros((400, 26))
     clip = clip_from_targets(angles01, audio, clip_id="s1_t__c000", profile=profile)
     write_dataset(tmp_path, {"s1_t": [clip]})
-    tl = from_clip(tmp_path, "s1_t__c000")
+    tl = clip_timeline(tmp_path, "s1_t__c000")
     np.testing.assert_array_equal(tl.times, clip.times)
     assert np.isfinite(tl.angles).all()
     held = pepper.denormalise(np.full((400, 11), 0.25), profile)  # every value is this one
     np.testing.assert_allclose(tl.angles, held, atol=1e-6)
+
+
+def test_from_clip_still_answers_with_a_deprecation_warning() -> None:
+    """Issue 34: the documented `robot.timeline.from_clip` moved up to `datasets.listing`; the
+    old name works for one release and says where it went."""
+    import gesturebank.robot.timeline as timeline
+
+    with pytest.warns(DeprecationWarning, match="datasets.listing.clip_timeline"):
+        assert timeline.from_clip is clip_timeline
+    with pytest.raises(AttributeError, match="no_such_name"):
+        timeline.no_such_name  # noqa: B018
 
 
 def test_header_unit_and_reach(tmp_path: Path) -> None:

@@ -16,15 +16,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.cli.export import export_command
+from gesturebank.cli.robot import live_command, replay_command
 from gesturebank.config import Config, PlaybackConfig, TrainConfig
-from gesturebank.export.commands import export_command
+from gesturebank.datasets.listing import clip_timeline
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
-from gesturebank.robot.commands import live_command, replay_command
 from gesturebank.robot.safety import safe_angles, speed_profile
 from gesturebank.robot.timeline import (
     Timeline,
-    from_clip,
     reach_of,
     read_timeline,
     write_timeline,
@@ -90,8 +90,8 @@ def _write_wav(path: Path, seconds: float, sr: int = 16000) -> Path:
 @pytest.fixture(scope="module")
 def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A one-epoch MLP on a small generated dataset (a causal model: `live` runs it too)."""
+    from gesturebank.cli.train import train_command
     from gesturebank.testing.speech_motion import write_speech_motion_dataset
-    from gesturebank.train.commands import train_command
 
     root = tmp_path_factory.mktemp("model")
     data = write_speech_motion_dataset(root / "ds", subjects=3, takes_per_subject=1, seconds=4.0)
@@ -112,14 +112,14 @@ def _from_dataset(folder: Path) -> tuple[Path, Timeline]:
     write_dataset(folder / "ds", {"s1_t": [clip]})
     config = Config()
     out = export_command(src=folder / "ds", fmt="csv", out=folder / "csv", config=config)
-    return out[0], from_clip(folder / "ds", "s1_t__c000")
+    return out[0], clip_timeline(folder / "ds", "s1_t__c000")
 
 
 def _synthesized(folder: Path, model: Path) -> tuple[Path, Timeline]:
-    from gesturebank.train.commands import synthesize_command
+    from gesturebank.train.synthesis import synthesize
 
     wav = _write_wav(folder / "speech.wav", 1.0)
-    angles = synthesize_command(model, wav, folder / "synth.csv")
+    angles = synthesize(model, wav, folder / "synth.csv")
     audio = json.loads((model / "model.json").read_text())["audio"]
     times = np.arange(len(angles)) * audio["winstep_s"] + audio["winlen_s"] / 2
     reach = json.loads((model / "model.json").read_text())["reach"]  # its dataset's mode

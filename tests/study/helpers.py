@@ -9,7 +9,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from gesturebank.study.commands import make_server
+from gesturebank.cli.study import make_server
 
 
 @dataclass(frozen=True)

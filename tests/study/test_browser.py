@@ -14,9 +14,9 @@ from typing import Any
 
 import pytest
 
+from gesturebank.cli.study import make_server
 from gesturebank.study import db
 from gesturebank.study.analyse import analyse
-from gesturebank.study.commands import make_server
 from gesturebank.testing.browser import CHROMIUM, Browser, Tab
 from tests.study.conftest import IDS
 

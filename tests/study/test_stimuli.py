@@ -10,10 +10,10 @@ import av
 import pytest
 
 from gesturebank import datasets
+from gesturebank.cli.train import train_command
 from gesturebank.config import RenderConfig, TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.study.stimuli import KEY, MANIFEST, parse_clip, stimuli_command
-from gesturebank.train.commands import train_command
 
 ONE_EPOCH = TrainConfig.model_validate({"mlp": {"max_epochs": 1}, "lstm": {"max_epochs": 1}})
 SMALL = RenderConfig(frame_rate=10, width_px=160, height_px=120)

@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 from rich.console import Console
 
+from gesturebank.cli.train import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import Segment
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_folder, permissions
 from gesturebank.robot import pepper
 from gesturebank.testing.speech_motion import write_speech_motion_dataset
-from gesturebank.train.commands import synthesize_command, train_command
 from gesturebank.train.eval.compare import COLUMNS as COMPARE_COLUMNS
 from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
@@ -42,6 +42,7 @@ from gesturebank.train.eval.evaluate import (
     not_computable,
     table,
 )
+from gesturebank.train.synthesis import synthesize
 
 ONE_EPOCH = TrainConfig.model_validate({"mlp": {"max_epochs": 1}, "lstm": {"max_epochs": 1}})
 
@@ -111,9 +112,9 @@ def test_unwritable_outputs_are_input_errors_naming_the_path(
     with pytest.raises(
         InputError, match=re.escape(f"{blocker / 'a.csv'}: cannot write the angle CSV")
     ):
-        synthesize_command(mlp_model, wav, blocker / "a.csv")
+        synthesize(mlp_model, wav, blocker / "a.csv")
     with pytest.raises(InputError, match=re.escape(f"{tmp_path}: cannot write the angle CSV")):
-        synthesize_command(mlp_model, wav, tmp_path)  # a folder is not a CSV
+        synthesize(mlp_model, wav, tmp_path)  # a folder is not a CSV
 
 
 def _limit_file_size() -> None:

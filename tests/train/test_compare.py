@@ -12,9 +12,9 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from gesturebank.cli import app
+from gesturebank.cli.train import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
-from gesturebank.train.commands import train_command
 from gesturebank.train.eval.compare import COLUMNS, compare_command
 from gesturebank.train.eval.evaluate import LEGEND, MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
 

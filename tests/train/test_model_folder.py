@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 import torch
 
+from gesturebank.cli.robot import load_frame_model
+from gesturebank.cli.train import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.robot import pepper
-from gesturebank.robot.online import load_frame_model
 from gesturebank.train import model_folder
-from gesturebank.train.commands import train_command
 
 ONE_EPOCH = TrainConfig.model_validate({"lstm": {"max_epochs": 1}})
 

@@ -11,9 +11,8 @@ import torch
 
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
-from gesturebank.robot.online import OnnxFrameModel
 from gesturebank.train.export import OnnxModel, export_onnx
-from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX
+from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX, OnnxFrameModel
 from gesturebank.train.models.aud2motion import Aud2Motion, Aud2MotionStep
 from gesturebank.train.models.aud2pose import Aud2Pose
 from gesturebank.train.models.aud2repr2pose import Aud2Repr2Pose

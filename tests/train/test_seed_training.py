@@ -11,11 +11,11 @@ import pytest
 import torch
 
 import gesturebank.datasets as gds
+from gesturebank.cli.robot import load_frame_model
+from gesturebank.cli.train import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.errors import InputError
-from gesturebank.robot.online import load_frame_model
-from gesturebank.train.commands import train_command
 from gesturebank.train.export import OnnxModel
 from gesturebank.train.model_folder import MODEL_ONNX, load, load_model
 from gesturebank.train.models.aud2repr2pose import Aud2Repr2Pose

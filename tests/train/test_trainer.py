@@ -13,12 +13,13 @@ import torch
 from rich.console import Console
 
 import gesturebank.datasets as gds
+from gesturebank.cli.train import evaluate_command, train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.robot import pepper
-from gesturebank.train.commands import evaluate_command, synthesize_command, train_command
 from gesturebank.train.eval.evaluate import MEAN_POSE, NATURAL, SHIFTED, SHUFFLED, shifted_truth
 from gesturebank.train.model_folder import load_model
+from gesturebank.train.synthesis import synthesize
 from gesturebank.train.torch_runtime import validation_loss
 
 
@@ -170,7 +171,7 @@ def test_synthesize_writes_a_timestamped_csv(
     train_command(synthetic_dataset, "lstm", "si", 0, None, model_dir, cfg, quiet=True)
     wav = tmp_path / "speech.wav"
     _write_wav(wav, 2.0)
-    angles = synthesize_command(model_dir, wav, tmp_path / "out" / "motion.csv")
+    angles = synthesize(model_dir, wav, tmp_path / "out" / "motion.csv")
     with open(tmp_path / "out" / "motion.csv", newline="") as f:
         comment = f.readline()  # the angle timeline's '#' line (robot.timeline)
         rows = list(csv.reader(f))
@@ -182,7 +183,7 @@ def test_synthesize_writes_a_timestamped_csv(
     assert times[0] == pytest.approx(0.0125)  # centre of the first window
     profile = pepper.load_profile()
     assert np.all(angles >= profile.lower - 1e-6) and np.all(angles <= profile.upper + 1e-6)
-    self_norm = synthesize_command(model_dir, wav, tmp_path / "self.csv", znorm="self")
+    self_norm = synthesize(model_dir, wav, tmp_path / "self.csv", znorm="self")
     assert self_norm.shape == angles.shape
 
 

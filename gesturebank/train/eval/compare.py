@@ -65,7 +65,7 @@ COLUMNS: tuple[Column, ...] = tuple(
 FORMATS = (".csv", ".md")
 
 
-def _names(dirs: Sequence[Path]) -> list[str]:
+def model_names(dirs: Sequence[Path]) -> list[str]:
     """Row names: each folder's name, with its parent's when two names clash."""
     names = [d.name for d in dirs]
     return [f"{d.parent.name}/{d.name}" if names.count(d.name) > 1 else d.name for d in dirs]
@@ -115,7 +115,7 @@ def compare_command(
     segments = inputs.segments
     rate_hz = float(ds.info.rates.pose_hz)
     systems: dict[str, list[np.ndarray]] = {}
-    for name, folder in zip(_names([f.path for f in folders]), folders, strict=True):
+    for name, folder in zip(model_names([f.path for f in folders]), folders, strict=True):
         own = folder.train_config
         net = folder.torch_model()
         with torch_settings(own.seed, own.threads):

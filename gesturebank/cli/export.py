@@ -11,10 +11,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
+import typer
 
+from gesturebank.cli.options import ConfigOption, SetOption, resolve_config
+from gesturebank.cli.terminal import out, user_errors
 from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.skeletons import COCO17
@@ -186,3 +189,54 @@ def export_command(
     for source, target in zip(sources, targets, strict=True):
         written += _write(source, fmt, target, config, audio)
     return written
+
+
+def export(
+    src: Annotated[
+        Path,
+        typer.Argument(
+            help="A dataset folder (every accepted clip), one clip's .npz in a dataset, or an "
+            "angle timeline (.csv from synthesize, export or record; a record .jsonl)."
+        ),
+    ],
+    fmt: Annotated[
+        Format,
+        typer.Option(
+            "--format",
+            help="bvh: Pepper's upper body (and, for a clip, the person as NAME_person.bvh); "
+            "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: the angle timeline "
+            "replay reads (profile, unit, reach in a # line; masked angles empty); naoqi: "
+            "ALMotion.angleInterpolation arguments (.json) and a script.",
+        ),
+    ],
+    out_path: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            help="File to write (a folder for a dataset); default: NAME and the format's "
+            "suffix (.bvh, .trc, .angles.csv, .naoqi.json) here, or the folder DATASET-FORMAT.",
+        ),
+    ] = None,
+    audio: Annotated[
+        Path | None,
+        typer.Option(
+            help="naoqi: speech the script plays on the robot, in step with the motion "
+            "(one clip or angles CSV)."
+        ),
+    ] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Write clips or angles in other tools' formats (Blender, the GENEA visualiser, OpenSim,
+    Pose2Sim, Choregraphe, NAOqi scripts).
+
+    The robot's angles are exported clamped and speed-limited as `replay` plays them; bvh and
+    trc joints are in metres (BVH offsets in centimetres), upright (y up).
+    """
+    from gesturebank.cli.export import export_command
+
+    with user_errors():
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        written = export_command(src=src, fmt=fmt, out=out_path, config=config, audio=audio)
+    for path in written:
+        out.print(f"wrote {path}", highlight=False, soft_wrap=True)

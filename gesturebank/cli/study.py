@@ -1,4 +1,5 @@
-"""`gesturebank study serve` and `gesturebank study analyse`: what the command line runs."""
+"""`gesturebank stimuli`, `gesturebank study serve` and `gesturebank study analyse`: what the
+command line runs (the stimuli are `study.stimuli`'s)."""
 
 from __future__ import annotations
 
@@ -6,11 +7,14 @@ import ipaddress
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
+import typer
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.cli.options import ConfigOption, SetOption, resolve_config
+from gesturebank.cli.terminal import out, user_errors
 from gesturebank.errors import InputError
 
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8000  # loopback: strangers only if the operator says
@@ -148,3 +152,108 @@ def analyse_command(*, folder: Path, console: Console, include_partial: bool = F
         console.print(table)
     if result.plot is not None:
         console.print(f"plot written to {result.plot}", highlight=False, soft_wrap=True)
+
+
+def stimuli(
+    model_dirs: Annotated[list[Path], typer.Argument(help="Model folders written by `train`.")],
+    study_dir: Annotated[Path, typer.Option("--out", help="Study folder to write.")],
+    audio: Annotated[
+        list[Path] | None, typer.Option(help="Speech: an audio file (repeatable).")
+    ] = None,
+    clip: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Speech of a dataset clip, DATASET_DIR:CLIP_ID, with its ground truth "
+            "(repeatable)."
+        ),
+    ] = None,
+    anchor: Annotated[
+        Literal["mean-pose", "random-clip"], typer.Option(help="The anchor condition.")
+    ] = "mean-pose",
+    anchor_seed: Annotated[
+        int, typer.Option(help="Picks the random-clip anchor and the videos' order.")
+    ] = 0,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
+) -> None:
+    """Blind stimulus videos for a perceptual study: for each speech (--audio, --clip) one video
+    per model, the ground truth (clips) and an anchor — same camera ([render]) and duration,
+    audio muxed, named by random ids. STUDY/stimuli.json lists them without their conditions;
+    STUDY/key.json says which is which (keep it from participants).
+    """
+    from gesturebank.study.stimuli import stimuli_command
+
+    with user_errors():
+        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        manifest = stimuli_command(
+            model_dirs=model_dirs,
+            out=study_dir,
+            audios=audio or [],
+            clips=clip or [],
+            anchor=anchor,
+            anchor_seed=anchor_seed,
+            render=config.render,
+            playback=config.playback,
+            profile=config.robot.profile,
+        )
+    n = sum(len(g["videos"]) for g in manifest["groups"])
+    out.print(f"{n} stimuli written to {study_dir}", highlight=False, soft_wrap=True)
+
+
+study_app = typer.Typer(
+    help="A perceptual study of rendered stimuli: serve it to participants, analyse the answers.",
+    no_args_is_help=True,
+)
+
+
+StudyArg = Annotated[
+    Path, typer.Argument(help="A study folder written by `gesturebank stimuli … --out`.")
+]
+
+
+@study_app.command("serve")
+def study_serve(
+    study_dir: StudyArg,
+    host: Annotated[
+        str, typer.Option(help="Address to listen on; another than 127.0.0.1 lets others in.")
+    ] = DEFAULT_HOST,
+    port: Annotated[int, typer.Option(min=0, max=65535, help="Port (0: a free one).")] = (
+        DEFAULT_PORT
+    ),
+    allow_host: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Another name participants reach the study by (repeatable); other Host "
+            "headers than these and --host are refused (DNS rebinding)."
+        ),
+    ] = None,
+) -> None:
+    """Serve the study's web app: consent, instructions, A/B and MUSHRA-style rating pages in a
+    random, counterbalanced order per participant, answers in STUDY_DIR/responses.sqlite.
+
+    Prints the participants' address and the operator token that opens /export.csv and
+    /key.json (stored, readable by you only, in STUDY_DIR/operator-token). Ctrl-C stops.
+    """
+    from gesturebank.cli.study import serve_command
+
+    with user_errors():
+        serve_command(
+            folder=study_dir, host=host, port=port, console=out, allow_hosts=allow_host or []
+        )
+
+
+@study_app.command("analyse")
+def study_analyse(
+    study_dir: StudyArg,
+    include_partial: Annotated[
+        bool, typer.Option(help="Also analyse participants who stopped half-way.")
+    ] = False,
+) -> None:
+    """Tables of the answers of participants who finished: mean rating per condition with 95 %
+    confidence intervals (within the 0–100 scale), paired Wilcoxon signed-rank or t-tests per
+    question and A/B shares with a binomial test, each with Holm-adjusted p beside the raw p;
+    and a plot (STUDY_DIR/analysis/ratings.png)."""
+    from gesturebank.cli.study import analyse_command
+
+    with user_errors():
+        analyse_command(folder=study_dir, console=out, include_partial=include_partial)
