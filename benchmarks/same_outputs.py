@@ -124,7 +124,9 @@ def default_takes(quick: bool) -> list[Path]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.partition("\n\n")[0])
     parser.add_argument("--against", default="HEAD", help="the commit to compare with")
-    parser.add_argument("--takes", nargs="+", type=Path, help="folders or files to build")
+    parser.add_argument(
+        "--takes", nargs="+", type=Path, help="folders or files, each built into its own dataset"
+    )
     parser.add_argument("--atol", type=float, default=1e-9)
     parser.add_argument("--no-cache", action="store_true", help="run the detector in both")
     parser.add_argument("--quick", action="store_true", help="one short clip against HEAD")
@@ -137,10 +139,14 @@ def main() -> None:
             check=True,
         )
         try:
-            build(REPO, takes, Path(tmp) / "ours", no_cache=args.no_cache)
-            build(other, takes, Path(tmp) / "theirs", no_cache=args.no_cache)
-            differences = compare(Path(tmp) / "ours", Path(tmp) / "theirs", atol=args.atol)
-            files = sum(1 for p in (Path(tmp) / "ours").rglob("*") if p.is_file())
+            differences, files = [], 0
+            for i, take in enumerate(takes):  # each input its own dataset: a folder or a file
+                ours, theirs = Path(tmp) / f"ours{i}", Path(tmp) / f"theirs{i}"
+                build(REPO, [take], ours, no_cache=args.no_cache)
+                build(other, [take], theirs, no_cache=args.no_cache)
+                found = compare(ours, theirs, atol=args.atol)
+                differences += [(f"{take.name}: {name}", what) for name, what in found]
+                files += sum(1 for p in ours.rglob("*") if p.is_file())
         finally:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(other)])
     table = Table(title=f"this checkout vs {args.against}: {files} files, atol {args.atol:g}")
