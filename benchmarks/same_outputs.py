@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import subprocess
@@ -63,6 +64,8 @@ def without_volatile(value: object) -> object:
         return {k: without_volatile(v) for k, v in value.items() if k not in VOLATILE}
     if isinstance(value, list):
         return [without_volatile(v) for v in value]
+    if isinstance(value, float) and math.isnan(value):
+        return "NaN"  # a missing value (a mocap take's video_fps) equals itself
     return value
 
 

@@ -20,7 +20,9 @@ spec.loader.exec_module(same_outputs)
 def _dataset(root: Path, *, angle: float, take: str, page: str) -> Path:
     (root / "takes").mkdir(parents=True)
     np.savez(root / "takes" / "a.npz", angles=np.array([0.5, angle]), names=np.array(["x", "y"]))
-    (root / "takes" / "a.json").write_text(json.dumps({"take": take, "built_at": str(root)}))
+    (root / "takes" / "a.json").write_text(
+        json.dumps({"take": take, "fps": float("nan"), "built_at": str(root)})
+    )
     (root / "index.html").write_text(f"<!-- page-key {abs(hash(root)):x} -->{root}: {page}")
     return root
 
