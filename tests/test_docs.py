@@ -11,6 +11,7 @@ from pathlib import Path
 from types import ModuleType
 
 import numpy as np
+import pytest
 from pydantic import BaseModel
 
 import gesturebank
@@ -112,13 +113,21 @@ def test_every_cited_architecture_section_exists() -> None:
     assert not unknown, f"sections cited but not in docs/architecture.md: {unknown}"
 
 
-def test_the_layout_names_everything_in_the_package() -> None:
-    """docs/architecture.md "Layout" lists every module and folder of `ls gesturebank/`."""
-    text = (DOCS / "architecture.md").read_text(encoding="utf-8")
-    layout = text.partition("\n## Layout\n")[2].partition("\n## ")[0]
+@pytest.mark.parametrize(
+    ("document", "heading"), [("docs/architecture.md", "## Layout"), ("README.md", "## Layout")]
+)
+def test_the_layout_names_everything_in_the_package(document: str, heading: str) -> None:
+    """The architecture's "Layout" and the README's list every module and folder of
+    `ls gesturebank/`."""
+    text = (REPO / document).read_text(encoding="utf-8")
+    layout = text.partition(f"\n{heading}\n")[2].partition("\n## ")[0]
     package = REPO / "gesturebank"
     entries = [p.name + "/" if p.is_dir() else p.name for p in sorted(package.iterdir())]
     shown = [e for e in entries if e.endswith((".py", "/")) and e != "__pycache__/"]
     assert len(shown) > 15
-    missing = [e for e in shown if not re.search(rf"(^|\s){re.escape(e)}(\s|$)", layout, re.M)]
-    assert not missing, f"docs/architecture.md Layout lacks: {missing}"
+    # a name stands alone: between spaces, line ends or code backticks
+    named = [rf"(^|[\s`]){re.escape(e)}([\s`]|$)" for e in shown]
+    missing = [
+        e for e, pattern in zip(shown, named, strict=True) if not re.search(pattern, layout, re.M)
+    ]
+    assert not missing, f"{document} {heading} lacks: {missing}"
