@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import typer
 
@@ -12,10 +12,9 @@ from gesturebank.cli.options import ConfigOption, SetOption, resolve_config
 from gesturebank.cli.terminal import out, user_errors
 from gesturebank.config import MocapConfig, SynthConfig
 from gesturebank.errors import InputError
-from gesturebank.footage import SPEECH
-from gesturebank.samples import default_samples_dir
-from gesturebank.synth.take import Performer, render_take, rig_azimuths
-from gesturebank.synth.truth import Truth
+
+if TYPE_CHECKING:
+    from gesturebank.synth.truth import Truth
 
 
 def render_command(
@@ -29,6 +28,11 @@ def render_command(
 ) -> Truth:
     """Render `bvh` into `out`: `cameras` spread around the first azimuth when given; the
     sample speech (`fetch-samples`) unless `speech` files are given."""
+    # imported here: the renderer (open3d, the retargeting) must not slow every command's start
+    from gesturebank.footage import SPEECH
+    from gesturebank.samples import default_samples_dir
+    from gesturebank.synth.take import Performer, render_take, rig_azimuths
+
     if not bvh.is_file():
         raise InputError(f"{bvh}: BVH file not found")
     if cameras is not None:
