@@ -100,6 +100,7 @@ class BuildProgress:
         # per take in plain mode: (time, frames) first seen, time of its last line
         self.started: dict[str, tuple[float, int]] = {}
         self.said: dict[str, float] = {}
+        self.ended: set[str] = set()
         self.progress = Progress(
             TextColumn("{task.fields[name]}", table_column=Column(no_wrap=True, min_width=5)),
             BarColumn(bar_width=10),
@@ -163,7 +164,10 @@ class BuildProgress:
         self._advance(take_id, round(seconds * fps), take_id)
 
     def _advance(self, take_id: str, frames: int, description: str) -> None:
-        """The take is `frames` far (never back): the build's bar and the take's line move."""
+        """The take is `frames` far (never back): the build's bar and the take's line move.
+        Nothing once it ended (the workers' board still holds its last frame)."""
+        if take_id in self.ended:
+            return
         total = self.total_frames.get(take_id, 0)
         done = min(total, max(frames, self.counted.get(take_id, 0)))
         step = done - self.counted.get(take_id, 0)
@@ -199,6 +203,7 @@ class BuildProgress:
 
     def _take_ended(self, result: TakeResult) -> None:
         """The take's own line goes (a terminal) or says how it ended (a log)."""
+        self.ended.add(result.take_id)
         task = self.take_tasks.pop(result.take_id, None)
         if task is not None:
             self.progress.remove_task(task)

@@ -65,6 +65,7 @@ def test_a_take_has_its_own_line_while_it_is_detected(samples: Path) -> None:
         progress.frames("long", 0.5)  # a late report never moves it back
         assert progress.progress.tasks[0].completed == expected
         progress.result(TakeResult("long", "built"))
+        progress.frames("long", 2.0)  # the board still holds an ended take's last frame
         assert len(progress.progress.tasks) == 1  # the build's line alone
 
 
