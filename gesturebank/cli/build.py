@@ -104,6 +104,7 @@ def build_dataset(
             force=force,
             on_result=progress.result,
             on_chunk=progress.chunk,
+            on_frames=progress.frames,
         )
         summary = dashboard_after_build(summary)
     print_summary(console, summary)

@@ -8,6 +8,7 @@ The model folder they write and read is `train.model_folder`'s (its docstring li
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -28,19 +29,26 @@ from gesturebank.cli.options import (
 from gesturebank.cli.terminal import out, user_errors
 from gesturebank.config import TrainConfig, Variant
 from gesturebank.datasets import open as open_dataset
+from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
+from gesturebank.robot import pepper
 from gesturebank.train import model_folder
+from gesturebank.train.eval.compare import model_names
 from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     LEGEND,
     SEED_MEASURES,
     TABLE_5_1,
     average,
-    evaluate_segments,
+    baselines,
     footnotes,
+    postprocess,
+    score_systems,
     table,
 )
+from gesturebank.train.eval.field import SplitInputs
+from gesturebank.train.eval.timelines import system_angles
 from gesturebank.train.export import export_onnx
 from gesturebank.train.loss_plot import write_loss_png
 from gesturebank.train.model_folder import LOSS_PNG
@@ -125,15 +133,17 @@ def evaluate_command(
     dataset: PathLike | None = None,
     split: str = "test",
     *,
+    timelines: Sequence[PathLike] = (),
     console: Console | None = None,
 ) -> dict[str, Any]:
-    """Score a model on a split part of `dataset` (default: the one it was trained on).
+    """Score a model on a split part of `dataset` (default: the one it was trained on), and
+    beside it the angle timelines of other systems (`timelines`: folders of one file per clip,
+    `train.eval.timelines`).
 
     Prints a Table-5.1-style table (per subject, plus the average; the model and the
     baselines), the seeds' and the field's measures (FGD with its autoencoder's version), and
     writes metrics.json into the model folder; returns its content.
     """
-    from gesturebank.train.eval.fgd import label as fgd_label
     from gesturebank.train.eval.field import prepare
 
     folder = model_folder.load(model_dir)
@@ -150,37 +160,125 @@ def evaluate_command(
         config=cfg,
     )
     segments = inputs.segments
-    profile = folder.profile
     with torch_settings(cfg.seed, cfg.threads):
         pred01 = [torch_predict(net, s.audio) for s in segments]
     name = f"{info.need(folder.path, 'architecture')['kind'].upper()}-{variant.upper()}"
-    results = evaluate_segments(
+    rate_hz = float(info.need(folder.path, "rate_hz"))
+    systems = {name: [postprocess(p, folder.profile, rate_hz, cfg) for p in pred01]}
+    systems |= _timeline_systems(timelines, segments, ds)
+    results = score_systems(
         segments,
-        pred01,
-        name=name,
-        mean_pose01=np.asarray(norm["mean_pose01"]),
-        profile=profile,
-        rate_hz=float(info.need(folder.path, "rate_hz")),
-        config=cfg,
-        donors=inputs.donors,
+        systems | _baselines(inputs, np.asarray(norm["mean_pose01"]), folder.profile, rate_hz, cfg),
+        folder.profile,
+        rate_hz,
+        cfg,
         fgd=inputs.fgd,
         onsets=inputs.onsets,
     )
-    fgd_version = inputs.fgd.version if inputs.fgd else None
     report = {
         "model": name,
         "split": split,
         "dataset": str(ds.path.resolve()),
         "fold": info.fold,
         "subject": info.subject,
-        "fgd_version": fgd_version,
+        "fgd_version": inputs.fgd.version if inputs.fgd else None,
         "per_subject": results,
         "average": average(results),
     }
     model_folder.write_metrics(folder.path, report)
-    out = console or Console()
-    title = f"{name} on {split} ({ds.path.name})"
-    # n/a in the tables: a mark, and why once below them, not a number
+    _print_tables(results, f"{name} on {split} ({ds.path.name})", inputs, console or Console())
+    return report
+
+
+def evaluate_timelines_command(
+    timelines: Sequence[PathLike],
+    dataset: PathLike,
+    split: str = "test",
+    *,
+    variant: str = "si",
+    fold: int | None = None,
+    subject: str | None = None,
+    config: TrainConfig | None = None,
+    console: Console | None = None,
+) -> dict[str, Any]:
+    """Score the angle timelines other systems produced (`timelines`: folders of one file per
+    clip of the split part, named by clip id) on a split of `dataset` (SI `fold`, default 0, or
+    SD `subject`), beside the baselines, with the measures and tables of `evaluate_command`
+    (the mean-pose baseline is the train part's). Returns what evaluate_command returns,
+    "model" None; nothing is written."""
+    from gesturebank.train.eval.field import prepare
+
+    if not timelines:
+        raise InputError("evaluate needs a model folder or --timelines")
+    if variant == "si" and fold is None:
+        fold = 0
+    cfg = config or TrainConfig()
+    ds = open_dataset(dataset)
+    inputs = prepare(ds, variant=variant, fold=fold, subject=subject, part=split, config=cfg)
+    systems = _timeline_systems(timelines, inputs.segments, ds)
+    train_part = load_segments(ds, split_items(ds, variant, "train", fold=fold, subject=subject))
+    if not train_part:
+        raise InputError(f"{ds.path}: the train part of this split is empty (no mean pose)")
+    profile = pepper.load_profile(ds.info.robot_profile)
+    rate_hz = float(ds.info.rates.pose_hz)
+    results = score_systems(
+        inputs.segments,
+        systems | _baselines(inputs, _mean_pose01(train_part), profile, rate_hz, cfg),
+        profile,
+        rate_hz,
+        cfg,
+        fgd=inputs.fgd,
+        onsets=inputs.onsets,
+    )
+    part = f"fold {fold}" if variant == "si" else f"subject {subject}"
+    title = f"{', '.join(systems)} on {variant.upper()} {part}, {split} ({ds.path.name})"
+    _print_tables(results, title, inputs, console or Console())
+    return {
+        "model": None,
+        "split": split,
+        "dataset": str(ds.path.resolve()),
+        "fold": fold,
+        "subject": subject,
+        "fgd_version": inputs.fgd.version if inputs.fgd else None,
+        "per_subject": results,
+        "average": average(results),
+    }
+
+
+def _timeline_systems(
+    timelines: Sequence[PathLike], segments: list[Segment], dataset: Dataset
+) -> dict[str, list[np.ndarray]]:
+    """{folder name → angles per segment} of each timeline folder."""
+    dirs = [Path(t) for t in timelines]
+    return {
+        name: system_angles(d, segments, dataset=dataset)
+        for name, d in zip(model_names(dirs), dirs, strict=True)
+    }
+
+
+def _baselines(
+    inputs: SplitInputs,
+    mean_pose01: np.ndarray,
+    profile: pepper.RobotProfile,
+    rate_hz: float,
+    cfg: TrainConfig,
+) -> dict[str, list[np.ndarray]]:
+    return baselines(
+        inputs.segments,
+        mean_pose01=mean_pose01,
+        profile=profile,
+        rate_hz=rate_hz,
+        config=cfg,
+        donors=inputs.donors,
+    )
+
+
+def _print_tables(
+    results: dict[str, dict[str, dict[str, Any]]], title: str, inputs: SplitInputs, out: Console
+) -> None:
+    """The three tables of `evaluate`, the legend and the n/a reasons (each once)."""
+    from gesturebank.train.eval.fgd import label as fgd_label
+
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
     out.print(table(results, title, TABLE_5_1, notes))
     out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes))
@@ -188,7 +286,6 @@ def evaluate_command(
     out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES, notes))
     for line in [LEGEND, *notes.lines]:
         out.print(line, highlight=False, soft_wrap=True)
-    return report
 
 
 def train_cmd(
@@ -249,11 +346,34 @@ def train_cmd(
 
 
 def evaluate(
-    model_dir: ModelDirArg,
+    model_dir: Annotated[
+        Path | None,
+        typer.Argument(
+            help="A model folder written by `train`; with --timelines and no model, the dataset.",
+            show_default=False,
+        ),
+    ] = None,
     dataset: Annotated[
         Path | None, typer.Argument(help="Dataset (default: the one it was trained on).")
     ] = None,
     split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+    timelines: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--timelines",
+            help="A folder of angle timelines another system produced, one per clip of the "
+            "split part, named by clip id (CLIP_ID.csv, as `synthesize` writes them); scored "
+            "as a row named by the folder (repeatable).",
+        ),
+    ] = None,
+    variant: Annotated[
+        Variant | None,
+        typer.Option(help="Without a model: the split, 'si' (a fold; the default) or 'sd'."),
+    ] = None,
+    fold: Annotated[int | None, typer.Option(help="Without a model: SI fold (default 0).")] = None,
+    subject: Annotated[str | None, typer.Option(help="Without a model: SD subject.")] = None,
+    config_file: ConfigOption = None,
+    sets: SetOption = None,
 ) -> None:
     """Score a model like Table 5.1 of the dissertation, per subject and averaged.
 
@@ -261,11 +381,44 @@ def evaluate(
     jerk, speed/acceleration Hellinger distances and FGD; BEAT's beat consistency), next to four
     baselines (natural motion, the static mean pose, a shuffled clip, the ground truth shifted in
     time); metrics.json is written into the model folder.
+
+    Another system's output is scored the same way from angle timelines: `evaluate MODEL
+    --timelines DIR` (beside the model, on its split), or without a model `evaluate DATASET
+    --timelines DIR [--fold N | --variant sd --subject S]` (scoring config: --config/--set).
     """
-    from gesturebank.cli.train import evaluate_command
+    from gesturebank.cli.train import evaluate_command, evaluate_timelines_command
+    from gesturebank.train.model_folder import MODEL_JSON
 
     with user_errors():
-        evaluate_command(model_dir=model_dir, dataset=dataset, split=split, console=out)
+        if model_dir is None:
+            raise InputError("evaluate needs a model folder (or a dataset with --timelines)")
+        is_model = (model_dir / MODEL_JSON).is_file()
+        split_options = variant, fold, subject, config_file, sets
+        if is_model and any(o is not None for o in split_options):
+            raise InputError(
+                f"{model_dir}: a model is scored on its own split with its own config; "
+                "--variant/--fold/--subject/--config/--set are for timelines without a model"
+            )
+        if timelines and not is_model and dataset is None:  # `evaluate DATASET --timelines DIR`
+            config = resolve_config(config_file=config_file, sets=sets, flags={}).train
+            evaluate_timelines_command(
+                timelines,
+                model_dir,
+                split,
+                variant=variant or "si",
+                fold=fold,
+                subject=subject,
+                config=config,
+                console=out,
+            )
+            return
+        evaluate_command(
+            model_dir=model_dir,
+            dataset=dataset,
+            split=split,
+            timelines=timelines or (),
+            console=out,
+        )
 
 
 def compare(

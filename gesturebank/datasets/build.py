@@ -20,6 +20,7 @@ import multiprocessing
 import os
 import signal
 import threading
+import time
 from collections.abc import Callable, Generator, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -30,7 +31,7 @@ from typing import Any
 
 from gesturebank.config import Config
 from gesturebank.datasets import store
-from gesturebank.datasets.lifeline import die_with
+from gesturebank.datasets.frame_board import POLL_S, FrameBoard, start_worker, watched
 from gesturebank.datasets.lock import dataset_lock
 from gesturebank.datasets.take_job import (
     ChunkJob,
@@ -47,10 +48,12 @@ from gesturebank.datasets.take_job import (
 )
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
+from gesturebank.extract.frame_watch import watching
 
 log = logging.getLogger(__name__)
 
 _DIED = "worker process died; run again to resume"
+FramesCallback = Callable[[str, float], None]  # take id, seconds of its video detected
 
 # Imported once by the worker pool's fork server (their import is the slow part of a start).
 PIPELINE_MODULES = (
@@ -122,20 +125,30 @@ def with_threads(config: Config, workers: int, cores: int) -> Config:
 
 
 def _local(
-    schedule: Schedule, out: Path, config: Config, workers: int
+    schedule: Schedule,
+    out: Path,
+    config: Config,
+    workers: int,
+    on_frames: FramesCallback | None = None,
 ) -> Generator[TakeResult, None, None]:
     if workers == 1:
         for module in PIPELINE_MODULES:  # as the pool does: start-up is not a take's time
             importlib.import_module(module)
         for take, source in schedule.jobs.values():  # each detects its chunks itself
-            yield run_take(take, source, out, config)
+            with _every_poll(take.take_id, config.video.start_s, on_frames):
+                result = run_take(take, source, out, config)
+            yield result
         return
     # forkserver: a clean server process (no threads inherited from mediapipe or a Ray client)
     # imports the pipeline once; every worker forks from it instead of importing for seconds.
     ctx = multiprocessing.get_context("forkserver")
     ctx.set_forkserver_preload(list(PIPELINE_MODULES))
+    board = FrameBoard(ctx, len(schedule.first()) + len(schedule.jobs))
     with ProcessPoolExecutor(
-        max_workers=workers, mp_context=ctx, initializer=die_with, initargs=(os.getpid(),)
+        max_workers=workers,
+        mp_context=ctx,
+        initializer=start_worker,
+        initargs=(os.getpid(), board.values),
     ) as pool:
         jobs: dict[Future[Any], Job] = {}  # TakeResult of a take, None of a chunk
         died: list[TakeResult] = []  # takes that could not be queued: the pool is gone
@@ -143,9 +156,23 @@ def _local(
         def submit(job: Job) -> set[Future[Any]]:
             try:
                 fut: Future[Any] = (
-                    pool.submit(run_chunk, job, out, config)
+                    pool.submit(
+                        watched,
+                        board.claim(job.take_id, job.own_s),
+                        run_chunk,
+                        job,
+                        out,
+                        config,
+                    )
                     if isinstance(job, ChunkJob)
-                    else pool.submit(run_take, *job, out, config)
+                    else pool.submit(
+                        watched,
+                        board.claim(job[0].take_id, config.video.start_s),
+                        run_take,
+                        *job,
+                        out,
+                        config,
+                    )
                 )
             except BrokenProcessPool:
                 take = schedule.jobs[job.take_id] if isinstance(job, ChunkJob) else job
@@ -161,7 +188,10 @@ def _local(
                 died.clear()
                 if not pending:
                     break
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                done, pending = wait(pending, timeout=POLL_S, return_when=FIRST_COMPLETED)
+                if on_frames is not None:
+                    for take_id, seconds in board.seconds().items():
+                        on_frames(take_id, seconds)
                 for fut in done:
                     job = jobs[fut]
                     if isinstance(job, ChunkJob):
@@ -186,6 +216,25 @@ def _local(
             for process in list(pool._processes.values()):
                 process.terminate()
             raise
+
+
+@contextmanager
+def _every_poll(take_id: str, start_s: float, on_frames: FramesCallback | None) -> Iterator[None]:
+    """Inside (a take built in this process), `on_frames` with the take's seconds of video
+    detected, at most every `POLL_S` (the frame loop itself only compares two clocks)."""
+    if on_frames is None:
+        yield
+        return
+    last = [-POLL_S]
+
+    def seen(t: float) -> None:
+        now = time.monotonic()
+        if now - last[0] >= POLL_S:
+            last[0] = now
+            on_frames(take_id, max(0.0, t - start_s))
+
+    with watching(seen):
+        yield
 
 
 def _ray(
@@ -225,9 +274,12 @@ def build_dataset(
     force: bool = False,
     on_result: Callable[[TakeResult], None] | None = None,
     on_chunk: Callable[[str, int, int], None] | None = None,
+    on_frames: FramesCallback | None = None,
 ) -> BuildSummary:
     """Build (or resume) the dataset in `out`; see the module docstring. on_result(result): as
-    each take ends; on_chunk(take_id, done, total): as each chunk of a long video is detected.
+    each take ends; on_chunk(take_id, done, total): as each chunk of a long video is detected;
+    on_frames(take_id, seconds): how much of a take's video is detected, every `POLL_S` while it
+    is (the local executor only: Ray reports chunks and takes).
 
     Holds the dataset's lock throughout (InputError naming the holder when another build or
     `gesturebank qc` writes `out`). SIGTERM and Ctrl-C stop it the same way: the workers are
@@ -247,6 +299,7 @@ def build_dataset(
             force=force,
             on_result=on_result,
             on_chunk=on_chunk,
+            on_frames=on_frames,
         )
 
 
@@ -259,6 +312,7 @@ def _build(
     force: bool,
     on_result: Callable[[TakeResult], None] | None,
     on_chunk: Callable[[str, int, int], None] | None,
+    on_frames: FramesCallback | None,
 ) -> BuildSummary:
     from gesturebank.datasets.card import read_takes_toml
     from gesturebank.datasets.refresh import refresh
@@ -286,7 +340,7 @@ def _build(
     results = (
         _ray(schedule, out, videos_dir, config)
         if config.build.executor == "ray"
-        else _local(schedule, out, config, workers)
+        else _local(schedule, out, config, workers, on_frames)
     )
     stamps = {take.take_id: record_stamp(out, take.take_id) for take, _ in jobs}
     terms: list[int] = []

@@ -1,11 +1,17 @@
 """The build's progress as a person watches it (rich; nothing with --quiet): takes done, video
 frames done, frames per second and the time left, counted in video frames so that one long video
 moves the bar too — per chunk when its detection is split into chunks (`take_job.Schedule`).
+
+While a take is detected it has a line of its own: its frames done of its frames, frames/s and
+the time left, fed every `frame_board.POLL_S` from the workers' frame loops (`frames`). When the
+console is not a terminal (a log), each take prints a plain line instead, at most every
+`PLAIN_EVERY_S` and once when it ends.
 """
 
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Sequence
 from datetime import timedelta
 from types import TracebackType
@@ -16,6 +22,7 @@ from rich.progress import (
     Progress,
     ProgressColumn,
     Task,
+    TaskID,
     TextColumn,
 )
 from rich.table import Column
@@ -28,25 +35,37 @@ from gesturebank.errors import GesturebankError
 log = logging.getLogger(__name__)
 
 COLOUR = {"built": "green", "skipped": "cyan", "failed": "red"}
+PLAIN_EVERY_S = 10.0  # a take's plain progress line (not a terminal) at most this often
 
 
-def take_frames(take: Take) -> int:
-    """Video frames of a take as its headers give them (a multi-camera take: its first camera;
-    a motion-capture take or an unreadable video: 0, so it only counts as a take)."""
+def take_video(take: Take) -> tuple[int, float]:
+    """(video frames, frames per second) of a take as its headers give them (a multi-camera
+    take: its first camera's; a motion-capture take or an unreadable video: (0, 0), so it only
+    counts as a take)."""
     from gesturebank.extract.video import probe
 
     if take.mocap:
-        return 0
+        return 0, 0.0
     video = take.videos[0] if take.videos else take.video
     try:
         info = probe(video)
     except (GesturebankError, OSError) as exc:  # the build reports it as the take's failure
         log.debug("%s: no frame count (%s)", video, exc)
-        return 0
+        return 0, 0.0
+    fps = info.fps if info.fps == info.fps and info.fps > 0 else 0.0  # NaN: unknown
     if info.n_frames:
-        return info.n_frames
+        return info.n_frames, fps
     guess = info.duration_s * info.fps
-    return round(guess) if guess == guess and guess > 0 else 0  # NaN: unknown
+    return (round(guess), fps) if guess == guess and guess > 0 else (0, 0.0)
+
+
+def take_frames(take: Take) -> int:
+    """Video frames of a take (`take_video`)."""
+    return take_video(take)[0]
+
+
+def _eta(seconds: float | None) -> str:
+    return "–" if seconds is None else str(timedelta(seconds=round(seconds)))
 
 
 class _Counts(ProgressColumn):
@@ -56,25 +75,34 @@ class _Counts(ProgressColumn):
     def render(self, task: Task) -> Text:
         speed = task.finished_speed or task.speed
         rate = f"{speed:,.0f} frames/s" if speed else "– frames/s"
-        left = task.time_remaining
-        eta = "–" if left is None else str(timedelta(seconds=round(left)))
+        label = f"{task.fields['takes']} · " if task.fields["takes"] else ""
         return Text(
-            f"{task.fields['takes']} · {task.completed:,.0f}/{task.total or 0:,.0f} frames · "
-            f"{rate} · ETA {eta}",
+            f"{label}{task.completed:,.0f}/{task.total or 0:,.0f} frames · "
+            f"{rate} · ETA {_eta(task.time_remaining)}",
             style="cyan",
         )
 
 
 class BuildProgress:
-    """`with BuildProgress(takes, console) as p:` then `p.result(r)` as each take ends and
-    `p.chunk(take_id, done, total)` as a chunk of a long video is detected."""
+    """`with BuildProgress(takes, console) as p:` then `p.result(r)` as each take ends,
+    `p.chunk(take_id, done, total)` as a chunk of a long video is detected and
+    `p.frames(take_id, seconds)` as a take's video is detected."""
 
     def __init__(self, takes: Sequence[Take], console: Console) -> None:
-        self.frames = {t.take_id: take_frames(t) for t in takes}
-        self.counted = dict.fromkeys(self.frames, 0)  # frames already on the bar, per take
+        video = {t.take_id: take_video(t) for t in takes}
+        self.total_frames = {take_id: n for take_id, (n, _) in video.items()}
+        self.fps = {take_id: fps for take_id, (_, fps) in video.items()}
+        self.counted = dict.fromkeys(self.total_frames, 0)  # frames already on the bar, per take
         self.n_takes, self.n_done = len(takes), 0
+        self.console = console
+        self.plain = not console.is_terminal  # a log: plain lines per take, no live lines
+        self.take_tasks: dict[str, TaskID] = {}
+        # per take in plain mode: (time, frames) first seen, time of its last line
+        self.started: dict[str, tuple[float, int]] = {}
+        self.said: dict[str, float] = {}
+        self.ended: set[str] = set()
         self.progress = Progress(
-            TextColumn("[bold]build[/bold]", table_column=Column(no_wrap=True, min_width=5)),
+            TextColumn("{task.fields[name]}", table_column=Column(no_wrap=True, min_width=5)),
             BarColumn(bar_width=10),
             _Counts(table_column=Column(no_wrap=True)),
             TextColumn(
@@ -83,8 +111,10 @@ class BuildProgress:
             console=console,
             transient=False,
         )
-        total = max(1, sum(self.frames.values()))
-        self.task = self.progress.add_task("", total=total, takes=self._takes())
+        total = max(1, sum(self.total_frames.values()))
+        self.task = self.progress.add_task(
+            "", total=total, takes=self._takes(), name="[bold]build[/bold]"
+        )
 
     def _takes(self) -> str:
         return f"takes {self.n_done}/{self.n_takes}"
@@ -105,8 +135,9 @@ class BuildProgress:
         """A take ended: its frames are done (a skipped take's leave the total: they cost no
         time, and counting them would make the rate and the time left lie)."""
         self.n_done += 1
-        frames = self.frames.get(result.take_id, 0)
+        frames = self.total_frames.get(result.take_id, 0)
         left = frames - self.counted.get(result.take_id, 0)
+        self._take_ended(result)
         self.counted[result.take_id] = frames
         c = COLOUR.get(result.outcome, "white")
         description = f"[{c}]{result.outcome}[/{c}] {result.take_id}"
@@ -120,9 +151,63 @@ class BuildProgress:
 
     def chunk(self, take_id: str, done: int, total: int) -> None:
         """`done` of the `total` chunks of a long take are detected: that share of its frames."""
-        frames = round(self.frames.get(take_id, 0) * done / max(1, total))
-        step = max(0, frames - self.counted.get(take_id, 0))
-        self.counted[take_id] = self.counted.get(take_id, 0) + step
-        self.progress.update(
-            self.task, advance=step, description=f"{take_id}: chunk {done}/{total} detected"
+        frames = round(self.total_frames.get(take_id, 0) * done / max(1, total))
+        what = f"{take_id}: chunk {done}/{total} detected"
+        self._advance(take_id, frames, what)
+        self.progress.update(self.task, description=what)
+
+    def frames(self, take_id: str, seconds: float) -> None:
+        """`seconds` of the take's video are detected (its own line: frames, frames/s, ETA)."""
+        fps = self.fps.get(take_id, 0.0)
+        if not fps or take_id not in self.total_frames:
+            return
+        self._advance(take_id, round(seconds * fps), take_id)
+
+    def _advance(self, take_id: str, frames: int, description: str) -> None:
+        """The take is `frames` far (never back): the build's bar and the take's line move.
+        Nothing once it ended (the workers' board still holds its last frame)."""
+        if take_id in self.ended:
+            return
+        total = self.total_frames.get(take_id, 0)
+        done = min(total, max(frames, self.counted.get(take_id, 0)))
+        step = done - self.counted.get(take_id, 0)
+        self.counted[take_id] = done
+        self.progress.update(self.task, advance=step)
+        if not total:
+            return
+        if self.plain:
+            self._plain_line(take_id, done, total)
+            return
+        if take_id not in self.take_tasks:
+            self.take_tasks[take_id] = self.progress.add_task(
+                take_id, total=total, takes="", name="take"
+            )
+        self.progress.update(self.take_tasks[take_id], completed=done, description=description)
+
+    def _plain_line(self, take_id: str, done: int, total: int, end: str = "") -> None:
+        """`take_id: 541/1,082 frames · 83 frames/s · ETA 0:00:07`, at most every
+        `PLAIN_EVERY_S` per take unless it is the take's last (`end`: its outcome)."""
+        now = time.monotonic()
+        t0, f0 = self.started.setdefault(take_id, (now, done))
+        if not end and now - self.said.get(take_id, -PLAIN_EVERY_S) < PLAIN_EVERY_S:
+            return
+        self.said[take_id] = now
+        speed = (done - f0) / (now - t0) if now > t0 and done > f0 else None
+        rate = f"{speed:,.0f} frames/s" if speed else "– frames/s"
+        tail = end or f"ETA {_eta((total - done) / speed if speed else None)}"
+        self.console.print(
+            f"{take_id}: {done:,}/{total:,} frames · {rate} · {tail}",
+            highlight=False,
+            soft_wrap=True,
         )
+
+    def _take_ended(self, result: TakeResult) -> None:
+        """The take's own line goes (a terminal) or says how it ended (a log)."""
+        self.ended.add(result.take_id)
+        task = self.take_tasks.pop(result.take_id, None)
+        if task is not None:
+            self.progress.remove_task(task)
+        total = self.total_frames.get(result.take_id, 0)
+        if self.plain and result.outcome != "skipped" and total:
+            done = total if result.outcome == "built" else self.counted.get(result.take_id, 0)
+            self._plain_line(result.take_id, done, total, end=result.outcome)

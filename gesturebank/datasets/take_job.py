@@ -45,6 +45,7 @@ class ChunkJob:
     take_id: str
     video: Path
     range: VideoConfig  # the build's video settings, restricted to the chunk
+    own_s: float = 0.0  # its first own frame's time (before it: the overlap, `extract.chunks`)
 
 
 Job = ChunkJob | tuple[Take, str]  # a chunk, or a take with its source (relative path)
@@ -67,7 +68,7 @@ def chunk_jobs(take: Take, config: Config) -> list[ChunkJob]:
             plan = video_chunks(str(video), config)
         except GesturebankError:  # the take's own task fails with the reason
             return []
-        jobs += [ChunkJob(take.take_id, video, chunk_range) for _, chunk_range in plan]
+        jobs += [ChunkJob(take.take_id, video, rng, chunk.own_s) for chunk, rng in plan]
     return jobs
 
 

@@ -31,6 +31,7 @@ from gesturebank.extract.detectors import (
     Frame,
     MultiPersonDetector,
 )
+from gesturebank.extract.frame_watch import watcher
 from gesturebank.extract.shots import ShotDetector, Shots
 from gesturebank.extract.tracking import Tracked, main_speaker
 from gesturebank.extract.video import (
@@ -143,10 +144,13 @@ class _Taps:
         self.shots = ShotDetector(config.shots)
         self.preview_times = preview_times
         self.preview: list[tuple[float, np.ndarray]] = []
+        self.watch = watcher()  # the build's progress, when it watches
 
     def __call__(self, frames: Iterable[Frame]) -> Iterator[Frame]:
         want = list(self.preview_times)
         for t, image in frames:
+            if self.watch is not None:
+                self.watch(t)
             self.shots.push(t, image)
             if want and t >= want[0]:
                 want.pop(0)

@@ -30,7 +30,11 @@ def lecture(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _build(
-    videos: Path, out: Path, chunks: list[tuple[str, int, int]] | None = None, **build: object
+    videos: Path,
+    out: Path,
+    chunks: list[tuple[str, int, int]] | None = None,
+    frames: list[tuple[str, float]] | None = None,
+    **build: object,
 ) -> store.Dataset:
     # 10 frames a second: a third of the detector's work, and still 2.5× the 4 Hz low-pass
     config = Config.model_validate({"video": {"max_fps": 10}, "build": build})
@@ -40,6 +44,7 @@ def _build(
         out,
         config,
         on_chunk=lambda *call: (chunks if chunks is not None else []).append(call),
+        on_frames=lambda *call: (frames if frames is not None else []).append(call),
     )
     assert not summary.failed, summary.failed
     return store.Dataset(out)
@@ -50,8 +55,15 @@ def chunked(lecture: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The lecture built in 20 s chunks on two workers."""
     out = tmp_path_factory.mktemp("chunked") / "out"
     progress: list[tuple[str, int, int]] = []
-    _build(lecture, out, progress, chunk_s=20.0, workers=2)
+    frames: list[tuple[str, float]] = []
+    _build(lecture, out, progress, frames, chunk_s=20.0, workers=2)
     assert progress == [("talk__lecture", k, 3) for k in (1, 2, 3)]  # what the CLI shows
+    # the workers' frame loops, read as the build waits: the seconds detected only grow and
+    # reach the minute, overlaps counted once (each chunk counts to its last frame's start,
+    # one 10 fps step short of the next chunk's first own frame)
+    seconds = [s for take_id, s in frames if take_id == "talk__lecture"]
+    assert seconds and seconds == sorted(seconds)
+    assert 60.0 - 3 * 0.1 - 1e-6 <= seconds[-1] <= 60.0, seconds[-1]
     return out
 
 

@@ -1,15 +1,22 @@
-"""Issue 33 item 7: the build's progress counts video frames (per take, per chunk), not takes."""
+"""Issue 33 item 7: the build's progress counts video frames (per take, per chunk), not takes;
+a take being detected has a line of its own (rich on a terminal, plain lines in a log)."""
 
 from __future__ import annotations
 
 import io
+import math
+import multiprocessing
 from pathlib import Path
 
+import pytest
 from rich.console import Console
 
-from gesturebank.datasets.progress import BuildProgress, take_frames
+from gesturebank.datasets import frame_board
+from gesturebank.datasets.frame_board import FrameBoard
+from gesturebank.datasets.progress import BuildProgress, take_frames, take_video
 from gesturebank.datasets.take_job import TakeResult
 from gesturebank.datasets.takes import Take
+from gesturebank.extract.frame_watch import watcher
 from gesturebank.extract.video import probe
 
 
@@ -38,3 +45,66 @@ def test_progress_advances_by_frames_per_chunk_and_take(samples: Path, tmp_path:
         assert task.completed == task.total
     shown = text.getvalue()
     assert "takes 3/3" in shown and "frames/s" in shown and "ETA" in shown
+
+
+def test_a_take_has_its_own_line_while_it_is_detected(samples: Path) -> None:
+    """On a terminal: the take's frames done of its frames, frames/s and ETA; gone at its end."""
+    long = Take("long", "s", samples / "talking" / "lab" / "cam03_arctic.mp4")
+    frames, fps = take_video(long)
+    screen = Console(file=io.StringIO(), force_terminal=True, width=200)
+    with BuildProgress([long], screen) as progress:
+        progress.frames("long", 1.0)
+        expected = round(fps)  # one second of the video
+        recorded = Console(record=True, width=200, file=io.StringIO())
+        recorded.print(progress.progress.make_tasks_table(progress.progress.tasks))
+        text = recorded.export_text()
+        take_line = next(ln for ln in text.splitlines() if ln.lstrip().startswith("take"))
+        assert f"{expected:,}/{frames:,} frames" in take_line and "long" in take_line
+        assert "frames/s" in take_line and "ETA" in take_line
+        assert progress.progress.tasks[0].completed == expected
+        progress.frames("long", 0.5)  # a late report never moves it back
+        assert progress.progress.tasks[0].completed == expected
+        progress.result(TakeResult("long", "built"))
+        progress.frames("long", 2.0)  # the board still holds an ended take's last frame
+        assert len(progress.progress.tasks) == 1  # the build's line alone
+
+
+def test_plain_lines_name_the_take_and_reach_its_frames(samples: Path) -> None:
+    """Not a terminal (a log): plain lines per take, the last one at its frame count."""
+    long = Take("long", "s", samples / "talking" / "lab" / "cam03_arctic.mp4")
+    frames, fps = take_video(long)
+    text = io.StringIO()
+    with BuildProgress([long], Console(file=text, width=200)) as progress:
+        progress.frames("long", 1.0)
+        progress.chunk("long", 1, 2)
+        progress.result(TakeResult("long", "built"))
+    lines = [ln for ln in text.getvalue().splitlines() if ln.startswith("long: ")]
+    assert lines[0].startswith(f"long: {round(fps):,}/{frames:,} frames · ")
+    assert lines[-1].startswith(f"long: {frames:,}/{frames:,} frames · ") and "built" in lines[-1]
+    assert "\x1b" not in text.getvalue()  # plain: no terminal codes
+
+
+def test_frame_board_sums_a_takes_jobs_from_their_starts() -> None:
+    board = FrameBoard(multiprocessing.get_context("spawn"), 3)
+    take = board.claim("long", 0.0)
+    chunk = board.claim("long", 30.0)  # a chunk from 30 s on
+    board.claim("short", 0.0)  # not started: not reported
+    board.values[take] = 12.5
+    board.values[chunk] = 32.0
+    assert board.seconds() == {"long": 14.5}
+
+
+def test_watched_stores_the_latest_frame_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    values = [math.nan, math.nan]
+    monkeypatch.setattr(frame_board, "_BOARD", values)
+
+    def detect(times: list[float]) -> str:
+        watch = watcher()
+        assert watch is not None
+        for t in times:
+            watch(t)
+        return "done"
+
+    assert frame_board.watched(1, detect, [0.0, 0.04, 0.08, 0.0]) == "done"  # 2nd camera: 0.0
+    assert values[1] == 0.08 and math.isnan(values[0])
+    assert watcher() is None  # only inside
