@@ -25,7 +25,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from gesturebank import datasets
-from gesturebank.cli.train import train_command
+from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.train.synthesis import synthesize
 

@@ -254,3 +254,17 @@ def test_an_upward_import_is_found(tmp_path: Path) -> None:
         ("pkg.base.a", "pkg.stage.b"): "floor 0 -> floor 1",
         ("pkg.stage.b", "pkg.stage.c"): "floor 1 -> floor 2",  # c has a floor of its own
     }
+
+
+def test_the_cli_starts_without_torch_or_the_dataset_reader() -> None:
+    """Every command's module is imported when the CLI starts (`gesturebank --help`, and each
+    `build-dataset` worker, which imports its entry point's module): the work of a command
+    imports its stages when it runs. Importing torch here once made every worker of a build
+    seconds late to start, and a killed build's workers outlived it."""
+    import subprocess
+    import sys
+
+    heavy = ("torch", "pyarrow", "open3d", "gesturebank.datasets.store", "gesturebank.synth")
+    code = f"import sys, gesturebank.cli; print([m for m in {heavy!r} if m in sys.modules])"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert run.stdout.strip() == "[]", run.stdout

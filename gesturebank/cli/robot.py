@@ -28,17 +28,14 @@ from gesturebank.config import (
     RenderConfig,
     RobotConfig,
 )
-from gesturebank.datasets.listing import clip_timeline
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
-from gesturebank.robot.audio_out import DeviceAudio, Speaking
 from gesturebank.robot.backends import create
-from gesturebank.robot.playback import PlaybackResult, play
-from gesturebank.robot.safety import check_timeline
-from gesturebank.robot.timeline import Timeline, read_timeline
 
 if TYPE_CHECKING:
     from gesturebank.robot.online import Chunks, LiveModel, LiveResult
+    from gesturebank.robot.playback import PlaybackResult
+    from gesturebank.robot.timeline import Timeline
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +64,13 @@ def replay_command(
     `clamp`: play timelines far outside the limits clamped instead of refusing them.
     An interrupted sim replay writes no video.
     """
+    # imported here, as every command's work is: the CLI starts without them
+    from gesturebank.datasets.listing import clip_timeline
+    from gesturebank.robot.audio_out import DeviceAudio, Speaking
+    from gesturebank.robot.playback import play
+    from gesturebank.robot.safety import check_timeline
+    from gesturebank.robot.timeline import read_timeline
+
     cfg = config or PlaybackConfig()
     robot = pepper.load_profile(profile or RobotConfig().profile)
     timeline = clip_timeline(angles_csv, clip) if clip else read_timeline(angles_csv)
@@ -148,6 +152,7 @@ def side_by_side(
     the sim backend's virtual clock), rendered next to each other with their labels for as long
     as the longest; without `render.ramps` only the timelines, from 0 s."""
     from gesturebank.robot.backends.sim import SimBackend
+    from gesturebank.robot.playback import play
     from gesturebank.robot.render import write_video  # PyAV and OpenCV: only when rendering
 
     cfg = render or RenderConfig()

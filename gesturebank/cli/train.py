@@ -1,20 +1,17 @@
-"""`gesturebank train`, `evaluate`, `compare` and `synthesize`; the training and the scoring as
-plain functions (`train_command`, `evaluate_command`; the comparison is `train.compare`'s, offline
-synthesis `train.synthesis`'s).
+"""`gesturebank train`, `evaluate`, `compare` and `synthesize`: their options. The work is done by
+plain functions imported when a command runs (`cli.training`: training and scoring; the
+comparison is `train.eval.compare`'s, offline synthesis `train.synthesis`'s), so that the CLI
+starts without torch.
 
 The model folder they write and read is `train.model_folder`'s (its docstring lists the files).
 """
 
 from __future__ import annotations
 
-import os
-from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
-import numpy as np
 import typer
-from rich.console import Console
 
 from gesturebank.cli.options import (
     ConfigOption,
@@ -27,265 +24,9 @@ from gesturebank.cli.options import (
     resolve_config,
 )
 from gesturebank.cli.terminal import out, user_errors
-from gesturebank.config import TrainConfig, Variant
-from gesturebank.datasets import open as open_dataset
-from gesturebank.datasets.store import Dataset
-from gesturebank.datasets.torch import Segment, load_segments, split_items
+from gesturebank.config import Variant
 from gesturebank.errors import InputError
-from gesturebank.robot import pepper
-from gesturebank.train import model_folder
-from gesturebank.train.eval.compare import model_names
-from gesturebank.train.eval.evaluate import (
-    FIELD_MEASURES,
-    LEGEND,
-    SEED_MEASURES,
-    TABLE_5_1,
-    average,
-    baselines,
-    footnotes,
-    postprocess,
-    score_systems,
-    table,
-)
-from gesturebank.train.eval.field import SplitInputs
-from gesturebank.train.eval.timelines import system_angles
-from gesturebank.train.export import export_onnx
-from gesturebank.train.loss_plot import write_loss_png
-from gesturebank.train.model_folder import LOSS_PNG
-from gesturebank.train.models.build import build_model
 from gesturebank.train.registry import MODELS
-from gesturebank.train.torch_runtime import predict as torch_predict
-from gesturebank.train.torch_runtime import torch_settings
-from gesturebank.train.trainer import TrainResult, train
-
-PathLike = str | os.PathLike[str]
-
-
-def _mean_pose01(segments: list[Segment]) -> np.ndarray:
-    """(11,) mean of the known training targets per joint (0.5 for a joint never known)."""
-    target = np.concatenate([s.target for s in segments])
-    mask = np.concatenate([s.mask for s in segments])
-    count = mask.sum(axis=0)
-    return np.where(count > 0, (target * mask).sum(axis=0) / np.maximum(count, 1), 0.5)
-
-
-def train_command(
-    dataset: PathLike,
-    model: str,
-    variant: str,
-    fold: int | None = None,
-    subject: str | None = None,
-    out_dir: PathLike = "model",
-    config: TrainConfig | None = None,
-    *,
-    quiet: bool = False,
-    epochs: int | None = None,
-) -> TrainResult:
-    """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
-
-    `epochs` replaces the model's `max_epochs` (each stage's, for a model trained in stages);
-    early stopping may still end it sooner. loss.png beside model.json draws the losses.
-
-    The model folder is written beside `out_dir` and swapped in whole, so no file of an older
-    model survives and a failed or interrupted run keeps the old one.
-    """
-    cfg = config or TrainConfig()
-    MODELS.check(model)  # before any data is read
-    if variant == "si" and fold is None:
-        fold = 0
-    out = Path(out_dir)
-    model_folder.check_target(out)
-    ds = open_dataset(dataset)
-    train_segments = load_segments(
-        ds, split_items(ds, variant, "train", fold=fold, subject=subject)
-    )
-    val_segments = load_segments(ds, split_items(ds, variant, "val", fold=fold, subject=subject))
-    if not train_segments or not val_segments:
-        raise InputError(f"{ds.path}: the {variant} split has an empty train or val part")
-    n_features = train_segments[0].audio.shape[1]
-    with torch_settings(cfg.seed, cfg.threads):
-        net = build_model(model, n_features, cfg)
-    part = f"fold {fold}" if variant == "si" else f"subject {subject}"
-    what = f"{model.upper()}-{variant.upper()} {part}"
-    # the temporary folder is made before training, so an unwritable --out fails at once
-    with model_folder.writing(out) as tmp:
-        result = train(
-            net, train_segments, val_segments, cfg, quiet=quiet, description=what, epochs=epochs
-        )
-        export_onnx(net, tmp)
-        write_loss_png(tmp / LOSS_PNG, history=result.history, title=f"{what}: loss per epoch")
-        model_folder.write(
-            tmp,
-            net=net,
-            dataset=ds,
-            variant=variant,
-            fold=fold,
-            subject=subject,
-            config=cfg,
-            result=result,
-            mean_pose01=_mean_pose01(train_segments),
-        )
-    return result
-
-
-def evaluate_command(
-    model_dir: PathLike,
-    dataset: PathLike | None = None,
-    split: str = "test",
-    *,
-    timelines: Sequence[PathLike] = (),
-    console: Console | None = None,
-) -> dict[str, Any]:
-    """Score a model on a split part of `dataset` (default: the one it was trained on), and
-    beside it the angle timelines of other systems (`timelines`: folders of one file per clip,
-    `train.eval.timelines`).
-
-    Prints a Table-5.1-style table (per subject, plus the average; the model and the
-    baselines), the seeds' and the field's measures (FGD with its autoencoder's version), and
-    writes metrics.json into the model folder; returns its content.
-    """
-    from gesturebank.train.eval.field import prepare
-
-    folder = model_folder.load(model_dir)
-    net, info, norm = folder.torch_model(), folder.info, folder.norm
-    cfg = folder.train_config
-    ds = open_dataset(dataset or info.need(folder.path, "dataset"))
-    variant: str = info.need(folder.path, "variant")
-    inputs = prepare(
-        ds,
-        variant=variant,
-        fold=info.fold,
-        subject=info.subject,
-        part=split,
-        config=cfg,
-    )
-    segments = inputs.segments
-    with torch_settings(cfg.seed, cfg.threads):
-        pred01 = [torch_predict(net, s.audio) for s in segments]
-    name = f"{info.need(folder.path, 'architecture')['kind'].upper()}-{variant.upper()}"
-    rate_hz = float(info.need(folder.path, "rate_hz"))
-    systems = {name: [postprocess(p, folder.profile, rate_hz, cfg) for p in pred01]}
-    systems |= _timeline_systems(timelines, segments, ds)
-    results = score_systems(
-        segments,
-        systems | _baselines(inputs, np.asarray(norm["mean_pose01"]), folder.profile, rate_hz, cfg),
-        folder.profile,
-        rate_hz,
-        cfg,
-        fgd=inputs.fgd,
-        onsets=inputs.onsets,
-    )
-    report = {
-        "model": name,
-        "split": split,
-        "dataset": str(ds.path.resolve()),
-        "fold": info.fold,
-        "subject": info.subject,
-        "fgd_version": inputs.fgd.version if inputs.fgd else None,
-        "per_subject": results,
-        "average": average(results),
-    }
-    model_folder.write_metrics(folder.path, report)
-    _print_tables(results, f"{name} on {split} ({ds.path.name})", inputs, console or Console())
-    return report
-
-
-def evaluate_timelines_command(
-    timelines: Sequence[PathLike],
-    dataset: PathLike,
-    split: str = "test",
-    *,
-    variant: str = "si",
-    fold: int | None = None,
-    subject: str | None = None,
-    config: TrainConfig | None = None,
-    console: Console | None = None,
-) -> dict[str, Any]:
-    """Score the angle timelines other systems produced (`timelines`: folders of one file per
-    clip of the split part, named by clip id) on a split of `dataset` (SI `fold`, default 0, or
-    SD `subject`), beside the baselines, with the measures and tables of `evaluate_command`
-    (the mean-pose baseline is the train part's). Returns what evaluate_command returns,
-    "model" None; nothing is written."""
-    from gesturebank.train.eval.field import prepare
-
-    if not timelines:
-        raise InputError("evaluate needs a model folder or --timelines")
-    if variant == "si" and fold is None:
-        fold = 0
-    cfg = config or TrainConfig()
-    ds = open_dataset(dataset)
-    inputs = prepare(ds, variant=variant, fold=fold, subject=subject, part=split, config=cfg)
-    systems = _timeline_systems(timelines, inputs.segments, ds)
-    train_part = load_segments(ds, split_items(ds, variant, "train", fold=fold, subject=subject))
-    if not train_part:
-        raise InputError(f"{ds.path}: the train part of this split is empty (no mean pose)")
-    profile = pepper.load_profile(ds.info.robot_profile)
-    rate_hz = float(ds.info.rates.pose_hz)
-    results = score_systems(
-        inputs.segments,
-        systems | _baselines(inputs, _mean_pose01(train_part), profile, rate_hz, cfg),
-        profile,
-        rate_hz,
-        cfg,
-        fgd=inputs.fgd,
-        onsets=inputs.onsets,
-    )
-    part = f"fold {fold}" if variant == "si" else f"subject {subject}"
-    title = f"{', '.join(systems)} on {variant.upper()} {part}, {split} ({ds.path.name})"
-    _print_tables(results, title, inputs, console or Console())
-    return {
-        "model": None,
-        "split": split,
-        "dataset": str(ds.path.resolve()),
-        "fold": fold,
-        "subject": subject,
-        "fgd_version": inputs.fgd.version if inputs.fgd else None,
-        "per_subject": results,
-        "average": average(results),
-    }
-
-
-def _timeline_systems(
-    timelines: Sequence[PathLike], segments: list[Segment], dataset: Dataset
-) -> dict[str, list[np.ndarray]]:
-    """{folder name → angles per segment} of each timeline folder."""
-    dirs = [Path(t) for t in timelines]
-    return {
-        name: system_angles(d, segments, dataset=dataset)
-        for name, d in zip(model_names(dirs), dirs, strict=True)
-    }
-
-
-def _baselines(
-    inputs: SplitInputs,
-    mean_pose01: np.ndarray,
-    profile: pepper.RobotProfile,
-    rate_hz: float,
-    cfg: TrainConfig,
-) -> dict[str, list[np.ndarray]]:
-    return baselines(
-        inputs.segments,
-        mean_pose01=mean_pose01,
-        profile=profile,
-        rate_hz=rate_hz,
-        config=cfg,
-        donors=inputs.donors,
-    )
-
-
-def _print_tables(
-    results: dict[str, dict[str, dict[str, Any]]], title: str, inputs: SplitInputs, out: Console
-) -> None:
-    """The three tables of `evaluate`, the legend and the n/a reasons (each once)."""
-    from gesturebank.train.eval.fgd import label as fgd_label
-
-    notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
-    out.print(table(results, title, TABLE_5_1, notes))
-    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes))
-    fgd_title = fgd_label(inputs.fgd)
-    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES, notes))
-    for line in [LEGEND, *notes.lines]:
-        out.print(line, highlight=False, soft_wrap=True)
 
 
 def train_cmd(
@@ -324,7 +65,7 @@ def train_cmd(
     and validation loss per epoch) and an ONNX export (plus a stateful one-step ONNX model for
     the causal recurrent ones, LSTM and aud2motion, which `live` runs) into the --out folder.
     """
-    from gesturebank.cli.train import train_command
+    from gesturebank.cli.training import train_command
 
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
@@ -386,7 +127,7 @@ def evaluate(
     --timelines DIR` (beside the model, on its split), or without a model `evaluate DATASET
     --timelines DIR [--fold N | --variant sd --subject S]` (scoring config: --config/--set).
     """
-    from gesturebank.cli.train import evaluate_command, evaluate_timelines_command
+    from gesturebank.cli.training import evaluate_command, evaluate_timelines_command
     from gesturebank.train.model_folder import MODEL_JSON
 
     with user_errors():

@@ -135,7 +135,7 @@ def test_live_runs_a_model_trained_by_gesturebank(
     demo_dataset: Path, tmp_path: Path, speech: Path, kind: str
 ) -> None:
     """The model folder `gesturebank train` writes is what live mode loads, as it is."""
-    from gesturebank.cli.train import train_command
+    from gesturebank.cli.training import train_command
     from gesturebank.config import TrainConfig
 
     cfg = TrainConfig.model_validate({"mlp": {"max_epochs": 3}, "lstm": {"max_epochs": 2}})

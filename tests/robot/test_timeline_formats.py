@@ -90,7 +90,7 @@ def _write_wav(path: Path, seconds: float, sr: int = 16000) -> Path:
 @pytest.fixture(scope="module")
 def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A one-epoch MLP on a small generated dataset (a causal model: `live` runs it too)."""
-    from gesturebank.cli.train import train_command
+    from gesturebank.cli.training import train_command
     from gesturebank.testing.speech_motion import write_speech_motion_dataset
 
     root = tmp_path_factory.mktemp("model")

@@ -10,7 +10,7 @@ import av
 import pytest
 
 from gesturebank import datasets
-from gesturebank.cli.train import train_command
+from gesturebank.cli.training import train_command
 from gesturebank.config import RenderConfig, TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.study.stimuli import KEY, MANIFEST, parse_clip, stimuli_command

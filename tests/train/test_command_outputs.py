@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from gesturebank.cli.train import train_command
+from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import Segment
 from gesturebank.errors import InputError

@@ -12,7 +12,7 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from gesturebank.cli import app
-from gesturebank.cli.train import train_command
+from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.train.eval.compare import COLUMNS, compare_command

@@ -10,7 +10,7 @@ import pytest
 from rich.console import Console
 
 import gesturebank.datasets as gds
-from gesturebank.cli.train import evaluate_command, evaluate_timelines_command, train_command
+from gesturebank.cli.training import evaluate_command, evaluate_timelines_command, train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.listing import clip_timeline
 from gesturebank.datasets.torch import split_items

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from gesturebank.cli.robot import load_frame_model
-from gesturebank.cli.train import train_command
+from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.robot import pepper

@@ -12,7 +12,7 @@ import torch
 
 import gesturebank.datasets as gds
 from gesturebank.cli.robot import load_frame_model
-from gesturebank.cli.train import train_command
+from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.errors import InputError

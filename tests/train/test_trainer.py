@@ -13,7 +13,7 @@ import torch
 from rich.console import Console
 
 import gesturebank.datasets as gds
-from gesturebank.cli.train import evaluate_command, train_command
+from gesturebank.cli.training import evaluate_command, train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items
 from gesturebank.robot import pepper
