@@ -185,7 +185,8 @@ class BuildProgress:
         self.progress.update(self.take_tasks[take_id], completed=done, description=description)
 
     def _plain_line(self, take_id: str, done: int, total: int, end: str = "") -> None:
-        """`take_id: 541/1,082 frames · 83 frames/s · ETA 0:00:07`, at most every
+        """`take_id · 541/1,082 frames · 83 frames/s · ETA 0:00:07` (no colon: the summary's
+        `take_id: …` lines stay the only ones of that shape), at most every
         `PLAIN_EVERY_S` per take unless it is the take's last (`end`: its outcome)."""
         now = time.monotonic()
         t0, f0 = self.started.setdefault(take_id, (now, done))
@@ -196,7 +197,7 @@ class BuildProgress:
         rate = f"{speed:,.0f} frames/s" if speed else "– frames/s"
         tail = end or f"ETA {_eta((total - done) / speed if speed else None)}"
         self.console.print(
-            f"{take_id}: {done:,}/{total:,} frames · {rate} · {tail}",
+            f"{take_id} · {done:,}/{total:,} frames · {rate} · {tail}",
             highlight=False,
             soft_wrap=True,
         )

@@ -78,9 +78,9 @@ def test_plain_lines_name_the_take_and_reach_its_frames(samples: Path) -> None:
         progress.frames("long", 1.0)
         progress.chunk("long", 1, 2)
         progress.result(TakeResult("long", "built"))
-    lines = [ln for ln in text.getvalue().splitlines() if ln.startswith("long: ")]
-    assert lines[0].startswith(f"long: {round(fps):,}/{frames:,} frames · ")
-    assert lines[-1].startswith(f"long: {frames:,}/{frames:,} frames · ") and "built" in lines[-1]
+    lines = [ln for ln in text.getvalue().splitlines() if ln.startswith("long · ")]
+    assert lines[0].startswith(f"long · {round(fps):,}/{frames:,} frames · ")
+    assert lines[-1].startswith(f"long · {frames:,}/{frames:,} frames · ") and "built" in lines[-1]
     assert "\x1b" not in text.getvalue()  # plain: no terminal codes
 
 
