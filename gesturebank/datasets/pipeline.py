@@ -2,7 +2,8 @@
 
 extract (decode, detect everybody + shot cuts — cached —, the main speaker per shot, audio) →
 repair the main speaker's keypoints → speech activity over the take (`extract.vad`) → cut the
-take into clips (shots, speaker changes, absences and unusable stretches, audio, `clips.min_s`) → per clip: lift, Pepper angles (masked where a
+take into clips (shots, speaker changes, absences and unusable stretches, audio, silences over
+`speech.max_silence_s`, `clips.min_s`) → per clip: lift, Pepper angles (masked where a
 limb was not seen), the 100 Hz processing, audio features on the same clock, QC metrics and the
 absolute verdict. The dataset-relative verdicts come later, over every clip (`datasets.refresh`).
 Raises on failure; the builder turns that into a `failed` record.
@@ -28,7 +29,7 @@ from gesturebank.datasets.store import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
-from gesturebank.extract.vad import RATE_HZ, SpeechActivity, speech_activity
+from gesturebank.extract.vad import RATE_HZ, SpeechActivity, silences, speech_activity
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.checks import absolute_reasons
 from gesturebank.qc.metrics import clip_metrics, measure_settings, spike_sizes
@@ -434,6 +435,7 @@ def build_take(
         present=present,
         usable=usable_frames(view.valid),
         audio_span=audio_span,
+        silences=silences(activity, max_silence_s=config.speech.max_silence_s).cut,
         config=config.clips,
     )
     trimmed = trimmed_share(ts, audio_span)  # judged on every clip (qc.max_trimmed_fraction)
@@ -521,7 +523,7 @@ def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
 
 # Config sections that change what a take contains. The others only change how it is built
 # (build), judged (qc), split (splits), calibrated (board), trained on (train), played
-# (playback) or drawn (render, synth); speech sets each clip's `speech`;
+# (playback) or drawn (render, synth); speech sets each clip's `speech` and cuts long silences;
 # tests/datasets/test_build.py checks each is one or the other.
 NOT_CONTENT_SECTIONS = (
     "build",
