@@ -89,7 +89,7 @@ def has_audio(timestamps: np.ndarray, audio_span: tuple[float, float]) -> np.nda
     return np.asarray((t >= audio_span[0]) & (t <= audio_span[1]))
 
 
-SILENCE = "silence: no speech for longer than speech.max_silence_s"
+SILENCE = "no speech: silence longer than speech.max_silence_s"
 
 
 def in_silence(timestamps: np.ndarray, silences: Sequence[tuple[float, float]]) -> np.ndarray:
@@ -128,7 +128,7 @@ def cut_clips(
     the main speaker was detected; usable (T,) bool: the repaired pose is good enough to keep
     (frames that are not stay inside a clip, masked, when the stretch is short); audio_span:
     (first, last) time the audio features cover; silences: (start, end) s of each silence that
-    cuts (frames inside one give no clip, reason "silence").
+    cuts (frames inside one give no clip, reason `SILENCE`).
     """
     cutter = _Cutter(np.asarray(timestamps, dtype=np.float64), np.asarray(present, bool), config)
     t = cutter.t
