@@ -31,6 +31,7 @@ class Clip:
         mask      (N, 11) bool, True where the angle is known
         audio     (N, F) float32 audio features, frame i centred on times[i]
         times     (N,) float64 seconds from the clip's start
+        speech    (N,) bool, speech heard at times[i] (voice activity; missing audio is silence)
     Video frames (T frames):
         raw_angles (T, 11) float32 rad, straight from the 3D pose (NaN where unsupported)
         timestamps (T,) float64 seconds on the clip's clock
@@ -50,6 +51,7 @@ class Clip:
     mask: np.ndarray
     audio: np.ndarray
     times: np.ndarray
+    speech: np.ndarray
     raw_angles: np.ndarray
     timestamps: np.ndarray
     pose2d: Pose2D
@@ -65,6 +67,7 @@ class Clip:
             "angles": (self.angles, (n, d)),
             "angles01": (self.angles01, (n, d)),
             "mask": (self.mask, (n, d)),
+            "speech": (self.speech, (n,)),
             "raw_angles": (self.raw_angles, (t, d)),
             "valid": (self.valid, (t, len(COCO17))),
             "repaired": (self.repaired, (t, len(COCO17))),
@@ -76,6 +79,10 @@ class Clip:
                 raise InputError(
                     f"clip {self.clip_id}: {name} must be {shape}, got {np.shape(value)}"
                 )
+        if np.asarray(self.speech).dtype != np.bool_:
+            raise InputError(
+                f"clip {self.clip_id}: speech must be bool, got {np.asarray(self.speech).dtype}"
+            )
         if np.ndim(self.audio) != 2 or len(self.audio) != n:
             raise InputError(f"clip {self.clip_id}: audio must be (N, F) with N = {n}")
         if len(self.pose2d) != t or len(self.pose3d) != t:
@@ -97,6 +104,7 @@ class Clip:
             "mask": np.asarray(self.mask, dtype=bool),
             "audio": np.asarray(self.audio, dtype=np.float32),
             "times": np.asarray(self.times, dtype=np.float64),
+            "speech": np.asarray(self.speech, dtype=bool),
             "raw_angles": np.asarray(self.raw_angles, dtype=np.float32),
             "timestamps": np.asarray(self.timestamps, dtype=np.float64),
             "valid": np.asarray(self.valid, dtype=bool),
@@ -119,6 +127,7 @@ class Clip:
                 mask=np.asarray(arrays["mask"]),
                 audio=np.asarray(arrays["audio"]),
                 times=np.asarray(arrays["times"]),
+                speech=np.asarray(arrays["speech"]),
                 raw_angles=np.asarray(arrays["raw_angles"]),
                 timestamps=np.asarray(arrays["timestamps"]),
                 pose2d=Pose2D.from_arrays(arrays, "pose2d_"),

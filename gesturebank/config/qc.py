@@ -30,6 +30,7 @@ MetricName = Literal[
     "shoulder_width",
     "image_change",
     "people",
+    "speech_fraction",
     "trimmed_fraction",
 ]
 
@@ -152,6 +153,14 @@ class QCConfig(Section):
         5.0,
         gt=0,
         description="Most people in the frame on average (youtube-gesture-dataset: 5).",
+    )
+    min_speech_fraction: float | None = Field(
+        0.25,
+        ge=0,
+        le=1,
+        description="Smallest share of a clip with speech heard (Silero VAD, `[speech]`): "
+        "below it the clip is rejected as 'no speech'. The talking demo's clips hold 80-83 % "
+        "speech, a take with silent audio 0 %. None = not judged.",
     )
     max_trimmed_fraction: float = Field(
         0.5,

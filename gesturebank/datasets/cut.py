@@ -3,7 +3,9 @@
 A clip is a run of video frames that lies in one shot, follows one main speaker, has a usable
 pose at its first and last frame, contains no unusable stretch longer than `clips.max_gap_s`
 (shorter ones stay inside, masked) nor a stretch without video frames (a damaged part of the
-file, `MISSING_INTERVALS`), has audio, and lasts at least `clips.min_s`; clips longer
+file, `MISSING_INTERVALS`), has audio, holds no silence longer than `speech.max_silence_s` (the
+silences given, issue 32: shorter ones stay inside, marked in the clip's `speech`), and lasts at
+least `clips.min_s`; clips longer
 than `clips.max_s` are split into equal parts. Every other stretch of the take becomes a dropped
 span with its reason, so the spans and clips together cover the whole take.
 
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,6 +89,18 @@ def has_audio(timestamps: np.ndarray, audio_span: tuple[float, float]) -> np.nda
     return np.asarray((t >= audio_span[0]) & (t <= audio_span[1]))
 
 
+SILENCE = "no speech: silence longer than speech.max_silence_s"
+
+
+def in_silence(timestamps: np.ndarray, silences: Sequence[tuple[float, float]]) -> np.ndarray:
+    """(T,) bool: the frames at `timestamps` (s) inside one of `silences` ([start, end) s)."""
+    t = np.asarray(timestamps, dtype=np.float64)
+    out = np.zeros(len(t), dtype=bool)
+    for start, end in silences:
+        out |= (t >= start) & (t < end)
+    return out
+
+
 def trimmed_share(timestamps: np.ndarray, audio_span: tuple[float, float]) -> float:
     """Share of the video's time (`timestamps` (T,) s, each frame until the next) without audio:
     what trimming audio and video to their common span drops of the video."""
@@ -103,6 +118,7 @@ def cut_clips(
     present: np.ndarray,
     usable: np.ndarray,
     audio_span: tuple[float, float],
+    silences: Sequence[tuple[float, float]] = (),
     config: ClipsConfig,
 ) -> Cutting:
     """Clips and dropped spans of one take.
@@ -111,13 +127,15 @@ def cut_clips(
     speaker's track id per frame (−1 none; a change of speaker ends a clip); present (T,) bool:
     the main speaker was detected; usable (T,) bool: the repaired pose is good enough to keep
     (frames that are not stay inside a clip, masked, when the stretch is short); audio_span:
-    (first, last) time the audio features cover.
+    (first, last) time the audio features cover; silences: (start, end) s of each silence that
+    cuts (frames inside one give no clip, reason `SILENCE`).
     """
     cutter = _Cutter(np.asarray(timestamps, dtype=np.float64), np.asarray(present, bool), config)
     t = cutter.t
     speaker = np.asarray(speaker)
     usable = np.asarray(usable, bool) & cutter.present & (speaker >= 0)
     audio = has_audio(t, audio_span)
+    silent = in_silence(t, silences)
     # Pieces no clip crosses: shots and changes of the main speaker.
     starts = np.searchsorted(t, np.asarray(cuts, dtype=np.float64), side="left")
     boundary = np.zeros(len(t), dtype=bool)
@@ -139,7 +157,9 @@ def cut_clips(
     for a0, b0 in itertools.pairwise(edges):
         for a, b in _runs(~audio[a0:b0]):
             cutter.drop(a0 + a, a0 + b, "no audio")
-        for a, b in _runs(audio[a0:b0]):
+        for a, b in _runs(audio[a0:b0] & silent[a0:b0]):
+            cutter.drop(a0 + a, a0 + b, SILENCE)
+        for a, b in _runs(audio[a0:b0] & ~silent[a0:b0]):
             cutter.piece(a0 + a, a0 + b, usable)
     return Cutting(
         tuple(sorted(cutter.clips, key=lambda s: s.start)),

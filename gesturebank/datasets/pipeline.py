@@ -1,8 +1,9 @@
 """One take through the whole pipeline into clips (docs/architecture.md "Data flow").
 
 extract (decode, detect everybody + shot cuts — cached —, the main speaker per shot, audio) →
-repair the main speaker's keypoints → cut the take into clips (shots, speaker changes, absences
-and unusable stretches, audio, `clips.min_s`) → per clip: lift, Pepper angles (masked where a
+repair the main speaker's keypoints → speech activity over the take (`extract.vad`) → cut the
+take into clips (shots, speaker changes, absences and unusable stretches, audio, silences over
+`speech.max_silence_s`, `clips.min_s`) → per clip: lift, Pepper angles (masked where a
 limb was not seen), the 100 Hz processing, audio features on the same clock, QC metrics and the
 absolute verdict. The dataset-relative verdicts come later, over every clip (`datasets.refresh`).
 Raises on failure; the builder turns that into a `failed` record.
@@ -28,6 +29,7 @@ from gesturebank.datasets.store import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
+from gesturebank.extract.vad import RATE_HZ, SpeechActivity, silences, speech_activity
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.checks import absolute_reasons
 from gesturebank.qc.metrics import clip_metrics, measure_settings, spike_sizes
@@ -326,6 +328,7 @@ def _clip(
     clip_id: str,
     take_id: str,
     feats: np.ndarray,
+    activity: SpeechActivity,
     config: Config,
     profile: pepper.RobotProfile,
 ) -> Clip:
@@ -362,6 +365,7 @@ def _clip(
         mask=processed.mask,
         audio=feats[i0 : i1 + 1],
         times=times - start_s,
+        speech=speech_at(activity, times),
         raw_angles=raw,
         timestamps=ts - start_s,
         pose2d=view.pose2d.frames(a, b, origin_s=start_s),
@@ -371,6 +375,23 @@ def _clip(
         n_people=view.n_people[a:b].astype(np.int16),
         change=np.asarray(view.change[a:b], dtype=np.float32),
     )
+
+
+def take_activity(audio: Audio, timestamps: np.ndarray, config: Config) -> SpeechActivity:
+    """Speech activity over the whole take (first frame to the last frame's end), on the video's
+    clock: the VAD runs once per take, its recurrent state carried across clip boundaries."""
+    t0 = float(timestamps[0])
+    n = math.ceil((float(frame_ends(timestamps)[-1]) - t0) * RATE_HZ) + 1
+    return speech_activity(audio, t0=t0, n_frames=n, config=config.speech)
+
+
+def speech_at(activity: SpeechActivity, times: np.ndarray) -> np.ndarray:
+    """(N,) bool: `activity`'s speech at `times` (s, its clock); outside it, silence."""
+    k = np.floor((np.asarray(times, np.float64) - activity.t0) * activity.rate_hz + 1e-9)
+    inside = (k >= 0) & (k < len(activity.speech))
+    out = np.zeros(len(k), bool)
+    out[inside] = activity.speech[k[inside].astype(np.int64)]
+    return out
 
 
 def _preview_jpeg(frames: tuple[tuple[float, np.ndarray], ...]) -> bytes | None:
@@ -405,6 +426,7 @@ def build_take(
     audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate
     audio_span = (float(view.audio.start_s), float(audio_end))
     ts = view.pose2d.timestamps
+    activity = take_activity(view.audio, ts, config)
     present = np.isfinite(view.pose2d.keypoints[..., 0]).any(axis=1)
     cutting = cut_clips(
         timestamps=ts,
@@ -413,6 +435,7 @@ def build_take(
         present=present,
         usable=usable_frames(view.valid),
         audio_span=audio_span,
+        silences=silences(activity, max_silence_s=config.speech.max_silence_s).cut,
         config=config.clips,
     )
     trimmed = trimmed_share(ts, audio_span)  # judged on every clip (qc.max_trimmed_fraction)
@@ -427,7 +450,8 @@ def build_take(
     clips: list[Clip] = []
     rows: list[ClipRecord] = []
     for k, span in enumerate(cutting.clips):
-        clip = _clip(view, span, f"{take.take_id}__c{k:03d}", take.take_id, feats, config, profile)
+        clip_id = f"{take.take_id}__c{k:03d}"
+        clip = _clip(view, span, clip_id, take.take_id, feats, activity, config, profile)
         # trimmed_fraction: of the whole take, so each of its clips carries it
         metrics = replace(
             clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
@@ -499,7 +523,7 @@ def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
 
 # Config sections that change what a take contains. The others only change how it is built
 # (build), judged (qc), split (splits), calibrated (board), trained on (train), played
-# (playback) or drawn (render, synth); speech is not used by the build yet (issue 32);
+# (playback) or drawn (render, synth); speech sets each clip's `speech` and cuts long silences;
 # tests/datasets/test_build.py checks each is one or the other.
 NOT_CONTENT_SECTIONS = (
     "build",
@@ -510,7 +534,6 @@ NOT_CONTENT_SECTIONS = (
     "playback",
     "render",
     "synth",
-    "speech",
 )
 CONTENT_SECTIONS = (
     "video",
@@ -529,4 +552,5 @@ CONTENT_SECTIONS = (
     "processing",
     "audio",
     "mocap",
+    "speech",
 )

@@ -40,7 +40,9 @@ from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
-SCHEMA_VERSION = 2
+# 3: every clip holds `speech` (100 Hz voice activity); 2: clips; 1: one unit per video.
+SCHEMA_VERSION = 3
+SCHEMA_CONTENT = "clips with speech activity"  # what this version holds, in the refusal
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
 TAKES_DIR = "takes"
@@ -306,7 +308,8 @@ def read_dataset_json(out: Path) -> DatasetInfo:
     version = raw.get("schema_version") if isinstance(raw, dict) else None
     if version != SCHEMA_VERSION:
         raise InputError(
-            f"{meta}: schema_version {version}, this gesturebank reads {SCHEMA_VERSION} (clips): "
+            f"{meta}: schema_version {version}, this gesturebank reads {SCHEMA_VERSION} "
+            f"({SCHEMA_CONTENT}): "
             f"rebuild it with build-dataset VIDEOS_DIR {meta.parent} --force"
         )
     try:

@@ -54,6 +54,7 @@ THRESHOLDS: dict[str, tuple[str, Literal["max", "min"]]] = {
     "shoulder_width": ("min_shoulder_width", "min"),
     "image_change": ("min_image_change", "min"),
     "people": ("max_people", "max"),
+    "speech_fraction": ("min_speech_fraction", "min"),
     "trimmed_fraction": ("max_trimmed_fraction", "max"),
     "jerk_raw": ("max_jerk_raw", "max"),
 }
@@ -162,6 +163,12 @@ def absolute_reasons(metrics: ClipMetrics, config: QCConfig) -> list[str]:
     )
     under(m.image_change, c.min_image_change, "still picture: image change {v:.3f} (min {lim:g})")
     over(m.people, c.max_people, "too many people: {v:.1f} on average (max {lim:g})")
+    if c.min_speech_fraction is not None:
+        under(
+            m.speech_fraction,
+            c.min_speech_fraction,
+            "no speech: speech heard in {v:.0%} of the clip (min {lim:.0%})",
+        )
     over(
         m.trimmed_fraction,
         c.max_trimmed_fraction,

@@ -39,6 +39,7 @@ class ClipMetrics:
     invariants:            `qc.invariants.InvariantMetrics`
     jitter_fraction, motion_range (rad), facing_away_fraction, sideways_fraction,
     shoulder_width (share of the frame height), image_change, people (mean in the frame)
+    speech_fraction:       share of the 100 Hz clock with speech heard (`Clip.speech`)
     trimmed_fraction:      of the whole take the clip is cut from (set by the build; None when
                            the clip alone was measured)
     """
@@ -67,6 +68,7 @@ class ClipMetrics:
     shoulder_width: float
     image_change: float
     people: float
+    speech_fraction: float
     trimmed_fraction: float | None = None
 
     def value(self, name: str) -> float:
@@ -110,6 +112,7 @@ class ClipMetrics:
         m["shoulder_width"] = self.shoulder_width
         m["image_change"] = self.image_change
         m["people"] = self.people
+        m["speech_fraction"] = self.speech_fraction
         if self.trimmed_fraction is not None:
             m["trimmed_fraction"] = self.trimmed_fraction
         return m
@@ -151,6 +154,7 @@ class ClipMetrics:
             shoulder_width=get("shoulder_width"),
             image_change=get("image_change"),
             people=get("people"),
+            speech_fraction=get("speech_fraction"),
             trimmed_fraction=None if trimmed is None else float(trimmed),
         )
 

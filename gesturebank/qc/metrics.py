@@ -530,4 +530,5 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
             float(np.median(change[np.isfinite(change)])) if np.isfinite(change).any() else nan
         ),
         people=float(np.mean(clip.n_people)) if len(clip.n_people) else nan,
+        speech_fraction=float(np.mean(clip.speech)) if len(clip.speech) else nan,
     )

@@ -174,6 +174,18 @@
       });
       y += 26;
     }
+    if (T.speech.measured.length) {  // speech heard (green) within the clips (grey: silence)
+      s += text(4, y + 12, 'speech');
+      T.speech.measured.forEach(function (m) {
+        s += tag('rect', span(sx, m, y, 14, {'class': 'silence', fill: '#e0e0e0'}),
+                 tip(m[0] + '–' + m[1] + ' s: speech measured (grey: no speech)'));
+      });
+      T.speech.heard.forEach(function (h) {
+        s += tag('rect', span(sx, h, y, 14, {'class': 'speech', fill: '#66bb6a'}),
+                 tip(h[0] + '–' + h[1] + ' s: speech'));
+      });
+      y += 20;
+    }
     s += text(4, y + 15, 'clips');
     T.segments.forEach(function (g) {
       var why = g.reasons.length ? ': ' + g.reasons.join('; ') : '';

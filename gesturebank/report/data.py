@@ -264,6 +264,34 @@ def _cuts(choices: Sequence[Mapping[str, Any]]) -> list[float]:
     return [b["t0"] for a, b in itertools.pairwise(choices) if a["shot"] != b["shot"]]
 
 
+def speech_runs(clip: Clip) -> list[list[float]]:
+    """[t0, t1] in source seconds of each run of speech in `clip.speech` (each 100 Hz frame
+    lasting one hop)."""
+    speech = np.asarray(clip.speech, dtype=bool)
+    if not len(speech):
+        return []
+    hop = float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 0.01
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], speech.astype(np.int8), [0]])))
+    t = clip.start_s + np.asarray(clip.times, dtype=np.float64)
+    return [
+        [round(float(t[a]), 3), round(float(t[b - 1] + hop), 3)]
+        for a, b in zip(edges[::2], edges[1::2], strict=True)
+    ]
+
+
+def _speech(record: store.TakeRecord, clips: Mapping[str, Clip | str]) -> dict[str, Any]:
+    """Where speech was heard (runs, source seconds) within the clips that were loaded
+    (`heard`), and the spans it was measured over (`measured`: those clips)."""
+    loaded = [clips[c.clip_id] for c in record.data_clips]
+    loaded_clips = [c for c in loaded if isinstance(c, Clip)]
+    return {
+        "measured": [
+            [round(c.start_s, 3), round(c.start_s + c.duration_s, 3)] for c in loaded_clips
+        ],
+        "heard": [run for c in loaded_clips for run in speech_runs(c)],
+    }
+
+
 def _jpeg_size(data: bytes) -> tuple[int, int] | None:
     """(width, height) from a JPEG's frame header, without decoding the image."""
     i = 2
@@ -369,6 +397,7 @@ def take_data(
             "segments": segments,
             "cuts": _cuts(choices),
             "speakers": _speakers(choices),
+            "speech": _speech(record, clips),
             "preview": [round(t, 3) for t in record.preview_times],
         },
         "preview": _preview(out, record, clips),

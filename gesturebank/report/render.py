@@ -65,6 +65,7 @@ _METRICS = (
     ("shoulder_width", "shoulder width", "{:.1f} % of the frame height", 100.0),
     ("image_change", "image change", "{:.3f}", 1.0),
     ("people", "people in the frame", "{:.1f}", 1.0),
+    ("speech_fraction", "speech heard", "{:.0f} %", 100.0),
     ("trimmed_fraction", "take's video outside its audio", "{:.0f} %", 100.0),
 )
 

@@ -51,6 +51,7 @@ def _filmed(
         repaired=np.zeros_like(valid),
         n_people=np.ones(n, np.int16),
         change=np.full(n, 1.0, np.float32),
+        speech=np.ones(len(angles["times"]), bool),  # a speaker heard throughout
         **angles,
     )
 

@@ -57,7 +57,7 @@ _VIDEO_RATE = (
     "n_people",
     "change",
 )
-_CLOCK_RATE = ("angles", "angles01", "mask", "audio", "times")
+_CLOCK_RATE = ("angles", "angles01", "mask", "audio", "times", "speech")
 
 
 def window(clip: Clip, t0: float, t1: float) -> Clip:

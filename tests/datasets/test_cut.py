@@ -112,3 +112,16 @@ def test_clips_and_spans_cover_every_frame_once(present, cut_frames, speakers) -
         assert len(set(speaker[c.start : c.stop])) == 1
         inside = [f for f in cut_frames if c.start < f < c.stop]
         assert not inside
+
+
+def test_a_long_silence_cuts_the_clip_with_its_reason() -> None:
+    """Issue 32: the silences given (those over speech.max_silence_s) give no clip; the speech
+    either side gives one clip each."""
+    from gesturebank.datasets.cut import SILENCE
+
+    _, r = cut(900, silences=[(10.0, 13.0)])  # 30 s take, 3 s silent from frame 300 to 390
+    assert [(c.start, c.stop) for c in r.clips] == [(0, 300), (390, 900)]
+    assert [(d.start, d.stop, d.reason) for d in r.dropped] == [(300, 390, SILENCE)]
+    assert SILENCE.startswith("no speech") and "silence" in SILENCE
+    _, whole = cut(900, silences=[(0.0, 31.0)])
+    assert not whole.clips and [d.reason for d in whole.dropped] == [SILENCE]

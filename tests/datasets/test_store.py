@@ -1,4 +1,4 @@
-"""The on-disk dataset (schema 2): atomic per-take folders of clips, resumability, manifest,
+"""The on-disk dataset (schema 3): atomic per-take folders of clips, resumability, manifest,
 dataset.json, the lazy reader — and what a user's script sees without gesturebank."""
 
 import json
@@ -113,7 +113,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     takes = {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)], "s2_b": [clip("s2_b", seed=2)]}
     out = write_dataset(tmp_path, takes)
     info = json.loads((out / "dataset.json").read_text())
-    assert info["schema_version"] == 2
+    assert info["schema_version"] == 3
     manifest = pd.read_parquet(out / "manifest.parquet")
     assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
     for row in manifest.itertuples():
@@ -222,3 +222,33 @@ def test_files_and_folders_follow_the_umask(tmp_path: Path) -> None:
         mode = stat.S_IMODE(path.stat().st_mode)
         assert mode == (0o755 if path.is_dir() else 0o644), (path, oct(mode))
     assert stat.S_IMODE(store.take_json(tmp_path, "a").stat().st_mode) == 0o644
+
+
+def test_a_schema_2_dataset_is_refused_with_one_rebuild_line(tmp_path: Path) -> None:
+    """Schema 3 added `speech` to every clip: a dataset written before (schema 2, whose clips
+    have none) is refused by every reader with one line that says how to rebuild it."""
+    out = write_dataset(tmp_path, {"s1_a": [clip("s1_a")]})
+    info = json.loads((out / "dataset.json").read_text())
+    (out / "dataset.json").write_text(json.dumps({**info, "schema_version": 2}))
+    with pytest.raises(InputError) as exc:
+        gesturebank.datasets.open(out)
+    message = str(exc.value)
+    assert "\n" not in message
+    assert "schema_version 2, this gesturebank reads 3 (clips with speech activity)" in message
+    assert f"rebuild it with build-dataset VIDEOS_DIR {out} --force" in message
+
+
+def test_speech_travels_with_the_clip_and_is_checked(tmp_path: Path) -> None:
+    """`speech` is written and read back as (N,) bool; another shape or dtype is refused where
+    the clip is made (so never written)."""
+    c = clip("s1_a")
+    speech = np.arange(len(c.times)) % 7 < 4
+    c = replace(c, speech=speech)
+    out = write_dataset(tmp_path, {"s1_a": [c]})
+    loaded = gesturebank.datasets.open(out).load(c.clip_id)
+    assert loaded.speech.dtype == np.bool_
+    np.testing.assert_array_equal(loaded.speech, speech)
+    with pytest.raises(InputError, match="speech must be"):
+        replace(c, speech=speech[:-1])
+    with pytest.raises(InputError, match="speech must be bool, got float"):
+        replace(c, speech=speech.astype(np.float32))

@@ -33,6 +33,7 @@ GOOD = {
     "shoulder_width": 0.1,
     "image_change": 2.0,
     "people": 1.5,
+    "speech_fraction": 0.8,
 }
 
 
@@ -65,6 +66,7 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
         ("shoulder_width", 0.02, "too small: shoulders 2.0% of the frame height (min 3.0%)"),
         ("image_change", 0.01, "still picture: image change 0.010 (min 0.05)"),
         ("people", 6.0, "too many people: 6.0 on average (max 5)"),
+        ("speech_fraction", 0.1, "no speech: speech heard in 10% of the clip (min 25%)"),
     ],
 )
 def test_each_absolute_check_gives_its_reason_with_numbers(key, value, text) -> None:

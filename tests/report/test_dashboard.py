@@ -59,6 +59,13 @@ def _clean(take: str, k: int, seed: int) -> Clip:
     return synthetic_clip(seconds=SECONDS, seed=seed, clip_id=f"{take}__c{k:03d}")
 
 
+def _pause(clip: Clip) -> Clip:
+    """The clip with no speech heard from 1.0 to 1.5 s of its clock (a pause)."""
+    speech = np.asarray(clip.speech, bool).copy()
+    speech[(clip.times >= 1.0) & (clip.times < 1.5)] = False
+    return replace(clip, speech=speech)
+
+
 def _preview_jpeg(clips: list[Clip]) -> bytes:
     """A strip of 'video frames' with the speaker drawn as a grey stick figure where the clips
     place them, so that the page's skeletons must land on the figures."""
@@ -139,7 +146,7 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
         replace(_swap_arms(_clean("s4_mixed", 1, 41), slice(60, 90)), start_s=GAP[1]),
     ]
     takes = {
-        "s1_clean": [_clean("s1_clean", 0, 10), _clean("s1_clean", 1, 11)],
+        "s1_clean": [_pause(_clean("s1_clean", 0, 10)), _clean("s1_clean", 1, 11)],
         "s2_masked": [replace(masked, repaired=repaired)],
         "s3_unseen": [_unseen(_clean("s3_unseen", 0, 30), slice(20, None))],
         "s4_mixed": mixed,
@@ -523,6 +530,8 @@ def test_take_page_draws_timeline_skeletons_and_angles_in_chromium(
     )
     assert _count(tab, "svg.timeline line.cut") == 1
     assert _count(tab, "svg.timeline rect.speaker") == 2
+    # the speech lane: each clip's span, the synthetic speaker heard throughout each
+    assert _count(tab, "svg.timeline rect.silence") == _count(tab, "svg.timeline rect.speech") == 2
     assert _count(tab, "svg.preview image") == 1
     assert _count(tab, "svg.preview line.bone") >= 3 * 10  # three frames with a skeleton
     assert _count(tab, "svg.angles") == 2
@@ -540,3 +549,18 @@ def test_take_page_draws_timeline_skeletons_and_angles_in_chromium(
     tab.close()
     assert _problems(browser.events, masked) == []
     assert (artifacts / "qc-dashboard-take.png").stat().st_size > 50_000
+
+
+def test_take_page_timeline_shows_where_speech_was_heard(dataset: Path) -> None:
+    """The speech lane: each clip's span (measured) and the runs of speech in it, in source
+    seconds; s1_clean's first clip pauses from 1.0 to 1.5 s."""
+    speech = _data(_page(dataset, "s1_clean"))["timeline"]["speech"]
+    first, second = speech["measured"]
+    assert first[0] == pytest.approx(0.0, abs=0.02) and first[1] == pytest.approx(second[0])
+    assert second[1] == pytest.approx(2 * SECONDS, abs=0.1)  # two clips of 8 s, one after other
+    runs = speech["heard"]
+    assert len(runs) == 3  # the first clip's speech either side of its pause, the second's
+    assert runs[0][1] == pytest.approx(1.0, abs=0.011) and runs[1][0] == pytest.approx(
+        1.5, abs=0.011
+    )
+    assert runs[2] == pytest.approx(second, abs=0.011)
