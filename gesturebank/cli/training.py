@@ -132,21 +132,13 @@ def evaluate_command(
     baselines), the seeds' and the field's measures (FGD with its autoencoder's version), and
     writes metrics.json into the model folder; returns its content.
     """
-    from gesturebank.train.eval.field import prepare
+    from gesturebank.train.eval.field import prepare_trained
 
     folder = model_folder.load(model_dir)
     net, info, norm = folder.torch_model(), folder.info, folder.norm
     cfg = folder.train_config
-    ds = open_dataset(dataset or info.need(folder.path, "dataset"))
+    ds, inputs = prepare_trained(folder, dataset, part=split, config=cfg)
     variant: str = info.need(folder.path, "variant")
-    inputs = prepare(
-        ds,
-        variant=variant,
-        fold=info.fold,
-        subject=info.subject,
-        part=split,
-        config=cfg,
-    )
     segments = inputs.segments
     with torch_settings(cfg.seed, cfg.threads):
         pred01 = [torch_predict(net, s.audio) for s in segments]

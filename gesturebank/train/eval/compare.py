@@ -20,7 +20,6 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.config import TrainConfig
-from gesturebank.datasets import open as open_dataset
 from gesturebank.errors import InputError
 from gesturebank.fileio import output_errors, write_bytes_atomic
 from gesturebank.train import model_folder
@@ -39,7 +38,7 @@ from gesturebank.train.eval.evaluate import (
     score_systems,
 )
 from gesturebank.train.eval.fgd import label as fgd_label
-from gesturebank.train.eval.field import prepare
+from gesturebank.train.eval.field import prepare_trained
 from gesturebank.train.torch_runtime import predict as torch_predict
 from gesturebank.train.torch_runtime import torch_settings
 
@@ -102,16 +101,8 @@ def compare_command(
                 "compare scores models of one split"
             )
     cfg = config or folders[0].train_config
-    ds = open_dataset(dataset or first.need(folders[0].path, "dataset"))
+    ds, inputs = prepare_trained(folders[0], dataset, part=split, config=cfg)
     variant: str = first.need(folders[0].path, "variant")
-    inputs = prepare(
-        ds,
-        variant=variant,
-        fold=first.fold,
-        subject=first.subject,
-        part=split,
-        config=cfg,
-    )
     segments = inputs.segments
     rate_hz = float(ds.info.rates.pose_hz)
     systems: dict[str, list[np.ndarray]] = {}

@@ -11,16 +11,22 @@ Shared by `evaluate` and `compare`, so both score a split the same way.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gesturebank.config import TrainConfig
+from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.torch import Segment, load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.train.eval.evaluate import _runs, segment_onsets
 from gesturebank.train.eval.fgd import FeatureModel, chunks, feature_model
+
+if TYPE_CHECKING:
+    from gesturebank.train.model_folder import ModelFolder
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,3 +102,21 @@ def prepare(
         raw.append(cache[clip_id][start:end])
     onsets = segment_onsets(raw, audio=dataset.info.config.audio, rate_hz=rate_hz, config=config)
     return SplitInputs(segments, donors, fgd, onsets, note)
+
+
+def prepare_trained(
+    folder: ModelFolder,
+    dataset: str | os.PathLike[str] | None,
+    *,
+    part: str,
+    config: TrainConfig,
+) -> tuple[Dataset, SplitInputs]:
+    """`prepare` on the split a model was trained on (its model.json: variant, fold, subject),
+    from `dataset`, else the dataset it was trained on."""
+    info = folder.info
+    ds = open_dataset(dataset or info.need(folder.path, "dataset"))
+    variant: str = info.need(folder.path, "variant")
+    inputs = prepare(
+        ds, variant=variant, fold=info.fold, subject=info.subject, part=part, config=config
+    )
+    return ds, inputs
