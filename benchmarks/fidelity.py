@@ -64,6 +64,7 @@ from gesturebank.extract.pipeline import extract_take
 from gesturebank.extract.video import iter_frames
 from gesturebank.fileio import sha256_file
 from gesturebank.footage import SPEECH
+from gesturebank.geometry import similarity
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
@@ -126,16 +127,6 @@ def mean_median(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     with warnings.catch_warnings():  # a joint never known on both sides is NaN, and says so
         warnings.simplefilter("ignore", RuntimeWarning)
         return np.nanmean(d, axis=0), np.nanmedian(d, axis=0)
-
-
-def similarity(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Scale, rotation (3, 3), translation (3,) with dst ≈ s R src + t (Umeyama), (N, 3) each."""
-    ms, md = src.mean(0), dst.mean(0)
-    u, sv, vt = np.linalg.svd((dst - md).T @ (src - ms))
-    d = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
-    rot = u @ d @ vt
-    scale = float((sv * np.diag(d)).sum() / ((src - ms) ** 2).sum())
-    return scale, rot, md - scale * rot @ ms
 
 
 def cross_view_px(
