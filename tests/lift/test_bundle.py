@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from gesturebank.config import MultiviewConfig
 from gesturebank.errors import InputError
-from gesturebank.geometry import Camera, similarity
+from gesturebank.geometry import Camera, rodrigues_to_matrix, similarity
 from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.bundle import camera_errors, refine_cameras, select_frames
 from gesturebank.lift.multiview.cameras import CameraGroup
@@ -180,3 +180,28 @@ def test_the_multiview_lifter_refines_on_request() -> None:
     rotations, _ = camera_errors(CameraGroup(list(lifted.cameras)), truth)
     assert rotations.max() < 0.05
     assert np.nanmedian(report.triangulation.error) < 0.05  # the joints agree in every camera
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    rotvec=st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3),
+    scale=st.floats(0.2, 5.0),
+    shift=st.lists(st.floats(-5.0, 5.0), min_size=3, max_size=3),
+)
+def test_camera_errors_ignore_a_similarity_of_the_world(
+    rotvec: list[float], scale: float, shift: list[float]
+) -> None:
+    truth = rig([-45.0, 0.0, 45.0])
+    rot = rodrigues_to_matrix(np.array(rotvec))
+    moved = CameraGroup(
+        [
+            Camera(c.name, c.size, c.K, c.dist, c.R @ rot.T,
+                   -(c.R @ rot.T) @ (scale * rot @ c.center + shift))
+            for c in truth
+        ]
+    )  # fmt: skip
+    rotations, positions = camera_errors(moved, truth)
+    assert np.allclose(rotations, 0.0, atol=1e-4) and np.allclose(positions, 0.0, atol=1e-8)
+    off = perturb_cameras(truth, rotation_deg=5.0, shift_m=0.1, seed=0)
+    rotations, positions = camera_errors(off, truth)
+    assert rotations.max() > 1.0 and positions.max() > 0.02
