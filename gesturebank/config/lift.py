@@ -319,7 +319,10 @@ class MultiviewConfig(Section):
         "keypoints: a bundle adjustment (pycolmap) of the cameras' poses and the joints "
         "together, the reference camera's pose and every camera's intrinsics held fixed, the "
         "scale kept at the calibration's mean baseline. For a rig whose cameras were moved or "
-        "calibrated roughly; a good calibration gains nothing.",
+        "calibrated roughly. Off by default: a detector's 2D is not consistent enough between "
+        "views to improve a good calibration (renders of test.bvh, BlazePose, 3-4 cameras: a "
+        "true calibration moves by 0.6-2.1° and 2-8 cm, hand error 3.2 -> 3.5 cm with 3 cameras; "
+        "from cameras 5° and 10 cm off it comes back to 0.6-1.1° and 2-3 cm).",
     )
     bundle_frames: int = Field(
         60,

@@ -161,7 +161,14 @@ def refine_cameras(
     options.ceres.loss_function_type = pycolmap.LossFunctionType.CAUCHY
     options.ceres.loss_function_scale = loss_px
     options.ceres.solver_options.max_num_iterations = _MAX_ITERATIONS
-    summary = pycolmap.create_default_bundle_adjuster(options, config, rec).solve()
+    # Ceres logs every rejected step (a singular damped system along the free scale) as a
+    # warning; the solver recovers by itself, so only errors are let through.
+    level = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = pycolmap.logging.ERROR.value
+    try:
+        summary = pycolmap.create_default_bundle_adjuster(options, config, rec).solve()
+    finally:
+        pycolmap.logging.minloglevel = level
 
     adjusted = np.stack([rec.image(c + 1).cam_from_world().matrix() for c in range(C)])
     solved = np.stack([rec.point3D(i).xyz for i in sorted(rec.point3D_ids())])
