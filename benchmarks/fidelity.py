@@ -15,7 +15,12 @@ row in `--quick`): the same stretch rendered by 3 and 4 cameras spread over `[sy
 rig_spread_deg` around the front, the `multiview` lifter given the render's calibration.toml and
 (a) each camera's true 2D, (b) each camera's BlazePose 2D (cached like the monocular renders);
 its world-frame lift is put in camera 1's axes and scored like the monocular rows. Acceptance:
-Pepper hand error ≤ 1 cm from the true 2D, ≤ 3.5 cm from the detections.
+Pepper hand error ≤ 1 cm from the true 2D, ≤ 3.5 cm from the detections. The keypoint bundle
+adjustment on the same rig (`multiview.refine_cameras`, lift.multiview.bundle): every camera but
+camera 1 perturbed by 5° and 10 cm in random directions (seeds 0–2 with `--detected`, 0 in
+`--quick`), refined from the 2D; rotation ° and position cm of the cameras before and after, after
+a similarity alignment of the camera centres, and the hand error with the true, perturbed and
+refined cameras. Acceptance: ≤ 1° and ≤ 3 cm, hand error ≤ 4 cm. `--only rig`: these tables only.
 
 The self-agreement tables on the real Pose2Sim 4-camera demo (no truth):
 
@@ -37,7 +42,7 @@ The reference is the `multiview` lifter with the project's config (so `[multivie
 e.g. a refinement, apply). BlazePose 2D on every camera, the demo's own Qualisys calibration,
 every frame (60 fps).
 
-    .venv/bin/python benchmarks/fidelity.py [--quick] [--only truth|demo] [--truth-set NAME]
+    .venv/bin/python benchmarks/fidelity.py [--quick] [--only truth|rig|demo] [--truth-set NAME]
 
 --quick: truth over 2 s at 0° and 60°; the demo's first 0.3 s, one camera pair split and one
 monocular camera (seconds). Acceptance (issue 15): `fitted` beats `blazepose-world` by ≥ 30 % on
@@ -64,7 +69,9 @@ from gesturebank.extract.pipeline import extract_take
 from gesturebank.extract.video import iter_frames
 from gesturebank.fileio import sha256_file
 from gesturebank.footage import SPEECH
+from gesturebank.geometry import similarity
 from gesturebank.lift import LIFTERS, TakeViews
+from gesturebank.lift.multiview.bundle import camera_errors
 from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
@@ -86,6 +93,7 @@ from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.skeletons import COCO17
 from gesturebank.synth.take import Performer, cached_render, render_cache, rig_azimuths
 from gesturebank.synth.truth import CALIBRATION, Truth
+from gesturebank.testing.rigs import perturb_cameras
 
 MONOCULAR = ("blazepose-world", "geometric", "fitted")
 TRUTH_LIFTERS = ("geometric", "fitted", "resolved")  # blazepose-world: no perfect-2D row
@@ -110,6 +118,7 @@ CAMERA_M, SPINE_M = 3.0, 0.5  # camera distance for a person whose neck → mid-
 IMAGE, FOV_DEG = (1280, 720), 60.0
 QUICK_S = 0.3
 QUICK_RIG_S, QUICK_RIG = 2.0, (320, 180)  # the quick rig: seconds, image size
+PERTURB_DEG, PERTURB_M = 5.0, 0.10  # issue 30: how far the keypoint bundle adjustment starts
 TORSO = [COCO17.index[j] for j in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 LIMBS = [COCO17.index[j] for j in COCO17.joints[:11] if "shoulder" not in j]  # face, arms
 # Output frames → camera axes (x right, y down, z forward).
@@ -126,16 +135,6 @@ def mean_median(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     with warnings.catch_warnings():  # a joint never known on both sides is NaN, and says so
         warnings.simplefilter("ignore", RuntimeWarning)
         return np.nanmean(d, axis=0), np.nanmedian(d, axis=0)
-
-
-def similarity(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Scale, rotation (3, 3), translation (3,) with dst ≈ s R src + t (Umeyama), (N, 3) each."""
-    ms, md = src.mean(0), dst.mean(0)
-    u, sv, vt = np.linalg.svd((dst - md).T @ (src - ms))
-    d = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
-    rot = u @ d @ vt
-    scale = float((sv * np.diag(d)).sum() / ((src - ms) ** 2).sum())
-    return scale, rot, md - scale * rot @ ms
 
 
 def cross_view_px(
@@ -387,10 +386,70 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
     return table
 
 
+def calibration_table(config: Config, seconds: float, counts: tuple[int, ...], *,
+                      detected: bool, size: tuple[int, int] = IMAGE,
+                      seeds: tuple[int, ...] = (0,)) -> Table:  # fmt: skip
+    """The keypoint bundle adjustment (issue 30, lift.multiview.bundle) on the rig of
+    `rig_table`: every camera but camera 1 turned by `PERTURB_DEG` about a random axis and moved
+    by `PERTURB_M` in a random direction (seeded), then the `multiview` lifter with
+    `refine_cameras` on. Camera errors (mean / max over the cameras) after a similarity
+    alignment of the camera centres onto the truth; the Pepper hand error of the lift (scored in
+    camera 1's axes, which the refinement holds) with the true, perturbed and refined cameras."""
+    end = DETECTED_START_S + seconds
+    table = Table(title=f"Keypoint bundle adjustment: test.bvh {DETECTED_START_S:g}–{end:g} s, "
+                  f"cameras but camera 1 perturbed by {PERTURB_DEG:g}° and {100 * PERTURB_M:g} "
+                  "cm, errors after a similarity alignment (mean / max over cameras)")  # fmt: skip
+    for col in ("2D", "cameras", "seed", "rotation ° before", "after", "position cm before",
+                "after ", "reprojection px", "frames", "seconds", "hand cm: true", "perturbed",
+                "refined"):  # fmt: skip
+        table.add_column(col, justify="right")
+    plain = LIFTERS.create("multiview", config)
+    bundle = MultiviewLifter(multiview=config.multiview.model_copy(update={"refine_cameras": True}))
+    for count in counts:
+        azimuths = rig_azimuths(centre_deg=0.0, count=count, spread_deg=config.synth.rig_spread_deg)
+        synth = SynthConfig(azimuths_deg=azimuths, start_s=DETECTED_START_S, length_s=seconds,
+                            width_px=size[0], height_px=size[1])  # fmt: skip
+        truth = render_truth(config, synth)
+        cams = CameraGroup.load(truth.folder / CALIBRATION)
+        joints = truth.joints3d.astype(np.float64)
+        sources = {"true": [project_view(joints, cam, truth.times) for cam in cams]}
+        if detected:
+            sources["BlazePose"] = [detect_cached(config, video) for video in truth.videos]
+
+        def hand_cm(lifted: Pose3D, cams: CameraGroup = cams, joints: np.ndarray = joints) -> float:
+            in_camera = Pose3D(cams[0].to_camera(lifted.joints.astype(np.float64)),
+                               lifted.confidence, lifted.timestamps)  # fmt: skip
+            return score_lift(in_camera, joints, cams[0], retarget=config.retarget).hand_cm
+
+        for source, poses in sources.items():
+            true_hand = hand_cm(plain.lift(TakeViews.of(poses, cams)))
+            for seed in seeds:
+                off = perturb_cameras(cams, rotation_deg=PERTURB_DEG, shift_m=PERTURB_M, seed=seed)
+                off_hand = hand_cm(plain.lift(TakeViews.of(poses, off)))
+                start_t = time.perf_counter()
+                lifted, report = bundle.lift_with_report(TakeViews.of(poses, off))
+                took = time.perf_counter() - start_t
+                assert lifted.cameras is not None and report.bundle is not None
+                rot_0, pos_0 = camera_errors(off, cams)
+                rot_1, pos_1 = camera_errors(CameraGroup(list(lifted.cameras)), cams)
+                table.add_row(
+                    source, str(count), str(seed),
+                    f"{rot_0.mean():.2f} / {rot_0.max():.2f}",
+                    f"{rot_1.mean():.2f} / {rot_1.max():.2f}",
+                    f"{100 * pos_0.mean():.1f} / {100 * pos_0.max():.1f}",
+                    f"{100 * pos_1.mean():.1f} / {100 * pos_1.max():.1f}",
+                    f"{report.bundle.error_before_px:.1f} → {report.bundle.error_after_px:.1f}",
+                    str(report.bundle.frames), f"{took:.1f}",
+                    f"{true_hand:.1f}", f"{off_hand:.1f}", f"{hand_cm(lifted):.1f}",
+                )  # fmt: skip
+    return table
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short stretches only (seconds)")
-    parser.add_argument("--only", choices=("truth", "demo"), help="one part only")
+    parser.add_argument("--only", choices=("truth", "rig", "demo"),
+                        help="one part only (rig: the multi-view rig tables of truth)")  # fmt: skip
     parser.add_argument("--truth-set", choices=tuple(TRUTH_SETS), default="acceptance",
                         help="motion-capture stretches of the truth tables")  # fmt: skip
     parser.add_argument("--detected", type=float, default=0.0, metavar="SECONDS",
@@ -406,13 +465,20 @@ def main() -> None:
         views = ["0°", "60°"] if args.quick else list(TRUTH_VIEWS)
         where = ", ".join(f"{n}.bvh {a:g}–{b:g} s" for n, a, b in stretches)
         title = f"Perfect 2D: motion-capture truth projected ({where}), scored on Pepper"
-        console.print(truth_table(config, stretches, views, tuple(args.lifters.split(",")), title))
+        lifters = tuple(args.lifters.split(","))
+        if args.only != "rig":
+            console.print(truth_table(config, stretches, views, lifters, title))
         if args.detected:
-            console.print(detected_table(config, args.detected, [0.0, 30.0, 60.0]))
+            if args.only != "rig":
+                console.print(detected_table(config, args.detected, [0.0, 30.0, 60.0]))
             console.print(rig_table(config, args.detected, (3, 4), detected=True))
-        elif args.quick:  # true 2D only, a small render (its calibration is all it gives)
+            console.print(calibration_table(config, args.detected, (3, 4), detected=True,
+                                            seeds=(0, 1, 2)))  # fmt: skip
+        elif args.quick or args.only == "rig":  # true 2D, a small render (its calibration only)
             console.print(rig_table(config, QUICK_RIG_S, (3,), detected=False, size=QUICK_RIG))
-    if args.only == "truth":
+            console.print(calibration_table(config, QUICK_RIG_S, (3,), detected=False,
+                                            size=QUICK_RIG))  # fmt: skip
+    if args.only in ("truth", "rig"):
         return
     samples = default_samples_dir()
     root = samples / "pose2sim" / "Demo_SinglePerson"

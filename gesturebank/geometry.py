@@ -107,6 +107,18 @@ def body_frame(
     return frame_from(across, up, axis=axis)
 
 
+def similarity(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Scale, rotation (3, 3) and translation (3,) with `dst ≈ s R src + t` in least squares,
+    for matching points (N, 3) each, N ≥ 3 not on one line (Umeyama 1991, eqs. 40–42)."""
+    src, dst = np.asarray(src, np.float64), np.asarray(dst, np.float64)
+    ms, md = src.mean(0), dst.mean(0)
+    u, sv, vt = np.linalg.svd((dst - md).T @ (src - ms))
+    d = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])  # a rotation, never a reflection
+    rot = u @ d @ vt
+    scale = float((sv * np.diag(d)).sum() / ((src - ms) ** 2).sum())
+    return scale, rot, md - scale * rot @ ms
+
+
 # --------------------------------------------------------------------------------------------------
 # The pinhole camera
 

@@ -313,6 +313,36 @@ class MultiviewConfig(Section):
         300, ge=30, description="Refinement: frames fitted together (long takes in chunks)."
     )
 
+    refine_cameras: bool = Field(
+        False,
+        description="Before triangulating, refine the calibration from the person's own "
+        "keypoints: a bundle adjustment (pycolmap) of the cameras' poses and the joints "
+        "together, the reference camera's pose and every camera's intrinsics held fixed, the "
+        "scale kept at the calibration's mean baseline. For a rig whose cameras were moved or "
+        "calibrated roughly. Off by default: a detector's 2D is not consistent enough between "
+        "views to improve a good calibration (renders of test.bvh, BlazePose, 3-4 cameras: a "
+        "true calibration moves by 0.6-2.1° and 2-8 cm, hand error 3.2 -> 3.5 cm with 3 cameras; "
+        "from cameras 5° and 10 cm off it comes back to 0.6-1.1° and 2-3 cm).",
+    )
+    bundle_frames: int = Field(
+        60,
+        ge=3,
+        description="Camera refinement: most frames whose joints are adjusted (chosen evenly "
+        "over the take among those with the most confident keypoints).",
+    )
+    bundle_min_confidence: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Camera refinement: 2D keypoints below this confidence are not used.",
+    )
+    bundle_loss_px: float = Field(
+        4.0,
+        gt=0,
+        description="Camera refinement: scale of the robust (Cauchy) loss, pixels: "
+        "reprojection errors well above it (a swapped or wrong keypoint) pull little.",
+    )
+
     @model_validator(mode="after")
     def _reject(self) -> MultiviewConfig:
         if self.reject_error_px is not None and self.reject_error_px < self.max_error_px:

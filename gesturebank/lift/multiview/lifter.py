@@ -1,9 +1,10 @@
 """`multiview`: the calibrated multi-camera lifter — several Pose2D + a CameraGroup → Pose3D.
 
 Each view is converted to COCO-17, put on the reference camera's clock (known offsets, or
-audio / motion synchronisation), then every joint of every frame is triangulated with camera
-exclusion (`triangulate`). The result is in the calibration's world frame, metres. Joints no two
-cameras agree on are NaN; confidence falls with the reprojection error:
+audio / motion synchronisation), the cameras' poses optionally refined from those keypoints
+(`refine_cameras`: a bundle adjustment, `bundle`), then every joint of every frame is
+triangulated with camera exclusion (`triangulate`). The result is in the calibration's world
+frame, metres. Joints no two cameras agree on are NaN; confidence falls with the reprojection error:
 `conf = mean 2D confidence of the cameras used × max_error / (max_error + error)` (½ at the
 exclusion threshold for a perfectly confident detection).
 """
@@ -22,6 +23,7 @@ import numpy as np
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.lift import TakeViews
+from gesturebank.lift.multiview.bundle import BundleReport, refine_cameras
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.refine import Refinement, refine, reprojection
 from gesturebank.lift.multiview.robust import (
@@ -45,6 +47,11 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
+# The joints the camera refinement adjusts: the body's, shoulders down. A detector places the
+# nose and eyes differently from each side (on renders of test.bvh, BlazePose's nose lies 8 px
+# left of the true one from -45° and 5 px right from +45°), which pulls the cameras round.
+_BUNDLE_JOINTS = list(range(COCO17.index["left_shoulder"], len(COCO17.joints)))
+
 
 @dataclass(frozen=True)
 class MultiviewReport:
@@ -54,7 +61,9 @@ class MultiviewReport:
     triangulation: per-point result on the reference timeline (T, 17); camera_names (C,);
     cleaning: swaps and gross outliers found; refinement: before/after of the take's fit
     (None when `refine` is off); labels (C, T, 17): the 2D joint of each camera that each
-    joint was solved from (left/right swaps repaired; None: its own).
+    joint was solved from (left/right swaps repaired; None: its own); bundle: the camera
+    refinement's before/after (None when `refine_cameras` is off; the refined cameras are the
+    Pose3D's).
     """
 
     offsets_s: np.ndarray
@@ -64,6 +73,7 @@ class MultiviewReport:
     cleaning: Cleaning = field(default_factory=Cleaning)
     refinement: Refinement | None = None
     labels: np.ndarray | None = None
+    bundle: BundleReport | None = None
 
     def joint_table(self) -> list[tuple[str, float, float, float]]:
         """(joint, median error px, 90th percentile px, mean cameras used) per COCO-17 joint;
@@ -143,6 +153,17 @@ class MultiviewLifter:
         offsets, methods = self._offsets(poses, views.audios)
         times = coco[cfg.reference_camera].timestamps
         kp = align(coco, offsets, times)  # (C, T, 17, 3)
+        bundle = None
+        if cfg.refine_cameras:
+            cams, bundle = refine_cameras(
+                kp[:, :, _BUNDLE_JOINTS, :2],
+                kp[:, :, _BUNDLE_JOINTS, 2],
+                cams,
+                fixed=cfg.reference_camera,
+                min_confidence=cfg.bundle_min_confidence,
+                max_frames=cfg.bundle_frames,
+                loss_px=cfg.bundle_loss_px,
+            )
         kp = _drop_unseen_face(kp, cams, cfg)
         obs = Views.of(kp, cams, min_confidence=cfg.min_confidence)
         swapped = fix_swaps(obs, max_error_px=cfg.max_error_px, max_width_dev=cfg.max_bone_dev)
@@ -195,7 +216,9 @@ class MultiviewLifter:
         with np.errstate(invalid="ignore"):
             confidence = np.clip(conf2d * cfg.max_error_px / (cfg.max_error_px + error), 0, 1)
         confidence[~np.isfinite(error)] = np.nan
-        report = MultiviewReport(offsets, methods, tri, cams.names, cleaning, refinement, labels)
+        report = MultiviewReport(
+            offsets, methods, tri, cams.names, cleaning, refinement, labels, bundle
+        )
         pose3d = Pose3D(
             joints.astype(np.float32),
             confidence.astype(np.float32),
