@@ -70,6 +70,7 @@ from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
     ARM_BONES,
     DEEP,
+    LiftScore,
     look_at,
     mirror_angles,
     mirror_view,
@@ -112,8 +113,17 @@ QUICK_S = 0.3
 QUICK_RIG_S, QUICK_RIG = 2.0, (320, 180)  # the quick rig: seconds, image size
 TORSO = [COCO17.index[j] for j in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 LIMBS = [COCO17.index[j] for j in COCO17.joints[:11] if "shoulder" not in j]  # face, arms
+HEAD_SPLIT = "HeadPitch/Yaw ° (bias)"
 # Output frames → camera axes (x right, y down, z forward).
 AXES = {"camera": (1, 1, 1), "blazepose-world": (1, 1, 1), "image-ortho": (1, -1, -1)}
+
+
+def head_split(scores: list[LiftScore]) -> str:
+    """'pitch/yaw MAE (pitch/yaw mean signed error)' in degrees over `scores`: a bias as large
+    as the MAE is a constant offset, not noise."""
+    mae = np.mean([s.angle_error_deg[:2] for s in scores], axis=0)
+    bias = np.mean([s.head_bias for s in scores], axis=0)
+    return f"{mae[0]:.0f}/{mae[1]:.0f} ({bias[0]:+.0f}/{bias[1]:+.0f})"
 
 
 def angle_diff_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -251,7 +261,7 @@ def truth_table(config: Config, stretches: tuple[tuple[str, float, float], ...],
     samples = default_samples_dir()
     table = Table(title=title)
     for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
-                "elbow cm", "hand cm", "head °", "mirror °", "frames/s"):  # fmt: skip
+                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "mirror °", "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
     takes = []
     for name, start, end in stretches:
@@ -299,6 +309,7 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
                 f"{np.mean([s.elbow_cm for s in scores]):.1f}",
                 f"{np.mean([s.hand_cm for s in scores]):.1f}",
                 f"{np.mean([s.head_deg for s in scores]):.1f}",
+                head_split(scores),
                 f"{np.nanmean(mirror):.1f}",
                 f"{frames / seconds:.0f}",
             )  # fmt: skip
@@ -337,7 +348,7 @@ def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Tab
     table = Table(title=f"Detected 2D: BlazePose on renders of test.bvh {DETECTED_START_S:g}–"
                   f"{end:g} s (mirror: the detections flipped, not the video)")  # fmt: skip
     for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
-                "elbow cm", "hand cm", "head °", "mirror °", "frames/s"):  # fmt: skip
+                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "mirror °", "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
     add_rows(table, config, DETECTED_LIFTERS, seen)
     return table
@@ -355,7 +366,7 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
                   f"over {spread:g}° around the front, true calibration, scored in camera 1's "
                   "axes")  # fmt: skip
     for col in ("2D", "cameras", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
-                "elbow cm", "hand cm", "head °", "frames/s"):  # fmt: skip
+                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
     lifter = LIFTERS.create("multiview", config)
     for count in counts:
@@ -382,7 +393,7 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
                 f"{score.arm_mae_deg:.1f}", f"{score.wrong_sign_pct:.0f}",
                 *(f"{100 * w / max(n, 1):.0f}" for n, w in score.signs.values()),
                 f"{score.elbow_cm:.1f}", f"{score.hand_cm:.1f}", f"{score.head_deg:.1f}",
-                f"{fps:.0f}",
+                head_split([score]), f"{fps:.0f}",
             )  # fmt: skip
     return table
 
