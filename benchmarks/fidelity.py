@@ -6,7 +6,8 @@ front (and one at 0° above head height, looking down); the true joints' pixels 
 gets (a COCO-17 Pose2D with the camera's intrinsics). Scored in robot space
 (gesturebank.lift.scoring): Pepper arm-angle error, arm bones lifted with the wrong depth sign,
 Pepper-FK elbow and hand error, head direction error, and mirror consistency (the view flipped
-left-right, its angles mirrored back, against the unflipped lift). `blazepose-world` needs the
+left-right, its angles mirrored back, against the unflipped lift; with `--detected`, also the
+video itself flipped and detected again, "video flip °"). `blazepose-world` needs the
 detector's own 3D and has no perfect-2D row. Stretches: `test.bvh` 31–51 s is the acceptance
 set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3.
 
@@ -281,14 +282,17 @@ def truth_table(config: Config, stretches: tuple[tuple[str, float, float], ...],
 
 
 def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
-             seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]]) -> None:  # fmt: skip
+             seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]],
+             flipped_video: dict[str, list[Pose2D]] | None = None) -> None:  # fmt: skip
     """One row per lifter × view: its lifts of the view's (2D, camera, world truth) takes,
-    scored together."""
+    scored together. `flipped_video`: per view, the detections of each take's video flipped
+    left-right (a "video flip °" column: their lift's angles mirrored back against the lift of
+    the unflipped video)."""
     for lifter_name in lifters:
         lifter = LIFTERS.create(lifter_name, config)
         for view, parts in seen.items():
-            scores, mirror, frames, seconds = [], [], 0, 0.0
-            for pose2d, cam, joints in parts:
+            scores, mirror, video_flip, frames, seconds = [], [], [], 0, 0.0
+            for k, (pose2d, cam, joints) in enumerate(parts):
                 cams = CameraGroup([cam])
                 start_t = time.perf_counter()
                 lifted = lifter.lift(TakeViews.of(pose2d, cams))
@@ -297,7 +301,12 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
                 scores.append(score_lift(lifted, joints, cam, retarget=config.retarget))
                 flipped = lifter.lift(TakeViews.of(mirror_view(pose2d), cams))
                 back = mirror_angles(pepper_angles(flipped, config=config.retarget))
-                mirror.append(score_angles(back, pepper_angles(lifted, config=config.retarget))[0])
+                angles = pepper_angles(lifted, config=config.retarget)
+                mirror.append(score_angles(back, angles)[0])
+                if flipped_video is not None:
+                    seen_flipped = lifter.lift(TakeViews.of(flipped_video[view][k], cams))
+                    back = mirror_angles(pepper_angles(seen_flipped, config=config.retarget))
+                    video_flip.append(score_angles(back, angles)[0])
             signs = {b: tuple(sum(s.signs[b][k] for s in scores) for k in (0, 1))
                      for b in ARM_BONES}  # fmt: skip
             deep, wrong = (sum(v[k] for v in signs.values()) for k in (0, 1))
@@ -311,6 +320,7 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
                 f"{np.mean([s.head_deg for s in scores]):.1f}",
                 head_split(scores),
                 f"{np.nanmean(mirror):.1f}",
+                *([f"{np.nanmean(video_flip):.1f}"] if flipped_video is not None else []),
                 f"{frames / seconds:.0f}",
             )  # fmt: skip
 
@@ -324,12 +334,17 @@ def render_truth(config: Config, synth: SynthConfig) -> Truth:
                          cache=render_cache(samples))  # fmt: skip
 
 
-def detect_cached(config: Config, video: Path) -> Pose2D:
-    """BlazePose on `video`, its Pose2D cached beside it by the video's checksum."""
-    cached = video.parent / f"{video.stem}.{sha256_file(video)[:16]}.blazepose.npz"
+def detect_cached(config: Config, video: Path, *, flipped: bool = False) -> Pose2D:
+    """BlazePose on `video` (with `flipped`, on its frames mirrored left-right: the detections
+    of the mirrored person), its Pose2D cached beside it by the video's checksum."""
+    kind = "blazepose-flipped" if flipped else "blazepose"
+    cached = video.parent / f"{video.stem}.{sha256_file(video)[:16]}.{kind}.npz"
     if cached.is_file():
         return Pose2D.load(cached)
-    pose = DETECTORS.create("blazepose", config.detector, video=video).detect(iter_frames(video))
+    frames = iter_frames(video)
+    if flipped:
+        frames = ((t, np.ascontiguousarray(f[:, ::-1])) for t, f in frames)
+    pose = DETECTORS.create("blazepose", config.detector, video=video).detect(frames)
     pose.save(cached)
     return pose
 
@@ -339,18 +354,22 @@ def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Tab
     real BlazePose detector on each (its Pose2D cached beside the render by the video's
     checksum), every monocular lifter scored against the render's truth."""
     seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]] = {}
+    flipped: dict[str, list[Pose2D]] = {}
     for azimuth in azimuths:
         synth = SynthConfig(azimuths_deg=[azimuth], start_s=DETECTED_START_S, length_s=seconds)
         truth = render_truth(config, synth)
         pose = detect_cached(config, truth.videos[0])
         seen[f"{azimuth:g}°"] = [(pose, truth.cameras[0], truth.joints3d.astype(np.float64))]
+        flipped[f"{azimuth:g}°"] = [detect_cached(config, truth.videos[0], flipped=True)]
     end = DETECTED_START_S + seconds
     table = Table(title=f"Detected 2D: BlazePose on renders of test.bvh {DETECTED_START_S:g}–"
-                  f"{end:g} s (mirror: the detections flipped, not the video)")  # fmt: skip
+                  f"{end:g} s (mirror: the detections flipped; video flip: BlazePose on the "
+                  "flipped video, the angles mirrored back)")  # fmt: skip
     for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
-                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "mirror °", "frames/s"):  # fmt: skip
+                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "mirror °", "video flip °",
+                "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
-    add_rows(table, config, DETECTED_LIFTERS, seen)
+    add_rows(table, config, DETECTED_LIFTERS, seen, flipped)
     return table
 
 
