@@ -6,7 +6,8 @@ front (and one at 0° above head height, looking down); the true joints' pixels 
 gets (a COCO-17 Pose2D with the camera's intrinsics). Scored in robot space
 (gesturebank.lift.scoring): Pepper arm-angle error, arm bones lifted with the wrong depth sign,
 Pepper-FK elbow and hand error, head direction error, and mirror consistency (the view flipped
-left-right, its angles mirrored back, against the unflipped lift). `blazepose-world` needs the
+left-right, its angles mirrored back, against the unflipped lift; with `--detected`, also the
+video itself flipped and detected again, "video flip °"). `blazepose-world` needs the
 detector's own 3D and has no perfect-2D row. Stretches: `test.bvh` 31–51 s is the acceptance
 set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3.
 
@@ -77,6 +78,7 @@ from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
     ARM_BONES,
     DEEP,
+    LiftScore,
     look_at,
     mirror_angles,
     mirror_view,
@@ -121,8 +123,17 @@ QUICK_RIG_S, QUICK_RIG = 2.0, (320, 180)  # the quick rig: seconds, image size
 PERTURB_DEG, PERTURB_M = 5.0, 0.10  # issue 30: how far the keypoint bundle adjustment starts
 TORSO = [COCO17.index[j] for j in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 LIMBS = [COCO17.index[j] for j in COCO17.joints[:11] if "shoulder" not in j]  # face, arms
+HEAD_SPLIT = "HeadPitch/Yaw ° (bias)"
 # Output frames → camera axes (x right, y down, z forward).
 AXES = {"camera": (1, 1, 1), "blazepose-world": (1, 1, 1), "image-ortho": (1, -1, -1)}
+
+
+def head_split(scores: list[LiftScore]) -> str:
+    """'pitch/yaw MAE (pitch/yaw mean signed error)' in degrees over `scores`: a bias as large
+    as the MAE is a constant offset, not noise."""
+    mae = np.mean([s.angle_error_deg[:2] for s in scores], axis=0)
+    bias = np.mean([s.head_bias for s in scores], axis=0)
+    return f"{mae[0]:.0f}/{mae[1]:.0f} ({bias[0]:+.0f}/{bias[1]:+.0f})"
 
 
 def angle_diff_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -250,7 +261,7 @@ def truth_table(config: Config, stretches: tuple[tuple[str, float, float], ...],
     samples = default_samples_dir()
     table = Table(title=title)
     for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
-                "elbow cm", "hand cm", "head °", "mirror °", "frames/s"):  # fmt: skip
+                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "mirror °", "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
     takes = []
     for name, start, end in stretches:
@@ -270,14 +281,17 @@ def truth_table(config: Config, stretches: tuple[tuple[str, float, float], ...],
 
 
 def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
-             seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]]) -> None:  # fmt: skip
+             seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]],
+             flipped_video: dict[str, list[Pose2D]] | None = None) -> None:  # fmt: skip
     """One row per lifter × view: its lifts of the view's (2D, camera, world truth) takes,
-    scored together."""
+    scored together. `flipped_video`: per view, the detections of each take's video flipped
+    left-right (a "video flip °" column: their lift's angles mirrored back against the lift of
+    the unflipped video)."""
     for lifter_name in lifters:
         lifter = LIFTERS.create(lifter_name, config)
         for view, parts in seen.items():
-            scores, mirror, frames, seconds = [], [], 0, 0.0
-            for pose2d, cam, joints in parts:
+            scores, mirror, video_flip, frames, seconds = [], [], [], 0, 0.0
+            for k, (pose2d, cam, joints) in enumerate(parts):
                 cams = CameraGroup([cam])
                 start_t = time.perf_counter()
                 lifted = lifter.lift(TakeViews.of(pose2d, cams))
@@ -286,7 +300,12 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
                 scores.append(score_lift(lifted, joints, cam, retarget=config.retarget))
                 flipped = lifter.lift(TakeViews.of(mirror_view(pose2d), cams))
                 back = mirror_angles(pepper_angles(flipped, config=config.retarget))
-                mirror.append(score_angles(back, pepper_angles(lifted, config=config.retarget))[0])
+                angles = pepper_angles(lifted, config=config.retarget)
+                mirror.append(score_angles(back, angles)[0])
+                if flipped_video is not None:
+                    seen_flipped = lifter.lift(TakeViews.of(flipped_video[view][k], cams))
+                    back = mirror_angles(pepper_angles(seen_flipped, config=config.retarget))
+                    video_flip.append(score_angles(back, angles)[0])
             signs = {b: tuple(sum(s.signs[b][k] for s in scores) for k in (0, 1))
                      for b in ARM_BONES}  # fmt: skip
             deep, wrong = (sum(v[k] for v in signs.values()) for k in (0, 1))
@@ -298,7 +317,9 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
                 f"{np.mean([s.elbow_cm for s in scores]):.1f}",
                 f"{np.mean([s.hand_cm for s in scores]):.1f}",
                 f"{np.mean([s.head_deg for s in scores]):.1f}",
+                head_split(scores),
                 f"{np.nanmean(mirror):.1f}",
+                *([f"{np.nanmean(video_flip):.1f}"] if flipped_video is not None else []),
                 f"{frames / seconds:.0f}",
             )  # fmt: skip
 
@@ -312,12 +333,17 @@ def render_truth(config: Config, synth: SynthConfig) -> Truth:
                          cache=render_cache(samples))  # fmt: skip
 
 
-def detect_cached(config: Config, video: Path) -> Pose2D:
-    """BlazePose on `video`, its Pose2D cached beside it by the video's checksum."""
-    cached = video.parent / f"{video.stem}.{sha256_file(video)[:16]}.blazepose.npz"
+def detect_cached(config: Config, video: Path, *, flipped: bool = False) -> Pose2D:
+    """BlazePose on `video` (with `flipped`, on its frames mirrored left-right: the detections
+    of the mirrored person), its Pose2D cached beside it by the video's checksum."""
+    kind = "blazepose-flipped" if flipped else "blazepose"
+    cached = video.parent / f"{video.stem}.{sha256_file(video)[:16]}.{kind}.npz"
     if cached.is_file():
         return Pose2D.load(cached)
-    pose = DETECTORS.create("blazepose", config.detector, video=video).detect(iter_frames(video))
+    frames = iter_frames(video)
+    if flipped:
+        frames = ((t, np.ascontiguousarray(f[:, ::-1])) for t, f in frames)
+    pose = DETECTORS.create("blazepose", config.detector, video=video).detect(frames)
     pose.save(cached)
     return pose
 
@@ -327,18 +353,22 @@ def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Tab
     real BlazePose detector on each (its Pose2D cached beside the render by the video's
     checksum), every monocular lifter scored against the render's truth."""
     seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]] = {}
+    flipped: dict[str, list[Pose2D]] = {}
     for azimuth in azimuths:
         synth = SynthConfig(azimuths_deg=[azimuth], start_s=DETECTED_START_S, length_s=seconds)
         truth = render_truth(config, synth)
         pose = detect_cached(config, truth.videos[0])
         seen[f"{azimuth:g}°"] = [(pose, truth.cameras[0], truth.joints3d.astype(np.float64))]
+        flipped[f"{azimuth:g}°"] = [detect_cached(config, truth.videos[0], flipped=True)]
     end = DETECTED_START_S + seconds
     table = Table(title=f"Detected 2D: BlazePose on renders of test.bvh {DETECTED_START_S:g}–"
-                  f"{end:g} s (mirror: the detections flipped, not the video)")  # fmt: skip
+                  f"{end:g} s (mirror: the detections flipped; video flip: BlazePose on the "
+                  "flipped video, the angles mirrored back)")  # fmt: skip
     for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
-                "elbow cm", "hand cm", "head °", "mirror °", "frames/s"):  # fmt: skip
+                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "mirror °", "video flip °",
+                "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
-    add_rows(table, config, DETECTED_LIFTERS, seen)
+    add_rows(table, config, DETECTED_LIFTERS, seen, flipped)
     return table
 
 
@@ -354,7 +384,7 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
                   f"over {spread:g}° around the front, true calibration, scored in camera 1's "
                   "axes")  # fmt: skip
     for col in ("2D", "cameras", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
-                "elbow cm", "hand cm", "head °", "frames/s"):  # fmt: skip
+                "elbow cm", "hand cm", "head °", HEAD_SPLIT, "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
     lifter = LIFTERS.create("multiview", config)
     for count in counts:
@@ -381,7 +411,7 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
                 f"{score.arm_mae_deg:.1f}", f"{score.wrong_sign_pct:.0f}",
                 *(f"{100 * w / max(n, 1):.0f}" for n, w in score.signs.values()),
                 f"{score.elbow_cm:.1f}", f"{score.hand_cm:.1f}", f"{score.head_deg:.1f}",
-                f"{fps:.0f}",
+                head_split([score]), f"{fps:.0f}",
             )  # fmt: skip
     return table
 

@@ -40,7 +40,7 @@ from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
-from gesturebank.lift.scoring import ARM_JOINTS, score_angles
+from gesturebank.lift.scoring import ARM_JOINTS, head_bias_deg, score_angles
 from gesturebank.qc.metrics import facing_away
 from gesturebank.robot import pepper
 from gesturebank.robot.pepper import JOINTS
@@ -79,11 +79,13 @@ def truths(truth: Truth, clock: np.ndarray, config: Config) -> tuple[np.ndarray,
 
 @dataclass(frozen=True)
 class Scores:
-    """Kept clips against one truth: per-joint MAE (11,) °, FK hand error cm, head error °."""
+    """Kept clips against one truth: per-joint MAE (11,) °, FK hand error cm, head error °,
+    HeadPitch and HeadYaw mean signed error °."""
 
     per_joint_deg: np.ndarray
     hand_cm: float
     head_deg: float
+    head_bias: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -112,8 +114,9 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
     mine = np.concatenate(stored)
 
     def scores(true: list[np.ndarray]) -> Scores:
-        per_joint, _, hand, head = score_angles(mine, np.concatenate(true))
-        return Scores(per_joint, hand, head)
+        truth_angles = np.concatenate(true)
+        per_joint, _, hand, head = score_angles(mine, truth_angles)
+        return Scores(per_joint, hand, head, head_bias_deg(mine, truth_angles))
 
     return Measured(kept_s, reasons, scores(pipeline_truth), scores(unlimited))
 
@@ -133,7 +136,7 @@ def main() -> None:
                   "the truth through the build's processing, and against the unlimited truth "
                   "(unl.)")  # fmt: skip
     for col in ("look", "view", "true away %", "QC", "kept s", "arm MAE °", "worst arm joint °",
-                "hand cm", "head °", "arm MAE ° (unl.)", "hand cm (unl.)",
+                "hand cm", "head °", "HeadPitch/Yaw ° (bias)", "arm MAE ° (unl.)", "hand cm (unl.)",
                 "QC reasons"):  # fmt: skip
         table.add_column(col, justify="right")
     configs = {"defaults": defaults}
@@ -151,7 +154,7 @@ def main() -> None:
                     kept = f"{got.kept_s:.1f} / {length:g}"
                     reasons = "; ".join(got.reasons) or "-"
                     if got.pipeline is None or got.unlimited is None:
-                        table.add_row(*first, kept, *["-"] * 6, reasons)
+                        table.add_row(*first, kept, *["-"] * 7, reasons)
                         continue
                     arm = got.pipeline.per_joint_deg[ARM_JOINTS]
                     worst = int(np.nanargmax(arm))
@@ -159,6 +162,8 @@ def main() -> None:
                         *first, kept, f"{np.nanmean(arm):.1f}",
                         f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
                         f"{got.pipeline.hand_cm:.1f}", f"{got.pipeline.head_deg:.1f}",
+                        f"{got.pipeline.per_joint_deg[0]:.0f}/{got.pipeline.per_joint_deg[1]:.0f} "
+                        f"({got.pipeline.head_bias[0]:+.0f}/{got.pipeline.head_bias[1]:+.0f})",
                         f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",
                         f"{got.unlimited.hand_cm:.1f}", reasons,
                     )  # fmt: skip

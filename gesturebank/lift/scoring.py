@@ -10,7 +10,9 @@ robot space, where it matters:
   ray through its parent joint exceeds `DEEP` of its length, the share where the lifted bone
   points the other way along that ray;
 - Pepper's forward kinematics on both sets of angles: elbow and hand (WristYaw) distance, cm;
-- the head's direction (HeadYaw, HeadPitch as a unit vector) error, °.
+- the head's direction (HeadYaw, HeadPitch as a unit vector) error, °, and the signed mean
+  error of HeadPitch and HeadYaw (`head_bias_deg`): a constant offset (a definition or
+  convention mismatch) shows there, while noise averages out.
 
 Mirror consistency is measured with `mirror_view` (the image flipped left-right, the left and
 right keypoints exchanged) and `mirror_angles` (the robot's angles of the mirrored motion turned
@@ -64,6 +66,7 @@ class LiftScore:
     signs: arm bone → (frames where the true bone is deep, of those the frames lifted wrong).
     elbow_cm, hand_cm: mean Pepper-FK distance over both sides and all frames, cm.
     head_deg: mean angle between the lifted and the true head direction, degrees.
+    head_bias: mean signed HeadPitch and HeadYaw error, degrees (`head_bias_deg`).
     """
 
     angle_error_deg: np.ndarray
@@ -71,6 +74,7 @@ class LiftScore:
     elbow_cm: float
     hand_cm: float
     head_deg: float
+    head_bias: tuple[float, float]
 
     @property
     def arm_mae_deg(self) -> float:
@@ -159,6 +163,18 @@ def head_direction(angles: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), -np.sin(pitch)], 1)
 
 
+def head_bias_deg(angles: np.ndarray, truth_angles: np.ndarray) -> tuple[float, float]:
+    """Mean signed error (°) of HeadPitch and HeadYaw (yaw wrapped to ±180°), angles (T, 11)
+    against the true ones, over the frames where both are known."""
+    out = []
+    for joint in ("HeadPitch", "HeadYaw"):
+        k = JOINTS.index(joint)
+        d = np.asarray(angles, np.float64)[:, k] - np.asarray(truth_angles, np.float64)[:, k]
+        d = ((d + np.pi) % (2 * np.pi) - np.pi)[np.isfinite(d)]
+        out.append(float(np.rad2deg(d.mean())) if len(d) else float("nan"))
+    return out[0], out[1]
+
+
 def score_angles(
     angles: np.ndarray, truth_angles: np.ndarray
 ) -> tuple[np.ndarray, float, float, float]:
@@ -187,5 +203,7 @@ def score_lift(
     (T, 17, 3), through the retargeting `retarget`."""
     joints = camera_axes(lifted)
     angles = pepper_angles(joints, config=retarget)
-    per_joint, elbow, hand, head = score_angles(angles, pepper_angles(truth, config=retarget))
-    return LiftScore(per_joint, sign_errors(joints, truth, camera), elbow, hand, head)
+    true_angles = pepper_angles(truth, config=retarget)
+    per_joint, elbow, hand, head = score_angles(angles, true_angles)
+    signs = sign_errors(joints, truth, camera)
+    return LiftScore(per_joint, signs, elbow, hand, head, head_bias_deg(angles, true_angles))

@@ -132,3 +132,4 @@ def test_scoring_the_truth_itself_scores_zero(samples: Path) -> None:
     score = score_lift(truth_in_camera, joints, cam, retarget=Config().retarget)
     assert score.hand_cm < 1e-3 and score.wrong_sign_pct == 0.0
     assert np.nanmax(score.angle_error_deg) < 1e-2
+    assert score.head_deg < 1e-2 and np.allclose(score.head_bias, 0.0, atol=1e-2)
