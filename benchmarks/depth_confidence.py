@@ -220,8 +220,9 @@ def views_table(frames: Frames, lifter: str, title: str) -> Table:
     classes = {"QC: neither": ~frames.side & ~frames.away, "QC: sideways": frames.side,
                "QC: facing away": frames.away}  # fmt: skip
     for name, pick in classes.items():
-        table.add_row(name, *_row(frames, pick), f"{100 * frames.side[pick].mean():.0f}",
-                      f"{100 * frames.away[pick].mean():.0f}")  # fmt: skip
+        if pick.any():
+            table.add_row(name, *_row(frames, pick), f"{100 * frames.side[pick].mean():.0f}",
+                          f"{100 * frames.away[pick].mean():.0f}")  # fmt: skip
     return table
 
 

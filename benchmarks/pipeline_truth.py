@@ -18,8 +18,10 @@ stretch turns round: "true away %" is QC's own facing-away rule on the true 2D j
 Scored with `lift.scoring.score_angles`: arm-angle MAE over the eight arm joints, the worst arm
 joint, Pepper-FK hand error (cm) and head direction error (°); "wrong sign %" is the kept clips'
 stored 3D against the true joints of the same video frames (`lift.scoring.sign_errors`: arm
-bones clearly towards or away from the camera, pooled, lifted the other way). "kept" is the
-accepted clips' seconds of the rendered seconds; a rejected take names QC's reasons.
+bones clearly towards or away from the camera, pooled, lifted the other way); "expected hand
+cm" is what the kept clips' depth confidence predicts (`expected_hand_error_cm`, by duration).
+"kept" is the accepted clips' seconds of the rendered seconds; a rejected take names QC's
+reasons.
 
     .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
     .venv/bin/python benchmarks/pipeline_truth.py --quick     # 3 s at 0°, 640×360, defaults
@@ -93,6 +95,7 @@ class Measured:
     kept_s: float
     reasons: list[str]
     wrong_sign_pct: float  # NaN: no clip kept
+    expected_hand_cm: float  # the kept clips' expected_hand_error_cm, by duration; NaN: none
     pipeline: Scores | None  # None: no clip kept
     unlimited: Scores | None
 
@@ -103,6 +106,13 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
     dataset = open_dataset(out)
     stored, pipeline_truth, unlimited = [], [], []
     deep, wrong = 0, 0
+    expected = [(row.clip.metrics.get("expected_hand_error_cm", np.nan), row.clip.duration_s)
+                for row in dataset.clips()]  # fmt: skip
+    expected_cm = (
+        float(np.average([e for e, _ in expected], weights=[d for _, d in expected]))
+        if expected
+        else float("nan")
+    )
     for row in dataset.clips():
         clip = dataset.load(row.clip.clip_id)
         frames = np.round((clip.timestamps + clip.start_s - truth.times[0]) * truth.fps)
@@ -118,14 +128,16 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
     kept_s = sum(len(a) for a in stored) / config.processing.rate_hz
     wrong_pct = 100 * wrong / deep if deep else float("nan")
     if not stored:
-        return Measured(kept_s, reasons, wrong_pct, None, None)
+        return Measured(kept_s, reasons, wrong_pct, expected_cm, None, None)
     mine = np.concatenate(stored)
 
     def scores(true: list[np.ndarray]) -> Scores:
         per_joint, _, hand, head = score_angles(mine, np.concatenate(true))
         return Scores(per_joint, hand, head)
 
-    return Measured(kept_s, reasons, wrong_pct, scores(pipeline_truth), scores(unlimited))
+    return Measured(
+        kept_s, reasons, wrong_pct, expected_cm, scores(pipeline_truth), scores(unlimited)
+    )
 
 
 def main() -> None:
@@ -143,8 +155,8 @@ def main() -> None:
                   "the truth through the build's processing, and against the unlimited truth "
                   "(unl.)")  # fmt: skip
     for col in ("look", "view", "true away %", "QC", "kept s", "arm MAE °", "worst arm joint °",
-                "hand cm", "wrong sign %", "head °", "arm MAE ° (unl.)", "hand cm (unl.)",
-                "QC reasons"):  # fmt: skip
+                "hand cm", "expected hand cm", "wrong sign %", "head °", "arm MAE ° (unl.)",
+                "hand cm (unl.)", "QC reasons"):  # fmt: skip
         table.add_column(col, justify="right")
     configs = {"defaults": defaults}
     if not args.quick:
@@ -161,14 +173,15 @@ def main() -> None:
                     kept = f"{got.kept_s:.1f} / {length:g}"
                     reasons = "; ".join(got.reasons) or "-"
                     if got.pipeline is None or got.unlimited is None:
-                        table.add_row(*first, kept, *["-"] * 7, reasons)
+                        table.add_row(*first, kept, *["-"] * 8, reasons)
                         continue
                     arm = got.pipeline.per_joint_deg[ARM_JOINTS]
                     worst = int(np.nanargmax(arm))
                     table.add_row(
                         *first, kept, f"{np.nanmean(arm):.1f}",
                         f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
-                        f"{got.pipeline.hand_cm:.1f}", f"{got.wrong_sign_pct:.0f}",
+                        f"{got.pipeline.hand_cm:.1f}", f"{got.expected_hand_cm:.1f}",
+                        f"{got.wrong_sign_pct:.0f}",
                         f"{got.pipeline.head_deg:.1f}",
                         f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",
                         f"{got.unlimited.hand_cm:.1f}", reasons,
