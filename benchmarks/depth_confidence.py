@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -172,7 +173,8 @@ def measure(config: Config, lifter: str, *, name: str, start: float, seconds: fl
 
 def _row(frames: Frames, pick: np.ndarray) -> list[str]:
     deep = frames.deep[pick].sum()
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a lifter's unknown frames: NaN
         return [
             f"{pick.sum()}",
             f"{100 * frames.wrong[pick].sum() / max(deep, 1):.0f}" if deep else "-",
