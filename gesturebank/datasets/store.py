@@ -55,7 +55,7 @@ PREVIEW = "preview.jpg"
 
 Status = Literal["accepted", "rejected", "failed"]
 STATUSES: tuple[Status, ...] = ("accepted", "rejected", "failed")
-# Manifest columns copied from a clip's metrics (NaN for a span or a clip measured without them).
+# Manifest columns copied from a clip's metrics (null for a span, or where not measured or NaN).
 DEPTH_COLUMNS = ("depth_confidence", "expected_hand_error_cm")
 Kind = Literal["clip", "span"]  # a clip has arrays; a span is time that gave none (dropped, failed)
 
@@ -481,10 +481,15 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
                 "metrics": list(d["metrics"].items()),
                 "repairs": list(d["repairs"].items()),
                 "masked": list(d["masked"].items()),
-                **{k: float(d["metrics"].get(k, math.nan)) for k in DEPTH_COLUMNS},
+                **{k: _known(d["metrics"].get(k)) for k in DEPTH_COLUMNS},
             }
         )
     return rows
+
+
+def _known(value: float | None) -> float | None:
+    """A metric for a manifest column: None (null) when not measured or NaN."""
+    return float(value) if value is not None and math.isfinite(value) else None
 
 
 def write_manifest(out: Path, takes: Sequence[TakeRecord]) -> pa.Table:
