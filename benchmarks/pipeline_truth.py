@@ -16,8 +16,12 @@ Each take is built twice: with the defaults, and with QC's view limits off
 stretch turns round: "true away %" is QC's own facing-away rule on the true 2D joints.
 
 Scored with `lift.scoring.score_angles`: arm-angle MAE over the eight arm joints, the worst arm
-joint, Pepper-FK hand error (cm) and head direction error (°). "kept" is the accepted clips'
-seconds of the rendered seconds; a rejected take names QC's reasons.
+joint, Pepper-FK hand error (cm) and head direction error (°); "wrong sign %" is the kept clips'
+stored 3D against the true joints of the same video frames (`lift.scoring.sign_errors`: arm
+bones clearly towards or away from the camera, pooled, lifted the other way); "expected hand
+cm" is what the kept clips' depth confidence predicts (`expected_hand_error_cm`, by duration).
+"kept" is the accepted clips' seconds of the rendered seconds; a rejected take names QC's
+reasons.
 
     .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
     .venv/bin/python benchmarks/pipeline_truth.py --quick     # 3 s at 0°, 640×360, defaults
@@ -40,7 +44,13 @@ from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
-from gesturebank.lift.scoring import ARM_JOINTS, head_bias_deg, score_angles
+from gesturebank.lift.scoring import (
+    ARM_JOINTS,
+    camera_axes,
+    head_bias_deg,
+    score_angles,
+    sign_errors,
+)
 from gesturebank.qc.metrics import facing_away
 from gesturebank.robot import pepper
 from gesturebank.robot.pepper import JOINTS
@@ -92,6 +102,8 @@ class Scores:
 class Measured:
     kept_s: float
     reasons: list[str]
+    wrong_sign_pct: float  # NaN: no clip kept
+    expected_hand_cm: float  # the kept clips' expected_hand_error_cm, by duration; NaN: none
     pipeline: Scores | None  # None: no clip kept
     unlimited: Scores | None
 
@@ -101,16 +113,30 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
     build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
     dataset = open_dataset(out)
     stored, pipeline_truth, unlimited = [], [], []
+    deep, wrong = 0, 0
+    expected = [(row.clip.metrics.get("expected_hand_error_cm", np.nan), row.clip.duration_s)
+                for row in dataset.clips()]  # fmt: skip
+    expected_cm = (
+        float(np.average([e for e, _ in expected], weights=[d for _, d in expected]))
+        if expected
+        else float("nan")
+    )
     for row in dataset.clips():
         clip = dataset.load(row.clip.clip_id)
+        frames = np.round((clip.timestamps + clip.start_s - truth.times[0]) * truth.fps)
+        frames = np.clip(frames.astype(int), 0, len(truth.times) - 1)
+        signs = sign_errors(camera_axes(clip.pose3d), truth.joints3d[frames], truth.cameras[0])
+        deep += sum(n for n, _ in signs.values())
+        wrong += sum(w for _, w in signs.values())
         limited_truth, free_truth = truths(truth, clip.times + clip.start_s, config)
         stored.append(clip.angles.astype(np.float64))
         pipeline_truth.append(limited_truth)
         unlimited.append(free_truth)
     reasons = sorted({r for row in dataset.rows() for r in row.clip.qc_reasons})
     kept_s = sum(len(a) for a in stored) / config.processing.rate_hz
+    wrong_pct = 100 * wrong / deep if deep else float("nan")
     if not stored:
-        return Measured(kept_s, reasons, None, None)
+        return Measured(kept_s, reasons, wrong_pct, expected_cm, None, None)
     mine = np.concatenate(stored)
 
     def scores(true: list[np.ndarray]) -> Scores:
@@ -118,7 +144,9 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
         per_joint, _, hand, head = score_angles(mine, truth_angles)
         return Scores(per_joint, hand, head, head_bias_deg(mine, truth_angles))
 
-    return Measured(kept_s, reasons, scores(pipeline_truth), scores(unlimited))
+    return Measured(
+        kept_s, reasons, wrong_pct, expected_cm, scores(pipeline_truth), scores(unlimited)
+    )
 
 
 def main() -> None:
@@ -136,8 +164,8 @@ def main() -> None:
                   "the truth through the build's processing, and against the unlimited truth "
                   "(unl.)")  # fmt: skip
     for col in ("look", "view", "true away %", "QC", "kept s", "arm MAE °", "worst arm joint °",
-                "hand cm", "head °", "HeadPitch/Yaw ° (bias)", "arm MAE ° (unl.)", "hand cm (unl.)",
-                "QC reasons"):  # fmt: skip
+                "hand cm", "expected hand cm", "wrong sign %", "head °", "HeadPitch/Yaw ° (bias)",
+                "arm MAE ° (unl.)", "hand cm (unl.)", "QC reasons"):  # fmt: skip
         table.add_column(col, justify="right")
     configs = {"defaults": defaults}
     if not args.quick:
@@ -154,14 +182,15 @@ def main() -> None:
                     kept = f"{got.kept_s:.1f} / {length:g}"
                     reasons = "; ".join(got.reasons) or "-"
                     if got.pipeline is None or got.unlimited is None:
-                        table.add_row(*first, kept, *["-"] * 7, reasons)
+                        table.add_row(*first, kept, *["-"] * 9, reasons)
                         continue
                     arm = got.pipeline.per_joint_deg[ARM_JOINTS]
                     worst = int(np.nanargmax(arm))
                     table.add_row(
                         *first, kept, f"{np.nanmean(arm):.1f}",
                         f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
-                        f"{got.pipeline.hand_cm:.1f}", f"{got.pipeline.head_deg:.1f}",
+                        f"{got.pipeline.hand_cm:.1f}", f"{got.expected_hand_cm:.1f}",
+                        f"{got.wrong_sign_pct:.0f}", f"{got.pipeline.head_deg:.1f}",
                         f"{got.pipeline.per_joint_deg[0]:.0f}/{got.pipeline.per_joint_deg[1]:.0f} "
                         f"({got.pipeline.head_bias[0]:+.0f}/{got.pipeline.head_bias[1]:+.0f})",
                         f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",

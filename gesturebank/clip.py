@@ -40,6 +40,9 @@ class Clip:
         repaired  (T, 17) bool: COCO-17 keypoint changed by the repair
         n_people  (T,) int16: people the detector saw in the frame
         change    (T,) float32: image change vs the previous frame (shot detector), NaN unknown
+        depth_confidence (T,) float32 in [0, 1]: how far the lift's depth signs can be trusted
+                  (`lift.depth_confidence`, Eq. 2; 1 where the 3D was measured: several cameras,
+                  motion capture)
     start_s: where clip time 0 lies in the source video, seconds.
     """
 
@@ -60,6 +63,7 @@ class Clip:
     repaired: np.ndarray
     n_people: np.ndarray
     change: np.ndarray
+    depth_confidence: np.ndarray
 
     def __post_init__(self) -> None:
         n, t, d = len(self.times), len(self.timestamps), len(JOINTS)
@@ -73,6 +77,7 @@ class Clip:
             "repaired": (self.repaired, (t, len(COCO17))),
             "n_people": (self.n_people, (t,)),
             "change": (self.change, (t,)),
+            "depth_confidence": (self.depth_confidence, (t,)),
         }
         for name, (value, shape) in shapes.items():
             if np.shape(value) != shape:
@@ -82,6 +87,13 @@ class Clip:
         if np.asarray(self.speech).dtype != np.bool_:
             raise InputError(
                 f"clip {self.clip_id}: speech must be bool, got {np.asarray(self.speech).dtype}"
+            )
+        confidence = np.asarray(self.depth_confidence)
+        if confidence.dtype != np.float32 or not ((confidence >= 0) & (confidence <= 1)).all():
+            raise InputError(
+                f"clip {self.clip_id}: depth_confidence must be float32 in [0, 1] (no NaN), got "
+                f"{confidence.dtype} in [{np.nanmin(confidence, initial=0):.3g}, "
+                f"{np.nanmax(confidence, initial=1):.3g}]"
             )
         if np.ndim(self.audio) != 2 or len(self.audio) != n:
             raise InputError(f"clip {self.clip_id}: audio must be (N, F) with N = {n}")
@@ -111,6 +123,7 @@ class Clip:
             "repaired": np.asarray(self.repaired, dtype=bool),
             "n_people": np.asarray(self.n_people, dtype=np.int16),
             "change": np.asarray(self.change, dtype=np.float32),
+            "depth_confidence": np.asarray(self.depth_confidence, dtype=np.float32),
             **self.pose2d.to_arrays("pose2d_"),
             **self.pose3d.to_arrays("pose3d_"),
         }
@@ -136,6 +149,7 @@ class Clip:
                 repaired=np.asarray(arrays["repaired"]),
                 n_people=np.asarray(arrays["n_people"]),
                 change=np.asarray(arrays["change"]),
+                depth_confidence=np.asarray(arrays["depth_confidence"]),
             )
         except KeyError as exc:
             raise InputError(f"clip arrays lack {exc.args[0]!r}") from None

@@ -30,6 +30,7 @@ from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
 from gesturebank.extract.vad import RATE_HZ, SpeechActivity, silences, speech_activity
+from gesturebank.lift.depth_confidence import pose_confidence
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.checks import absolute_reasons
 from gesturebank.qc.metrics import clip_metrics, measure_settings, spike_sizes
@@ -347,6 +348,7 @@ def _clip(
     )
     raw = pepper_angles(pose3d, config=config.retarget)
     raw[~angle_support(valid)] = np.nan
+    pose2d = view.pose2d.frames(a, b, origin_s=float(times[0]))
     processed = process_angles(
         raw=raw,
         timestamps=ts,
@@ -368,13 +370,23 @@ def _clip(
         speech=speech_at(activity, times),
         raw_angles=raw,
         timestamps=ts - start_s,
-        pose2d=view.pose2d.frames(a, b, origin_s=start_s),
+        pose2d=pose2d,
         pose3d=pose3d.frames(0, len(pose3d), origin_s=start_s),
         valid=valid,
         repaired=view.repaired[a:b],
         n_people=view.n_people[a:b].astype(np.int16),
         change=np.asarray(view.change[a:b], dtype=np.float32),
+        depth_confidence=lift_confidence(pose2d, pose3d, lifter=view.lifter),
     )
+
+
+def lift_confidence(pose2d: Pose2D, pose3d: Pose3D, *, lifter: str) -> np.ndarray:
+    """(T,) float32 depth confidence of a clip's lift (`lift.depth_confidence`): 1 where the 3D
+    was measured (several cameras, motion capture), else from the view's 2D and the lift."""
+    if lifter in ("multiview", MOCAP):
+        return np.ones(len(pose3d), np.float32)
+    coco = pose2d.to_coco17().keypoints.astype(np.float64)
+    return pose_confidence(xy=coco[..., :2], joints=pose3d.joints)
 
 
 def take_activity(audio: Audio, timestamps: np.ndarray, config: Config) -> SpeechActivity:

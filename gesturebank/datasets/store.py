@@ -21,6 +21,7 @@ per-take records, which is also how Ray workers hand back results. Nothing is ev
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -40,9 +41,12 @@ from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
-# 3: every clip holds `speech` (100 Hz voice activity); 2: clips; 1: one unit per video.
-SCHEMA_VERSION = 3
-SCHEMA_CONTENT = "clips with speech activity"  # what this version holds, in the refusal
+# 4: every clip holds `depth_confidence` (per video frame), the manifest `depth_confidence` and
+# `expected_hand_error_cm`; 3: every clip holds `speech` (100 Hz voice activity); 2: clips;
+# 1: one unit per video.
+SCHEMA_VERSION = 4
+# what this version holds, in the refusal
+SCHEMA_CONTENT = "clips with speech activity and depth confidence"
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
 TAKES_DIR = "takes"
@@ -51,6 +55,8 @@ PREVIEW = "preview.jpg"
 
 Status = Literal["accepted", "rejected", "failed"]
 STATUSES: tuple[Status, ...] = ("accepted", "rejected", "failed")
+# Manifest columns copied from a clip's metrics (null for a span, or where not measured or NaN).
+DEPTH_COLUMNS = ("depth_confidence", "expected_hand_error_cm")
 Kind = Literal["clip", "span"]  # a clip has arrays; a span is time that gave none (dropped, failed)
 
 # Manifest columns every reader can rely on (more may follow; none is ever renamed).
@@ -75,6 +81,9 @@ MANIFEST_SCHEMA = pa.schema(
         ("masked", pa.map_(pa.string(), pa.float64())),
         ("config_digest", pa.string()),
         ("traits", pa.map_(pa.string(), pa.string())),
+        # the clip's mean depth confidence and the hand error it predicts (its metrics' values)
+        ("depth_confidence", pa.float64()),
+        ("expected_hand_error_cm", pa.float64()),
     ]
 )
 
@@ -472,9 +481,15 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
                 "metrics": list(d["metrics"].items()),
                 "repairs": list(d["repairs"].items()),
                 "masked": list(d["masked"].items()),
+                **{k: _known(d["metrics"].get(k)) for k in DEPTH_COLUMNS},
             }
         )
     return rows
+
+
+def _known(value: float | None) -> float | None:
+    """A metric for a manifest column: None (null) when not measured or NaN."""
+    return float(value) if value is not None and math.isfinite(value) else None
 
 
 def write_manifest(out: Path, takes: Sequence[TakeRecord]) -> pa.Table:

@@ -55,6 +55,7 @@ THRESHOLDS: dict[str, tuple[str, Literal["max", "min"]]] = {
     "image_change": ("min_image_change", "min"),
     "people": ("max_people", "max"),
     "speech_fraction": ("min_speech_fraction", "min"),
+    "expected_hand_error_cm": ("max_expected_hand_error_cm", "max"),
     "trimmed_fraction": ("max_trimmed_fraction", "max"),
     "jerk_raw": ("max_jerk_raw", "max"),
 }
@@ -168,6 +169,13 @@ def absolute_reasons(metrics: ClipMetrics, config: QCConfig) -> list[str]:
             m.speech_fraction,
             c.min_speech_fraction,
             "no speech: speech heard in {v:.0%} of the clip (min {lim:.0%})",
+        )
+    if c.max_expected_hand_error_cm is not None:
+        over(
+            m.expected_hand_error_cm,
+            c.max_expected_hand_error_cm,
+            "depth uncertain: expected hand error {v:.1f} cm (depth confidence "
+            f"{m.depth_confidence:.2f}; max {{lim:g}} cm)",
         )
     over(
         m.trimmed_fraction,

@@ -40,6 +40,10 @@ class ClipMetrics:
     jitter_fraction, motion_range (rad), facing_away_fraction, sideways_fraction,
     shoulder_width (share of the frame height), image_change, people (mean in the frame)
     speech_fraction:       share of the 100 Hz clock with speech heard (`Clip.speech`)
+    depth_confidence:      mean of `Clip.depth_confidence` over the video frames
+    expected_hand_error_cm: the Pepper hand error that confidence meant on the renders
+                           (`lift.depth_confidence.expected_hand_error_cm`; NaN: no calibration
+                           for the clip's lifter)
     trimmed_fraction:      of the whole take the clip is cut from (set by the build; None when
                            the clip alone was measured)
     """
@@ -69,6 +73,8 @@ class ClipMetrics:
     image_change: float
     people: float
     speech_fraction: float
+    depth_confidence: float
+    expected_hand_error_cm: float
     trimmed_fraction: float | None = None
 
     def value(self, name: str) -> float:
@@ -113,6 +119,8 @@ class ClipMetrics:
         m["image_change"] = self.image_change
         m["people"] = self.people
         m["speech_fraction"] = self.speech_fraction
+        m["depth_confidence"] = self.depth_confidence
+        m["expected_hand_error_cm"] = self.expected_hand_error_cm
         if self.trimmed_fraction is not None:
             m["trimmed_fraction"] = self.trimmed_fraction
         return m
@@ -155,6 +163,8 @@ class ClipMetrics:
             image_change=get("image_change"),
             people=get("people"),
             speech_fraction=get("speech_fraction"),
+            depth_confidence=get("depth_confidence"),
+            expected_hand_error_cm=get("expected_hand_error_cm"),
             trimmed_fraction=None if trimmed is None else float(trimmed),
         )
 

@@ -34,6 +34,7 @@ from gesturebank.clip import Clip
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
+from gesturebank.lift.depth_confidence import expected_hand_error_cm
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.invariants import invariant_metrics
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
@@ -451,6 +452,15 @@ def reach_metrics(
     )
 
 
+def clip_hand_error_cm(clip: Clip) -> float:
+    """The Pepper hand error (cm) the clip's depth confidence predicts for its lifter (the 3D
+    pose's `lifter`); 0 for motion capture (measured 3D), NaN for a lifter not calibrated."""
+    meta = clip.pose3d.meta
+    if meta.get("source") == "bvh":
+        return 0.0
+    return expected_hand_error_cm(confidence=clip.depth_confidence, lifter=meta.get("lifter", ""))
+
+
 def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetrics:
     """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure;
     `ClipMetrics` says what each is). trimmed_fraction, of the whole take, is left to the build.
@@ -531,4 +541,8 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         ),
         people=float(np.mean(clip.n_people)) if len(clip.n_people) else nan,
         speech_fraction=float(np.mean(clip.speech)) if len(clip.speech) else nan,
+        depth_confidence=(
+            float(np.mean(clip.depth_confidence)) if len(clip.depth_confidence) else nan
+        ),
+        expected_hand_error_cm=clip_hand_error_cm(clip),
     )

@@ -186,6 +186,16 @@
       });
       y += 20;
     }
+    if (T.depth.length) {  // depth confidence: red (signs in doubt) to green (trusted)
+      s += text(4, y + 12, 'depth');
+      T.depth.forEach(function (d) {
+        var hue = Math.round(120 * Math.max(0, Math.min(1, (d[2] - 0.5) / 0.5)));
+        s += tag('rect', span(sx, d, y, 14, {'class': 'depth',
+                 fill: 'hsl(' + hue + ',65%,50%)'}),
+                 tip(d[0] + '–' + d[1] + ' s: depth confidence ' + d[2].toFixed(2)));
+      });
+      y += 20;
+    }
     s += text(4, y + 15, 'clips');
     T.segments.forEach(function (g) {
       var why = g.reasons.length ? ': ' + g.reasons.join('; ') : '';

@@ -292,6 +292,38 @@ def _speech(record: store.TakeRecord, clips: Mapping[str, Clip | str]) -> dict[s
     }
 
 
+DEPTH_STEP_S = 0.25  # the depth lane's pieces: the confidence averaged over this many seconds
+DEPTH_LEVEL = 0.05  # …and neighbours that round to the same multiple of this merged
+
+
+def depth_runs(clip: Clip) -> list[list[float]]:
+    """[t0, t1, confidence] in source seconds of the clip's depth confidence (`Clip.
+    depth_confidence`, per video frame): averaged over `DEPTH_STEP_S`, neighbours that round to
+    the same `DEPTH_LEVEL` merged (a steady clip is one piece)."""
+    confidence = np.asarray(clip.depth_confidence, dtype=np.float64)
+    if not len(confidence):
+        return []
+    t = clip.start_s + np.asarray(clip.timestamps, dtype=np.float64)
+    ends = clip.start_s + frame_ends(np.asarray(clip.timestamps, dtype=np.float64))
+    piece = np.floor((t - t[0]) / DEPTH_STEP_S).astype(np.int64)
+    runs: list[list[float]] = []
+    for k in np.unique(piece):
+        pick = piece == k
+        level = round(float(np.mean(confidence[pick])) / DEPTH_LEVEL) * DEPTH_LEVEL
+        a, b = float(t[pick][0]), float(ends[pick][-1])
+        if runs and runs[-1][2] == round(level, 2) and abs(runs[-1][1] - a) < 2e-3:
+            runs[-1][1] = round(b, 3)
+        else:
+            runs.append([round(a, 3), round(b, 3), round(level, 2)])
+    return runs
+
+
+def _depth(record: store.TakeRecord, clips: Mapping[str, Clip | str]) -> list[list[float]]:
+    """The depth lane: `depth_runs` of every loaded clip of the take."""
+    loaded = [clips[c.clip_id] for c in record.data_clips]
+    return [run for c in loaded if isinstance(c, Clip) for run in depth_runs(c)]
+
+
 def _jpeg_size(data: bytes) -> tuple[int, int] | None:
     """(width, height) from a JPEG's frame header, without decoding the image."""
     i = 2
@@ -398,6 +430,7 @@ def take_data(
             "cuts": _cuts(choices),
             "speakers": _speakers(choices),
             "speech": _speech(record, clips),
+            "depth": _depth(record, clips),
             "preview": [round(t, 3) for t in record.preview_times],
         },
         "preview": _preview(out, record, clips),

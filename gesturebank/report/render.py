@@ -66,6 +66,8 @@ _METRICS = (
     ("image_change", "image change", "{:.3f}", 1.0),
     ("people", "people in the frame", "{:.1f}", 1.0),
     ("speech_fraction", "speech heard", "{:.0f} %", 100.0),
+    ("depth_confidence", "depth confidence", "{:.2f}", 1.0),
+    ("expected_hand_error_cm", "expected hand error", "{:.1f} cm", 1.0),
     ("trimmed_fraction", "take's video outside its audio", "{:.0f} %", 100.0),
 )
 

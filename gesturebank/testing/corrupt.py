@@ -56,6 +56,7 @@ _VIDEO_RATE = (
     "repaired",
     "n_people",
     "change",
+    "depth_confidence",
 )
 _CLOCK_RATE = ("angles", "angles01", "mask", "audio", "times", "speech")
 

@@ -25,7 +25,7 @@ TIMING = {"detect_s"}  # metrics that measure the run, not the data
 def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
     """What a user's script sees, without any gesturebank code."""
     info = json.loads((demo_dataset / "dataset.json").read_text())
-    assert info["schema_version"] == 3
+    assert info["schema_version"] == 4
     assert info["rates"] == {"pose_hz": 100.0, "audio_hz": 100.0}
     # models trained on the features must know their window (the dissertation's: none)
     assert info["audio_features"]["params"]["window"] == "none"
@@ -54,6 +54,12 @@ def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
             angles, angles01, audio, times = d["angles"], d["angles01"], d["audio"], d["times"]
             mask, raw, ts = d["mask"], d["raw_angles"], d["timestamps"]
             assert d["pose3d_joints"].shape == (len(ts), 17, 3)
+            confidence = d["depth_confidence"]
+            assert confidence.shape == ts.shape and confidence.dtype == np.float32
+            assert ((confidence >= 0) & (confidence <= 1)).all()
+            # the manifest's columns are the clip's mean and its lifter's calibration
+            assert row["depth_confidence"] == pytest.approx(float(confidence.mean()), abs=1e-6)
+            assert np.isfinite(row["expected_hand_error_cm"])  # blazepose-world: calibrated
             start = float(d["start_s"])
         n = row["n_frames"]
         assert angles.shape == angles01.shape == mask.shape == (n, 11)

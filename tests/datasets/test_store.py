@@ -113,8 +113,11 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     takes = {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)], "s2_b": [clip("s2_b", seed=2)]}
     out = write_dataset(tmp_path, takes)
     info = json.loads((out / "dataset.json").read_text())
-    assert info["schema_version"] == 3
+    assert info["schema_version"] == 4
     manifest = pd.read_parquet(out / "manifest.parquet")
+    # synthetic clips: exact joints (confidence 1), no lifter with a calibration (NaN)
+    assert (manifest["depth_confidence"] == 1.0).all()
+    assert manifest["expected_hand_error_cm"].isna().all()
     assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
     for row in manifest.itertuples():
         path = out / "takes" / row.take_id / f"{row.clip_id}.npz"
@@ -123,6 +126,8 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
             assert d["audio"].shape == (row.n_frames, 26)
             assert d["times"][0] == 0.0  # each clip on its own clock
             assert d["mask"].dtype == bool
+            assert d["depth_confidence"].shape == d["timestamps"].shape
+            assert d["depth_confidence"].dtype == np.float32
     assert set(info["takes"]) == {"s1_a", "s2_b"}
     assert info["takes"]["s1_a"]["clips"] == 2
 
@@ -224,17 +229,21 @@ def test_files_and_folders_follow_the_umask(tmp_path: Path) -> None:
     assert stat.S_IMODE(store.take_json(tmp_path, "a").stat().st_mode) == 0o644
 
 
-def test_a_schema_2_dataset_is_refused_with_one_rebuild_line(tmp_path: Path) -> None:
-    """Schema 3 added `speech` to every clip: a dataset written before (schema 2, whose clips
-    have none) is refused by every reader with one line that says how to rebuild it."""
+def test_a_schema_3_dataset_is_refused_with_one_rebuild_line(tmp_path: Path) -> None:
+    """Schema 4 added `depth_confidence` to every clip: a dataset written before (schema 3,
+    whose clips have none) is refused by every reader with one line that says how to rebuild
+    it."""
     out = write_dataset(tmp_path, {"s1_a": [clip("s1_a")]})
     info = json.loads((out / "dataset.json").read_text())
-    (out / "dataset.json").write_text(json.dumps({**info, "schema_version": 2}))
+    (out / "dataset.json").write_text(json.dumps({**info, "schema_version": 3}))
     with pytest.raises(InputError) as exc:
         gesturebank.datasets.open(out)
     message = str(exc.value)
     assert "\n" not in message
-    assert "schema_version 2, this gesturebank reads 3 (clips with speech activity)" in message
+    assert (
+        "schema_version 3, this gesturebank reads 4 (clips with speech activity and depth "
+        "confidence)" in message
+    )
     assert f"rebuild it with build-dataset VIDEOS_DIR {out} --force" in message
 
 
@@ -252,3 +261,25 @@ def test_speech_travels_with_the_clip_and_is_checked(tmp_path: Path) -> None:
         replace(c, speech=speech[:-1])
     with pytest.raises(InputError, match="speech must be bool, got float"):
         replace(c, speech=speech.astype(np.float32))
+
+
+def test_depth_confidence_travels_with_the_clip_and_is_checked(tmp_path: Path) -> None:
+    """`depth_confidence` is written and read back as (T,) float32 with its mean and the hand
+    error it predicts in the manifest; another shape, dtype or a value outside [0, 1] (or NaN)
+    is refused where the clip is made (so never written)."""
+    c = clip("s1_a")
+    t = len(c.timestamps)
+    confidence = np.linspace(0.2, 1.0, t).astype(np.float32)
+    lifted = replace(c.pose3d, meta={"lifter": "blazepose-world"})
+    c = replace(c, depth_confidence=confidence, pose3d=lifted)
+    out = write_dataset(tmp_path, {"s1_a": [c]})
+    loaded = gesturebank.datasets.open(out).load(c.clip_id)
+    np.testing.assert_array_equal(loaded.depth_confidence, confidence)
+    row = pd.read_parquet(out / "manifest.parquet").iloc[0]
+    assert row["depth_confidence"] == pytest.approx(float(confidence.mean()))
+    assert np.isfinite(row["expected_hand_error_cm"]) and row["expected_hand_error_cm"] > 0
+    for bad in (confidence[:-1], confidence.astype(np.float64), confidence + 0.5):
+        with pytest.raises(InputError, match="depth_confidence must be"):
+            replace(c, depth_confidence=bad)
+    with pytest.raises(InputError, match="depth_confidence must be float32 in"):
+        replace(c, depth_confidence=np.full(t, np.nan, np.float32))

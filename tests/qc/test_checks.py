@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import QCConfig, absolute_reasons, robust_z, verdicts
 from gesturebank.qc.clip_metrics import ClipMetrics
+from gesturebank.qc.metrics import clip_metrics
+from gesturebank.robot import pepper
 from gesturebank.testing.clips import synthetic_clip, write_dataset
 from gesturebank.testing.corrupt import corrupt, rederive
 
@@ -34,6 +39,8 @@ GOOD = {
     "image_change": 2.0,
     "people": 1.5,
     "speech_fraction": 0.8,
+    "depth_confidence": 0.6,
+    "expected_hand_error_cm": 8.0,
 }
 
 
@@ -61,12 +68,13 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
         ("spike_max", 1.5, "keypoint jumps 1.50 shoulder widths"),
         ("frozen_fraction", 0.3, "frozen (exactly repeated) in 30% of frames"),
         ("motion_range", np.radians(1.0), "static: no joint moves more than 1.0° (min 2.0°)"),
-        ("facing_away_fraction", 0.4, "facing away in 40% of frames (max 30%)"),
+        ("facing_away_fraction", 0.8, "facing away in 80% of frames (max 70%)"),
         ("sideways_fraction", 0.6, "seen from the side in 60% of frames (max 50%)"),
         ("shoulder_width", 0.02, "too small: shoulders 2.0% of the frame height (min 3.0%)"),
         ("image_change", 0.01, "still picture: image change 0.010 (min 0.05)"),
         ("people", 6.0, "too many people: 6.0 on average (max 5)"),
         ("speech_fraction", 0.1, "no speech: speech heard in 10% of the clip (min 25%)"),
+        ("expected_hand_error_cm", 13.0, "depth uncertain: expected hand error 13.0 cm"),
     ],
 )
 def test_each_absolute_check_gives_its_reason_with_numbers(key, value, text) -> None:
@@ -159,3 +167,42 @@ def test_refresh_rejudges_every_clip_and_keeps_rejected_ones(tmp_path) -> None:
     ds = open_dataset(out)
     assert ds.clip_ids("accepted") == sorted(rows)
     assert ds.info.config.qc.max_swap_events == 10
+
+
+def _lifted(confidence: float) -> Clip:
+    """A clip lifted by `blazepose-world` (calibrated) whose every frame has `confidence`."""
+    c = synthetic_clip(seconds=2.0)
+    pose3d = replace(c.pose3d, meta={"lifter": "blazepose-world"})
+    return replace(
+        c, pose3d=pose3d, depth_confidence=np.full(len(c.timestamps), confidence, np.float32)
+    )
+
+
+def test_a_clip_whose_depth_is_in_doubt_is_rejected_and_a_certain_one_is_not() -> None:
+    """The limit on the expected hand error, end to end from the clip's per-frame confidence:
+    arms along the camera's ray (confidence 0.05: the calibration's worst bin, 13.9 cm) fail the
+    default 12.5 cm; arms in the image plane (0.95: 6.9 cm) pass; no limit, nothing fails."""
+    profile = pepper.load_profile()
+    doubtful = clip_metrics(_lifted(0.05), profile=profile, qc=QCConfig())
+    assert doubtful.depth_confidence == pytest.approx(0.05)
+    assert doubtful.expected_hand_error_cm == pytest.approx(13.9, abs=0.1)
+    (reason,) = [r for r in absolute_reasons(doubtful, QCConfig()) if "depth" in r]
+    assert reason == (
+        "depth uncertain: expected hand error 13.9 cm (depth confidence 0.05; max 12.5 cm)"
+    )
+    certain = clip_metrics(_lifted(0.95), profile=profile, qc=QCConfig())
+    assert certain.expected_hand_error_cm == pytest.approx(6.9, abs=0.1)
+    assert not [r for r in absolute_reasons(certain, QCConfig()) if "depth" in r]
+    off = QCConfig(max_expected_hand_error_cm=None)
+    assert not [r for r in absolute_reasons(doubtful, off) if "depth" in r]
+
+
+def test_motion_capture_and_uncalibrated_lifters_expect_no_or_unknown_error() -> None:
+    profile = pepper.load_profile()
+    c = _lifted(0.05)
+    mocap = replace(c, pose3d=replace(c.pose3d, meta={"source": "bvh"}))
+    assert clip_metrics(mocap, profile=profile, qc=QCConfig()).expected_hand_error_cm == 0.0
+    other = replace(c, pose3d=replace(c.pose3d, meta={"lifter": "my-plugin"}))
+    metrics = clip_metrics(other, profile=profile, qc=QCConfig())
+    assert np.isnan(metrics.expected_hand_error_cm)
+    assert not [r for r in absolute_reasons(metrics, QCConfig()) if "depth" in r]

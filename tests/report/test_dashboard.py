@@ -66,6 +66,16 @@ def _pause(clip: Clip) -> Clip:
     return replace(clip, speech=speech)
 
 
+DOUBT = (2.0, 3.0, 0.6)  # s1_clean's first clip: depth confidence 0.6 from 2 to 3 s of its clock
+
+
+def _doubt(clip: Clip) -> Clip:
+    """The clip with its depth signs in doubt (confidence DOUBT[2]) from DOUBT[0] to DOUBT[1]."""
+    confidence = np.asarray(clip.depth_confidence, np.float32).copy()
+    confidence[(clip.timestamps >= DOUBT[0]) & (clip.timestamps < DOUBT[1])] = DOUBT[2]
+    return replace(clip, depth_confidence=confidence)
+
+
 def _preview_jpeg(clips: list[Clip]) -> bytes:
     """A strip of 'video frames' with the speaker drawn as a grey stick figure where the clips
     place them, so that the page's skeletons must land on the figures."""
@@ -146,7 +156,7 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
         replace(_swap_arms(_clean("s4_mixed", 1, 41), slice(60, 90)), start_s=GAP[1]),
     ]
     takes = {
-        "s1_clean": [_pause(_clean("s1_clean", 0, 10)), _clean("s1_clean", 1, 11)],
+        "s1_clean": [_doubt(_pause(_clean("s1_clean", 0, 10))), _clean("s1_clean", 1, 11)],
         "s2_masked": [replace(masked, repaired=repaired)],
         "s3_unseen": [_unseen(_clean("s3_unseen", 0, 30), slice(20, None))],
         "s4_mixed": mixed,
@@ -564,3 +574,36 @@ def test_take_page_timeline_shows_where_speech_was_heard(dataset: Path) -> None:
         1.5, abs=0.011
     )
     assert runs[2] == pytest.approx(second, abs=0.011)
+
+
+def test_take_page_timeline_shows_the_depth_confidence(dataset: Path) -> None:
+    """The depth lane: pieces of each clip's depth confidence in source seconds; s1_clean's
+    first clip doubts its depth signs (0.6) from 2 to 3 s, the rest is certain (1.0)."""
+    depth = _data(_page(dataset, "s1_clean"))["timeline"]["depth"]
+    assert [d[2] for d in depth] == [1.0, DOUBT[2], 1.0, 1.0]  # merged: 4 pieces, 2 clips
+    low = depth[1]
+    assert low[0] == pytest.approx(DOUBT[0], abs=0.04) and low[1] == pytest.approx(
+        DOUBT[1], abs=0.04
+    )
+    assert depth[-1][1] == pytest.approx(2 * SECONDS, abs=0.1)
+
+
+def test_depth_lane_is_drawn_in_chromium(dataset: Path, browser: Browser) -> None:
+    page = dataset / "qc" / "takes" / "s1_clean.html"
+    tab = browser.open(page.as_uri())
+    assert _count(tab, "svg.timeline rect.depth") == 4
+    tips = tab.eval(
+        "Array.from(document.querySelectorAll('svg.timeline rect.depth title'))"
+        ".map(function (t) { return t.textContent; })"
+    )
+    assert sum("depth confidence 0.60" in t for t in tips) == 1
+    fills = tab.eval(
+        "Array.from(document.querySelectorAll('svg.timeline rect.depth'))"
+        ".map(function (r) { return getComputedStyle(r).fill; })"
+    )
+    assert fills[1] != fills[0]  # the doubtful piece has its own colour
+    row = "table.metrics tr[data-metric=depth_confidence]"
+    shown = tab.eval(f"document.querySelector({json.dumps(row)}).innerText")
+    assert "depth confidence" in shown
+    tab.close()
+    assert _problems(browser.events, page) == []
