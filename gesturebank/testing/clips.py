@@ -52,7 +52,7 @@ def _filmed(
         n_people=np.ones(n, np.int16),
         change=np.full(n, 1.0, np.float32),
         speech=np.ones(len(angles["times"]), bool),  # a speaker heard throughout
-        **angles,
+        **angles,  # type: ignore[arg-type]
     )
 
 

@@ -113,9 +113,11 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     takes = {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)], "s2_b": [clip("s2_b", seed=2)]}
     out = write_dataset(tmp_path, takes)
     info = json.loads((out / "dataset.json").read_text())
-    assert info["schema_version"] == 3
+    assert info["schema_version"] == 4
     manifest = pd.read_parquet(out / "manifest.parquet")
     assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
+    assert manifest["person"].dtype == np.int32 and (manifest["person"] >= 0).all()
+    assert manifest["speaking_fraction"].between(0, 1).all()
     for row in manifest.itertuples():
         path = out / "takes" / row.take_id / f"{row.clip_id}.npz"
         with np.load(path, allow_pickle=False) as d:
@@ -123,6 +125,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
             assert d["audio"].shape == (row.n_frames, 26)
             assert d["times"][0] == 0.0  # each clip on its own clock
             assert d["mask"].dtype == bool
+            assert d["role"].shape == (row.n_frames,) and d["role"].dtype == np.int8
     assert set(info["takes"]) == {"s1_a", "s2_b"}
     assert info["takes"]["s1_a"]["clips"] == 2
 
@@ -234,7 +237,7 @@ def test_a_schema_2_dataset_is_refused_with_one_rebuild_line(tmp_path: Path) -> 
         gesturebank.datasets.open(out)
     message = str(exc.value)
     assert "\n" not in message
-    assert "schema_version 2, this gesturebank reads 3 (clips with speech activity)" in message
+    assert f"schema_version 2, this gesturebank reads 4 ({store.SCHEMA_CONTENT})" in message
     assert f"rebuild it with build-dataset VIDEOS_DIR {out} --force" in message
 
 
