@@ -374,33 +374,30 @@ def turns(
     """(n,) column of the speaker at each frame of one shot, from `speaking (n, S)` (who
     speaks at each frame) and `rank (S,)` (lower first, for frames where several speak).
 
-    Frames where nobody speaks keep the last speaker (the first frames: the first one); a turn
-    shorter than `min_turn_s` is the previous (for the first, the next) speaker's. -1 when
-    nobody ever speaks."""
+    A speaker takes the floor where they start speaking in at least half the frames of the
+    `min_turn_s` from there (a shorter turn, or a blip of a listener's mouth, changes nothing)
+    and keeps it through pauses until another takes it; the first one has it from the shot's
+    start. -1 when nobody speaks."""
     n = len(speaking)
+    raw = np.full(n, -1, np.int64)
+    for c in np.argsort(rank, kind="stable")[::-1]:  # the best-ranked speaker written last wins
+        raw[speaking[:, c]] = c
     label = np.full(n, -1, np.int64)
-    order = np.argsort(rank, kind="stable")
-    for c in order[::-1]:  # the best-ranked speaker written last wins
-        label[speaking[:, c]] = c
-    if not (label >= 0).any():
+    if not (raw >= 0).any():
         return label
-    # Hold the last speaker through frames where nobody speaks, from the first speaker on.
-    idx = np.where(label >= 0, np.arange(n), -1)
-    idx = np.maximum.accumulate(idx)
-    first = int(np.flatnonzero(label >= 0)[0])
-    label = np.where(idx >= 0, label[np.maximum(idx, 0)], label[first])
-    ends = np.r_[timestamps[1:], timestamps[-1] + frame_step(timestamps)]
-    changed = True
-    while changed:  # merge short turns into their neighbours until none is left
-        changed = False
-        runs = _runs(label)
-        if len(runs) < 2:
-            break
-        for j, (a, b, _) in enumerate(runs):
-            if ends[b - 1] - timestamps[a] < min_turn_s:
-                label[a:b] = runs[j - 1][2] if j > 0 else runs[j + 1][2]
-                changed = True
-                break
+    horizon = np.searchsorted(timestamps, timestamps + min_turn_s, side="left")
+    counts = np.vstack([np.zeros((1, speaking.shape[1]), np.int64), np.cumsum(speaking, 0)])
+    current = -1
+    for i in range(n):
+        c = int(raw[i])
+        if c >= 0 and c != current:
+            end = max(int(horizon[i]), i + 1)
+            if 2 * (counts[end, c] - counts[i, c]) >= end - i:
+                current = c
+        label[i] = current
+    if not (label >= 0).any():  # nobody speaks long at a stretch: the first who speaks
+        return np.full(n, raw[np.flatnonzero(raw >= 0)[0]], np.int64)
+    label[label < 0] = label[np.flatnonzero(label >= 0)[0]]  # the floor from the shot's start
     return label
 
 

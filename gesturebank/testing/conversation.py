@@ -70,7 +70,7 @@ def _read(path: Path) -> np.ndarray:
     return x.astype(np.float64) / 32768.0
 
 
-def _speech_track(samples: Path) -> tuple[np.ndarray, tuple[tuple[float, float, int], ...]]:
+def speech_track(samples: Path) -> tuple[np.ndarray, tuple[tuple[float, float, int], ...]]:
     """The utterances one after the other, GAP_S apart, alternating figures 0, 1, 0, ..."""
     parts: list[np.ndarray] = []
     turns = []
@@ -177,7 +177,7 @@ def video_times(signal: np.ndarray) -> np.ndarray:
 
 def turn_taking(samples: Path, cache: Path, *, seed: int = 0) -> Conversation:
     """The turn-taking take, rendered into `cache` once (`synth.take.cached_render`)."""
-    signal, turns = _speech_track(samples)
+    signal, turns = speech_track(samples)
     opening = mouths(signal, turns, times=video_times(signal), seed=seed)
     truth = _render(samples, cache, mouth=opening, signal=signal, name="turns")
     return Conversation(truth, truth.videos[0], turns)
@@ -185,6 +185,6 @@ def turn_taking(samples: Path, cache: Path, *, seed: int = 0) -> Conversation:
 
 def dubbed(samples: Path, cache: Path) -> Conversation:
     """The two figures with shut mouths and the same speech over them: nobody speaks."""
-    signal, _ = _speech_track(samples)
+    signal, _ = speech_track(samples)
     truth = _render(samples, cache, mouth=None, signal=signal, name="turns")
     return Conversation(truth, truth.videos[0], ())
