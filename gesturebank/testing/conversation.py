@@ -29,6 +29,7 @@ MOUTH_LAG_S = (0.12, 0.17)  # each figure's mouth behind its speech (issue: 80-2
 # The bvhtools take walks about; from 15.8 s its head stays within 30° of one direction for 93 %
 # of 11 s. The figures play it on the spot (`standing_bvh`), so both stay in the picture.
 START_S = 15.8
+MOUTH_SEED = 0  # the mouths' noise
 SEPARATION_M = 0.9  # between the two figures
 FACE_TURN_DEG = 0.0  # each figure turned this much towards the other
 # 1280 × 720 at 2 m (50° vertical field of view): faces about 58 px wide, above the mouth
@@ -175,10 +176,10 @@ def video_times(signal: np.ndarray) -> np.ndarray:
     return np.arange(count) / CONFIG.rate_fps
 
 
-def turn_taking(samples: Path, cache: Path, *, seed: int = 0) -> Conversation:
+def turn_taking(samples: Path, cache: Path) -> Conversation:
     """The turn-taking take, rendered into `cache` once (`synth.take.cached_render`)."""
     signal, turns = speech_track(samples)
-    opening = mouths(signal, turns, times=video_times(signal), seed=seed)
+    opening = mouths(signal, turns, times=video_times(signal), seed=MOUTH_SEED)
     truth = _render(samples, cache, mouth=opening, signal=signal, name="turns")
     return Conversation(truth, truth.videos[0], turns)
 
