@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gesturebank.config import SpeechConfig, VideoConfig
+from gesturebank.extract.detectors.blazepose import Roi
 from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, face_box, speaking_score
 from gesturebank.extract.speech import speech_envelope
 from gesturebank.extract.vad import RATE_HZ, speech_activity
@@ -77,11 +78,12 @@ class Roles:
 
 def faces(
     *, multi: MultiPose2D, ids: np.ndarray, track_ids: np.ndarray, config: SpeechConfig
-) -> tuple[np.ndarray, list[list[object]]]:
-    """(T, M) facing, and per frame per track the face crop (a `Roi`, None when there is none)."""
+) -> tuple[np.ndarray, dict[int, list[tuple[int, Roi]]]]:
+    """(T, M) facing, and per frame the face crops there: frame → [(track column, Roi)] (only
+    frames with a crop are keys: a long take with many people stays small)."""
     t_n, m_n = len(multi), len(track_ids)
     facing = np.zeros((t_n, m_n), bool)
-    boxes: list[list[object]] = [[None] * m_n for _ in range(t_n)]
+    boxes: dict[int, list[tuple[int, Roi]]] = {}
     column = {int(k): m for m, k in enumerate(track_ids)}
     for t, p in zip(*np.nonzero(ids >= 0), strict=True):
         m = column.get(int(ids[t, p]))
@@ -89,7 +91,8 @@ def faces(
             continue
         roi, why = face_box(keypoints=multi.keypoints[t, p], skeleton=multi.skeleton, config=config)
         facing[t, m] = why in ("", "face too small")
-        boxes[t][m] = roi
+        if roi is not None:
+            boxes.setdefault(int(t), []).append((m, roi))
     return facing, boxes
 
 
@@ -97,7 +100,7 @@ def measure_openings(
     frames: Iterable[tuple[float, np.ndarray]],
     *,
     timestamps: np.ndarray,
-    boxes: list[list[object]],
+    boxes: dict[int, list[tuple[int, Roi]]],
     n_tracks: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mouth openings on the frames given: (rows (S,) frame indices into `timestamps`, opening
@@ -111,11 +114,9 @@ def measure_openings(
         if abs(float(timestamps[i]) - t) > _MATCH_S:
             continue
         row = np.full(n_tracks, np.nan)
-        for m, roi in enumerate(boxes[i]):
-            if roi is None:
-                continue
+        for m, roi in boxes.get(i, ()):
             model = model or FaceLandmarker()
-            mesh = model(image, roi)  # type: ignore[arg-type]
+            mesh = model(image, roi)
             if mesh.presence >= MIN_FACE_PRESENCE:
                 row[m] = mesh.opening
         rows.append(i)
@@ -199,7 +200,7 @@ def measure_roles(
     facing, boxes = faces(multi=multi, ids=ids, track_ids=track_ids, config=config)
     rows = np.zeros(0, np.int64)
     opening = np.zeros((0, m_n))
-    if any(b is not None for frame in boxes for b in frame):  # else nothing to measure
+    if boxes:  # else nothing to measure: no decoding
         cap = config.mouth_rate_hz
         selection = video_config.model_copy(
             update={"max_fps": min(cap, video_config.max_fps or cap)}
