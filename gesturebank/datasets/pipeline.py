@@ -408,6 +408,17 @@ def _clip(
     )
 
 
+NOBODY_SPEAKS = "nobody speaks: several people and no mouth follows the speech"
+
+
+def _why_dropped(span: Span, view: _View) -> str:
+    """A span's reason; "main speaker absent" where people were there but nobody was made the
+    speaker (dubbed speech over several people) says so."""
+    a, b = span.start, max(span.stop, span.start + 1)
+    nobody = (view.speaker[a:b] < 0).all() and view.n_people[a:b].max(initial=0) >= 2
+    return NOBODY_SPEAKS if span.reason == "main speaker absent" and nobody else span.reason
+
+
 def role_at(role: np.ndarray, timestamps: np.ndarray, times: np.ndarray) -> np.ndarray:
     """(N,) int8: the role of the video frame shown at each of `times` (the last one starting
     at or before it; the first frame for times before it)."""
@@ -534,7 +545,7 @@ def build_take(
                     span.start_s,
                     span.end_s,
                     "rejected",
-                    (span.reason,),
+                    (_why_dropped(span, person_view),),
                     person=-1,
                 )
             )

@@ -13,6 +13,7 @@ from gesturebank import footage
 from gesturebank.clip import ROLES
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
+from gesturebank.datasets.pipeline import NOBODY_SPEAKS
 from gesturebank.extract.pipeline import extract_take
 from gesturebank.synth.take import render_cache
 from gesturebank.testing import conversation
@@ -48,13 +49,18 @@ def test_with_people_all_both_people_of_a_conversation_keep_clips(
         assert row.clip.speaking_fraction == pytest.approx(clip.speaking_fraction)
 
 
-def test_speech_dubbed_over_two_people_makes_nobody_the_speaker(samples: Path) -> None:
+def test_speech_dubbed_over_two_people_makes_nobody_the_speaker(
+    samples: Path, tmp_path: Path
+) -> None:
     dub = conversation.dubbed(samples, render_cache(samples))
     ext = extract_take(dub.video, Config())
     assert (ext.multi.present.sum(axis=1) >= 2).mean() > 0.9  # both are found
     longest = _longest_run_s(ext.tracked.report.main_ids, ext.multi.timestamps)
     print(f"\ndubbed two-person take: longest main speaker {longest:.2f} s")
     assert longest <= 1.0
+    ds = open_dataset(build({"dub": dub.video}, tmp_path))
+    assert not ds.clips("accepted")
+    assert {r for row in ds.rows() for r in row.clip.qc_reasons} == {NOBODY_SPEAKS}
 
 
 def test_pose2sim_two_person_scene_keeps_the_person_facing_the_camera(
