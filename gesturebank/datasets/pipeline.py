@@ -15,6 +15,7 @@ import hashlib
 import json
 import logging
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -39,7 +40,8 @@ from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
 if TYPE_CHECKING:
     from gesturebank.extract.cache import DetectionCache
-    from gesturebank.extract.tracking import TrackReport
+    from gesturebank.extract.tracking import Tracked, TrackReport
+    from gesturebank.poses import MultiPose2D
 
 _I = COCO17.index
 log = logging.getLogger(__name__)
@@ -191,11 +193,42 @@ def _single_views(take: Take, config: Config, chunks: DetectionCache | None) -> 
                 tracking={
                     **_tracking_json(ext.tracked.report),
                     "mouth_seconds": ext.info.mouth_seconds,
+                    "people": people_summary(ext.multi, ext.tracked),
                 },
                 preview=ext.preview,
             )
         )
     return views
+
+
+def people_summary(multi: MultiPose2D, tracked: Tracked) -> dict[str, dict[str, Any]]:
+    """Per track id: seconds seen, share of those facing the camera and seconds speaking, and
+    where in the image (median upper-body centre, shares of width and height) — what a
+    `<stem>.people.toml` names a person by."""
+    from gesturebank.extract.roles import SPEAKING
+    from gesturebank.extract.speech import frame_step
+
+    ids, step = tracked.ids, frame_step(multi.timestamps)
+    w, h = multi.image_size
+    out: dict[str, dict[str, Any]] = {}
+    for k in np.unique(ids[ids >= 0]):
+        mask = ids == k
+        seen = mask.any(axis=1)
+        xy = np.where(multi.keypoints[..., 2:3] > 0, multi.keypoints[..., :2], np.nan)[mask]
+        with warnings.catch_warnings():  # a person without a confident keypoint: NaN centre
+            warnings.simplefilter("ignore", RuntimeWarning)
+            centre = np.nanmedian(np.nanmean(xy, axis=1), axis=0)
+        entry: dict[str, Any] = {
+            "seen_s": round(float(seen.sum() * step), 2),
+            "at": [round(float(centre[0] / w), 3), round(float(centre[1] / h), 3)],
+        }
+        roles = tracked.roles
+        m = None if roles is None else roles.column(int(k))
+        if roles is not None and m is not None:
+            entry["facing"] = round(float(roles.facing[seen, m].mean()), 3)
+            entry["speaking_s"] = round(float((roles.role[:, m] == SPEAKING).sum() * step), 2)
+        out[str(int(k))] = entry
+    return out
 
 
 def _lift_frames(lifter: Any, pose: Pose2D) -> Callable[[int, int], Pose3D]:

@@ -14,6 +14,7 @@ from gesturebank.clip import ROLES
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.pipeline import NOBODY_SPEAKS
+from gesturebank.datasets.store import read_record
 from gesturebank.extract.pipeline import extract_take
 from gesturebank.synth.take import render_cache
 from gesturebank.testing import conversation
@@ -38,8 +39,14 @@ def test_with_people_all_both_people_of_a_conversation_keep_clips(
     samples: Path, tmp_path: Path
 ) -> None:
     talk = conversation.turn_taking(samples, render_cache(samples))
-    ds = open_dataset(build({"talk": talk.video}, tmp_path, build={"people": "all"}))
+    out = build({"talk": talk.video}, tmp_path, build={"people": "all"})
+    ds = open_dataset(out)
     accepted = ds.clips("accepted")
+    record = read_record(out, accepted[0].take.take_id)
+    assert record is not None
+    summary = record.tracking["people"]  # what a .people.toml names a person by
+    assert sorted(summary) == sorted(str(p) for p in {r.clip.person for r in accepted})
+    assert all(0 <= v["at"][0] <= 1 and v["seen_s"] > 5 for v in summary.values())
     people = {row.clip.person for row in accepted}
     assert len(people) == 2, [(r.clip.person, r.clip.qc_reasons) for r in ds.rows()]
     for row in accepted:
