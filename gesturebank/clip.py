@@ -20,6 +20,10 @@ from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.robot.pepper import JOINTS
 from gesturebank.skeletons import COCO17
 
+# The role track's codes, in order: 0 unknown (who speaks is not known: no mouth seen, or
+# nobody's mouth follows the speech), 1 speaking, 2 listening (extract.roles).
+ROLES = ("unknown", "speaking", "listening")
+
 
 @dataclass(frozen=True, eq=False)
 class Clip:
@@ -32,6 +36,7 @@ class Clip:
         audio     (N, F) float32 audio features, frame i centred on times[i]
         times     (N,) float64 seconds from the clip's start
         speech    (N,) bool, speech heard at times[i] (voice activity; missing audio is silence)
+        role      (N,) int8, the person's role at times[i]: an index into ROLES
     Video frames (T frames):
         raw_angles (T, 11) float32 rad, straight from the 3D pose (NaN where unsupported)
         timestamps (T,) float64 seconds on the clip's clock
@@ -44,6 +49,7 @@ class Clip:
                   (`lift.depth_confidence`, Eq. 2; 1 where the 3D was measured: several cameras,
                   motion capture)
     start_s: where clip time 0 lies in the source video, seconds.
+    person: the tracked person's id within the take (>= 0; 0 for a motion-capture take).
     """
 
     clip_id: str
@@ -64,9 +70,13 @@ class Clip:
     n_people: np.ndarray
     change: np.ndarray
     depth_confidence: np.ndarray
+    person: int = 0
+    role: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n, t, d = len(self.times), len(self.timestamps), len(JOINTS)
+        if self.role is None:  # an older clip: who speaks was not known
+            object.__setattr__(self, "role", np.zeros(n, np.int8))
         shapes = {
             "angles": (self.angles, (n, d)),
             "angles01": (self.angles01, (n, d)),
@@ -78,6 +88,7 @@ class Clip:
             "n_people": (self.n_people, (t,)),
             "change": (self.change, (t,)),
             "depth_confidence": (self.depth_confidence, (t,)),
+            "role": (np.asarray(self.role), (n,)),
         }
         for name, (value, shape) in shapes.items():
             if np.shape(value) != shape:
@@ -95,10 +106,27 @@ class Clip:
                 f"{confidence.dtype} in [{np.nanmin(confidence, initial=0):.3g}, "
                 f"{np.nanmax(confidence, initial=1):.3g}]"
             )
+        role = np.asarray(self.role)
+        if role.dtype != np.int8 or (len(role) and (role.min() < 0 or role.max() >= len(ROLES))):
+            raise InputError(
+                f"clip {self.clip_id}: role must be int8 codes 0..{len(ROLES) - 1} (ROLES), "
+                f"got {role.dtype}"
+            )
+        if int(self.person) < 0:
+            raise InputError(f"clip {self.clip_id}: person must be >= 0, got {self.person}")
         if np.ndim(self.audio) != 2 or len(self.audio) != n:
             raise InputError(f"clip {self.clip_id}: audio must be (N, F) with N = {n}")
         if len(self.pose2d) != t or len(self.pose3d) != t:
             raise InputError(f"clip {self.clip_id}: poses must have one frame per timestamp")
+
+    @property
+    def speaking_fraction(self) -> float:
+        """Share of the clip's frames in which its person speaks."""
+        return (
+            float(np.mean(np.asarray(self.role) == ROLES.index("speaking")))
+            if len(self.times)
+            else 0.0
+        )
 
     @property
     def duration_s(self) -> float:
@@ -124,6 +152,8 @@ class Clip:
             "n_people": np.asarray(self.n_people, dtype=np.int16),
             "change": np.asarray(self.change, dtype=np.float32),
             "depth_confidence": np.asarray(self.depth_confidence, dtype=np.float32),
+            "person": np.array(self.person, dtype=np.int32),
+            "role": np.asarray(self.role, dtype=np.int8),
             **self.pose2d.to_arrays("pose2d_"),
             **self.pose3d.to_arrays("pose3d_"),
         }
@@ -150,6 +180,8 @@ class Clip:
                 n_people=np.asarray(arrays["n_people"]),
                 change=np.asarray(arrays["change"]),
                 depth_confidence=np.asarray(arrays["depth_confidence"]),
+                person=int(arrays["person"]) if "person" in arrays else 0,
+                role=np.asarray(arrays["role"]) if "role" in arrays else None,
             )
         except KeyError as exc:
             raise InputError(f"clip arrays lack {exc.args[0]!r}") from None

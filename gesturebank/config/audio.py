@@ -96,6 +96,31 @@ class SpeechConfig(Section):
         ge=0,
         description="Largest delay of the mouth behind the speech envelope searched, seconds.",
     )
+    mouths: bool = Field(
+        True,
+        description="Measure every tracked person's mouth to find who speaks when (per-person "
+        "role tracks; the main speaker is the one who speaks). Off: the main speaker is chosen "
+        "by size, centrality, confidence, persistence and speech following alone.",
+    )
+    mouth_rate_hz: float = Field(
+        15.0,
+        gt=0,
+        description="Mouths are measured on at most this many frames a second (the face "
+        "landmark model's cost).",
+    )
+    speaking_threshold: float = Field(
+        0.5,
+        gt=-1,
+        lt=1,
+        description="A person speaks where their speaking score reaches this while speech is "
+        "heard.",
+    )
+    min_speaking_s: float = Field(
+        1.0,
+        ge=0,
+        description="A person must speak this long in a shot to lead its main-speaker choice; a "
+        "turn shorter than this does not change the main speaker.",
+    )
 
     @model_validator(mode="after")
     def _hysteresis(self) -> SpeechConfig:

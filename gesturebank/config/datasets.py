@@ -87,9 +87,16 @@ class SplitsConfig(Section):
 
 
 Executor = Literal["local", "ray"]
+People = Literal["speaker", "all"]
 
 
 class BuildConfig(Section):
+    people: People = Field(
+        "speaker",
+        description="Whom a take's clips follow: 'speaker', the main speaker of each shot (the "
+        "one who speaks); 'all', every tracked person with usable clips, each clip one "
+        "person's (changes what a take holds: takes are built again).",
+    )
     workers: int | None = Field(
         None, ge=1, description="Takes built in parallel (none = number of CPU cores)."
     )

@@ -15,6 +15,7 @@ import hashlib
 import json
 import logging
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -40,7 +41,8 @@ from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
 if TYPE_CHECKING:
     from gesturebank.extract.cache import DetectionCache
-    from gesturebank.extract.tracking import TrackReport
+    from gesturebank.extract.tracking import Tracked, TrackReport
+    from gesturebank.poses import MultiPose2D
 
 _I = COCO17.index
 log = logging.getLogger(__name__)
@@ -61,8 +63,10 @@ class _View:
     """What the clips are cut from: the main speaker on the take's (reference) frames (of a
     multi-camera take, pose2d is the reference camera's, drawn but not judged: `_multi_view`).
 
-    valid / repaired: (T, 17) COCO-17 bools; speaker: (T,) main track id; lift(a, b): the 3D
-    pose of frames [a, b) (lifted per clip for one camera, sliced for several)."""
+    valid / repaired: (T, 17) COCO-17 bools; speaker: (T,) the person's track id (the main
+    speaker's, or one person's with build.people = "all"); role: (T,) int8 their role code
+    (clip.ROLES); lift(a, b): the 3D pose of frames [a, b) (lifted per clip for one camera,
+    sliced for several)."""
 
     pose2d: Pose2D
     valid: np.ndarray
@@ -70,6 +74,7 @@ class _View:
     repairs: dict[str, int]
     cuts: np.ndarray
     speaker: np.ndarray
+    role: np.ndarray
     n_people: np.ndarray
     change: np.ndarray
     audio: Audio
@@ -140,9 +145,12 @@ def usable_frames(valid: np.ndarray) -> np.ndarray:
     return np.asarray(torso & (face | arm))
 
 
-def _single_view(take: Take, config: Config, chunks: DetectionCache | None) -> _View:
+def _single_views(take: Take, config: Config, chunks: DetectionCache | None) -> list[_View]:
+    """One camera: the main speaker's view, or with build.people = "all" one view per tracked
+    person (by track id)."""
+    from gesturebank.extract.identity import gather
     from gesturebank.extract.pipeline import extract_take
-    from gesturebank.lift import LIFTERS, TakeViews
+    from gesturebank.lift import LIFTERS
 
     if config.lifter.name == "multiview":  # known before the slow extraction starts
         raise InputError(
@@ -152,31 +160,83 @@ def _single_view(take: Take, config: Config, chunks: DetectionCache | None) -> _
     ext = extract_take(take.video, config, chunks=chunks)
     if ext.audio is None:
         raise InputError(f"{take.video}: no audio track and no {take.video.stem}.wav beside it")
-    pose, report = repair_pose2d(ext.tracked.pose, config=config.repair)
     lifter = LIFTERS.create(lifter_name(take, config), config)
-    valid = _coco17_mask(
-        validity(pose, visible_confidence=config.repair.visible_confidence), pose.skeleton
-    )
-    xy = to_coco17(pose.keypoints, pose.skeleton)[..., :2]
-    valid &= ~still_spiking(xy, valid, config.repair.max_spike)
-    return _View(
-        pose2d=pose,
-        valid=valid,
-        repaired=_coco17_mask(report.repaired, pose.skeleton),
-        repairs=report.counts(),
-        cuts=ext.shots.cuts,
-        speaker=ext.tracked.report.main_ids,
-        n_people=ext.multi.present.sum(axis=1),
-        change=ext.shots.change,
-        audio=ext.audio,
-        lift=lambda a, b: lifter.lift(TakeViews.of(pose.frames(a, b))),
-        detector=ext.info.detector,
-        lifter=lifter_name(take, config),
-        video_fps=ext.info.video.fps,
-        detect_s=ext.info.detect_seconds,
-        tracking=_tracking_json(ext.tracked.report),
-        preview=ext.preview,
-    )
+    ids = ext.tracked.ids
+    if config.build.people == "all":
+        tracks = [np.full(len(ext.multi), int(k), np.int64) for k in np.unique(ids[ids >= 0])]
+    else:
+        tracks = [ext.tracked.report.main_ids]
+    views = []
+    for track in tracks:
+        pose, report = repair_pose2d(gather(ext.multi, ids, track), config=config.repair)
+        valid = _coco17_mask(
+            validity(pose, visible_confidence=config.repair.visible_confidence), pose.skeleton
+        )
+        xy = to_coco17(pose.keypoints, pose.skeleton)[..., :2]
+        valid &= ~still_spiking(xy, valid, config.repair.max_spike)
+        views.append(
+            _View(
+                pose2d=pose,
+                valid=valid,
+                repaired=_coco17_mask(report.repaired, pose.skeleton),
+                repairs=report.counts(),
+                cuts=ext.shots.cuts,
+                speaker=track,
+                role=ext.tracked.role_of(track),
+                n_people=ext.multi.present.sum(axis=1),
+                change=ext.shots.change,
+                audio=ext.audio,
+                lift=_lift_frames(lifter, pose),
+                detector=ext.info.detector,
+                lifter=lifter_name(take, config),
+                video_fps=ext.info.video.fps,
+                detect_s=ext.info.detect_seconds,
+                tracking={
+                    **_tracking_json(ext.tracked.report),
+                    "mouth_seconds": ext.info.mouth_seconds,
+                    "people": people_summary(ext.multi, ext.tracked),
+                },
+                preview=ext.preview,
+            )
+        )
+    return views
+
+
+def people_summary(multi: MultiPose2D, tracked: Tracked) -> dict[str, dict[str, Any]]:
+    """Per track id: seconds seen, share of those facing the camera and seconds speaking, and
+    where in the image (median upper-body centre, shares of width and height) — what a
+    `<stem>.people.toml` names a person by."""
+    from gesturebank.extract.roles import SPEAKING
+    from gesturebank.extract.speech import frame_step
+
+    ids, step = tracked.ids, frame_step(multi.timestamps)
+    w, h = multi.image_size
+    out: dict[str, dict[str, Any]] = {}
+    for k in np.unique(ids[ids >= 0]):
+        mask = ids == k
+        seen = mask.any(axis=1)
+        xy = np.where(multi.keypoints[..., 2:3] > 0, multi.keypoints[..., :2], np.nan)[mask]
+        with warnings.catch_warnings():  # a person without a confident keypoint: NaN centre
+            warnings.simplefilter("ignore", RuntimeWarning)
+            centre = np.nanmedian(np.nanmean(xy, axis=1), axis=0)
+        entry: dict[str, Any] = {
+            "seen_s": round(float(seen.sum() * step), 2),
+            "at": [round(float(centre[0] / w), 3), round(float(centre[1] / h), 3)],
+        }
+        roles = tracked.roles
+        m = None if roles is None else roles.column(int(k))
+        if roles is not None and m is not None:
+            entry["facing"] = round(float(roles.facing[seen, m].mean()), 3)
+            entry["speaking_s"] = round(float((roles.role[:, m] == SPEAKING).sum() * step), 2)
+        out[str(int(k))] = entry
+    return out
+
+
+def _lift_frames(lifter: Any, pose: Pose2D) -> Callable[[int, int], Pose3D]:
+    """Frames [a, b) of `pose` lifted to 3D by the single-camera `lifter`."""
+    from gesturebank.lift import TakeViews
+
+    return lambda a, b: lifter.lift(TakeViews.of(pose.frames(a, b)))
 
 
 def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _View:
@@ -227,6 +287,7 @@ def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _V
         repairs=report3d.counts(),
         cuts=e.shots.cuts,
         speaker=e.tracked.report.main_ids,
+        role=e.tracked.role_of(e.tracked.report.main_ids),
         n_people=e.multi.present.sum(axis=1),
         change=e.shots.change,
         audio=audio,
@@ -288,6 +349,7 @@ def _mocap_view(take: Take, config: Config) -> _View:
         repairs={},
         cuts=np.zeros(0),
         speaker=np.zeros(t, dtype=np.int64),
+        role=np.zeros(t, dtype=np.int8),  # unknown: no video to see who speaks
         n_people=np.ones(t, dtype=np.int64),
         change=np.full(t, np.nan),  # no image: the still-picture check does not apply
         audio=audio._replace(start_s=0.0),
@@ -377,6 +439,8 @@ def _clip(
         n_people=view.n_people[a:b].astype(np.int16),
         change=np.asarray(view.change[a:b], dtype=np.float32),
         depth_confidence=lift_confidence(pose2d, pose3d, lifter=view.lifter),
+        person=int(view.speaker[a]),
+        role=role_at(view.role[a:b], ts, times),
     )
 
 
@@ -387,6 +451,24 @@ def lift_confidence(pose2d: Pose2D, pose3d: Pose3D, *, lifter: str) -> np.ndarra
         return np.ones(len(pose3d), np.float32)
     coco = pose2d.to_coco17().keypoints.astype(np.float64)
     return pose_confidence(xy=coco[..., :2], joints=pose3d.joints)
+
+
+NOBODY_SPEAKS = "nobody speaks: several people and no mouth follows the speech"
+
+
+def _why_dropped(span: Span, view: _View) -> str:
+    """A span's reason; "main speaker absent" where people were there but nobody was made the
+    speaker (dubbed speech over several people) says so."""
+    a, b = span.start, max(span.stop, span.start + 1)
+    nobody = (view.speaker[a:b] < 0).all() and view.n_people[a:b].max(initial=0) >= 2
+    return NOBODY_SPEAKS if span.reason == "main speaker absent" and nobody else span.reason
+
+
+def role_at(role: np.ndarray, timestamps: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """(N,) int8: the role of the video frame shown at each of `times` (the last one starting
+    at or before it; the first frame for times before it)."""
+    k = np.searchsorted(np.asarray(timestamps), np.asarray(times) + 1e-9, side="right") - 1
+    return np.asarray(role, np.int8)[np.clip(k, 0, len(role) - 1)]
 
 
 def take_activity(audio: Audio, timestamps: np.ndarray, config: Config) -> SpeechActivity:
@@ -430,26 +512,18 @@ def build_take(
     from gesturebank.extract.audio_features import features
 
     if take.mocap:
-        view = _mocap_view(take, config)
+        views = [_mocap_view(take, config)]
+    elif take.multi_camera:  # people are not matched across cameras: the main speaker only
+        views = [_multi_view(take, config, chunks)]
     else:
-        view = (_multi_view if take.multi_camera else _single_view)(take, config, chunks)
+        views = _single_views(take, config, chunks)
+    view = views[0]  # the audio, clock, detector and preview are the take's, the same in each
     profile = pepper.load_profile(config.robot.profile)
     feats = features(view.audio.signal, view.audio.sample_rate, config.audio)
     audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate
     audio_span = (float(view.audio.start_s), float(audio_end))
     ts = view.pose2d.timestamps
     activity = take_activity(view.audio, ts, config)
-    present = np.isfinite(view.pose2d.keypoints[..., 0]).any(axis=1)
-    cutting = cut_clips(
-        timestamps=ts,
-        cuts=view.cuts,
-        speaker=view.speaker,
-        present=present,
-        usable=usable_frames(view.valid),
-        audio_span=audio_span,
-        silences=silences(activity, max_silence_s=config.speech.max_silence_s).cut,
-        config=config.clips,
-    )
     trimmed = trimmed_share(ts, audio_span)  # judged on every clip (qc.max_trimmed_fraction)
     if trimmed > config.qc.max_trimmed_fraction:
         log.warning(
@@ -461,45 +535,66 @@ def build_take(
     measured = measure_digest(config)
     clips: list[Clip] = []
     rows: list[ClipRecord] = []
-    for k, span in enumerate(cutting.clips):
-        clip_id = f"{take.take_id}__c{k:03d}"
-        clip = _clip(view, span, clip_id, take.take_id, feats, activity, config, profile)
-        # trimmed_fraction: of the whole take, so each of its clips carries it
-        metrics = replace(
-            clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
+    n_spans = 0
+    present = np.zeros(len(ts), bool)
+    for person_view in views:
+        seen = np.isfinite(person_view.pose2d.keypoints[..., 0]).any(axis=1)
+        present |= seen
+        cutting = cut_clips(
+            timestamps=ts,
+            cuts=person_view.cuts,
+            speaker=person_view.speaker,
+            present=seen,
+            usable=usable_frames(person_view.valid),
+            audio_span=audio_span,
+            silences=silences(activity, max_silence_s=config.speech.max_silence_s).cut,
+            config=config.clips,
         )
-        reasons = absolute_reasons(metrics, config.qc)
-        clips.append(clip)
-        rows.append(
-            ClipRecord(
-                clip_id=clip.clip_id,
-                kind="clip",
-                start_s=clip.start_s,
-                end_s=clip.start_s + clip.duration_s,
-                qc_status="rejected" if reasons else "accepted",
-                qc_reasons=tuple(reasons),
-                duration_s=clip.duration_s,
-                n_frames=len(clip.times),
-                metrics=metrics.to_dict(),
-                repairs={
-                    "keypoints": int(clip.repaired.sum()),
-                    "frames": int(clip.repaired.any(axis=1).sum()),
-                },
-                masked={j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)},
-                measured=measured,
+        for span in cutting.clips:
+            clip_id = f"{take.take_id}__c{len(clips):03d}"
+            clip = _clip(person_view, span, clip_id, take.take_id, feats, activity, config, profile)
+            # trimmed_fraction: of the whole take, so each of its clips carries it
+            metrics = replace(
+                clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
             )
-        )
-    for k, span in enumerate(cutting.dropped):
-        rows.append(
-            ClipRecord(
-                f"{take.take_id}__s{k:03d}",
-                "span",
-                span.start_s,
-                span.end_s,
-                "rejected",
-                (span.reason,),
+            reasons = absolute_reasons(metrics, config.qc)
+            clips.append(clip)
+            rows.append(
+                ClipRecord(
+                    clip_id=clip.clip_id,
+                    kind="clip",
+                    start_s=clip.start_s,
+                    end_s=clip.start_s + clip.duration_s,
+                    qc_status="rejected" if reasons else "accepted",
+                    qc_reasons=tuple(reasons),
+                    duration_s=clip.duration_s,
+                    n_frames=len(clip.times),
+                    metrics=metrics.to_dict(),
+                    repairs={
+                        "keypoints": int(clip.repaired.sum()),
+                        "frames": int(clip.repaired.any(axis=1).sum()),
+                    },
+                    masked={
+                        j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)
+                    },
+                    measured=measured,
+                    person=clip.person,
+                    speaking_fraction=clip.speaking_fraction,
+                )
             )
-        )
+        for span in cutting.dropped:
+            rows.append(
+                ClipRecord(
+                    f"{take.take_id}__s{n_spans:03d}",
+                    "span",
+                    span.start_s,
+                    span.end_s,
+                    "rejected",
+                    (_why_dropped(span, person_view),),
+                    person=-1,
+                )
+            )
+            n_spans += 1
     rows.sort(key=lambda r: r.start_s)
     ends = frame_ends(ts)
     audio_stats = _audio_sums([c.audio for c in clips], feats.shape[1])
@@ -507,7 +602,7 @@ def build_take(
         take_id=take.take_id,
         subject=take.subject,
         source=source,
-        config_digest=config.digest(*CONTENT_SECTIONS),
+        config_digest=content_digest(config),
         detector=view.detector,
         lifter=view.lifter,
         video_fps=view.video_fps,
@@ -531,6 +626,16 @@ def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:
         "sum": stacked.sum(axis=0).tolist(),
         "sumsq": np.square(stacked).sum(axis=0).tolist(),
     }
+
+
+def content_digest(config: Config) -> str:
+    """What a take's content was built with: the CONTENT_SECTIONS, and build.people when it is
+    not the default (the one build key that changes what a take holds; so datasets built with
+    the default keep their digest)."""
+    digest = config.digest(*CONTENT_SECTIONS)
+    if config.build.people == "speaker":
+        return digest
+    return hashlib.sha256(f"{digest} people={config.build.people}".encode()).hexdigest()[:16]
 
 
 # Config sections that change what a take contains. The others only change how it is built

@@ -22,7 +22,7 @@ from gesturebank import __version__
 from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.card import read_takes_toml, write_card
-from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
+from gesturebank.datasets.pipeline import content_digest, measure_digest
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
 from gesturebank.qc.checks import verdicts
@@ -154,7 +154,7 @@ def refresh(
         tool_version=__version__,
         videos_dir=str(Path(videos_dir).resolve()),
         config=config,
-        config_digest=config.digest(*CONTENT_SECTIONS),
+        config_digest=content_digest(config),
         joints=list(pepper.JOINTS),
         limits=profile.as_dict(),
         robot_profile=profile.name,

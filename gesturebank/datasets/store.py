@@ -41,12 +41,15 @@ from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
-# 4: every clip holds `depth_confidence` (per video frame), the manifest `depth_confidence` and
-# `expected_hand_error_cm`; 3: every clip holds `speech` (100 Hz voice activity); 2: clips;
+# 4: every clip holds `depth_confidence` (per video frame), its person and role track (who
+# speaks when), the manifest `depth_confidence`, `expected_hand_error_cm`, `person` and
+# `speaking_fraction`; 3: every clip holds `speech` (100 Hz voice activity); 2: clips;
 # 1: one unit per video.
 SCHEMA_VERSION = 4
 # what this version holds, in the refusal
-SCHEMA_CONTENT = "clips with speech activity and depth confidence"
+SCHEMA_CONTENT = (
+    "clips with speech activity and depth confidence, each clip one person's with its role track"
+)
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
 TAKES_DIR = "takes"
@@ -84,6 +87,8 @@ MANIFEST_SCHEMA = pa.schema(
         # the clip's mean depth confidence and the hand error it predicts (its metrics' values)
         ("depth_confidence", pa.float64()),
         ("expected_hand_error_cm", pa.float64()),
+        ("person", pa.int32()),
+        ("speaking_fraction", pa.float64()),
     ]
 )
 
@@ -99,7 +104,9 @@ class ClipRecord:
     start_s, end_s: the span in the source video, seconds. duration_s: seconds of the clip's
     100 Hz clock (n_frames frames). repairs: what the repair changed (counts). masked: share of
     the clip's frames where each Pepper joint is unknown. measured: digest of the QC settings the
-    metrics were measured with (so `refresh` knows when to measure again).
+    metrics were measured with (so `refresh` knows when to measure again). person: the
+    tracked person's id within the take (-1: a span, nobody's); speaking_fraction: share of
+    the clip's frames in which that person speaks (role "speaking"; 0 for a span).
     """
 
     clip_id: str
@@ -114,8 +121,17 @@ class ClipRecord:
     repairs: Mapping[str, int] = field(default_factory=dict)
     masked: Mapping[str, float] = field(default_factory=dict)
     measured: str = ""
+    person: int = 0
+    speaking_fraction: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.person < (0 if self.kind == "clip" else -1):
+            raise ValueError(f"clip {self.clip_id}: person must be >= 0, got {self.person}")
+        if not 0.0 <= self.speaking_fraction <= 1.0:
+            raise ValueError(
+                f"clip {self.clip_id}: speaking_fraction must be in [0, 1], "
+                f"got {self.speaking_fraction}"
+            )
         if self.qc_status not in STATUSES:
             raise ValueError(f"qc_status must be one of {STATUSES}, got {self.qc_status!r}")
         if self.kind not in ("clip", "span"):
@@ -135,6 +151,8 @@ class ClipRecord:
             "repairs": {k: int(v) for k, v in self.repairs.items()},
             "masked": {k: float(v) for k, v in self.masked.items()},
             "measured": self.measured,
+            "person": int(self.person),
+            "speaking_fraction": float(self.speaking_fraction),
         }
 
     @classmethod
@@ -152,6 +170,8 @@ class ClipRecord:
             repairs=dict(d.get("repairs", {})),
             masked=dict(d.get("masked", {})),
             measured=str(d.get("measured", "")),
+            person=int(d["person"] if d.get("person") is not None else 0),
+            speaking_fraction=float(d.get("speaking_fraction") or 0.0),
         )
 
 
@@ -466,7 +486,9 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
         "traits": list(record.traits.items()),
     }
     if record.failed:
-        failed = ClipRecord(record.take_id, "span", 0.0, record.seconds, "failed", (record.failed,))
+        failed = ClipRecord(
+            record.take_id, "span", 0.0, record.seconds, "failed", (record.failed,), person=-1
+        )
         clips: Sequence[ClipRecord] = (failed,)
     else:
         clips = record.clips
@@ -478,6 +500,7 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
                 **base,
                 **{k: d[k] for k in ("clip_id", "kind", "start_s", "end_s", "qc_status")},
                 **{k: d[k] for k in ("qc_reasons", "duration_s", "n_frames")},
+                **{k: d[k] for k in ("person", "speaking_fraction")},
                 "metrics": list(d["metrics"].items()),
                 "repairs": list(d["repairs"].items()),
                 "masked": list(d["masked"].items()),

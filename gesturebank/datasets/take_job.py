@@ -14,7 +14,8 @@ from typing import Literal
 
 from gesturebank.config import Config, VideoConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.pipeline import CONTENT_SECTIONS, lifter_name
+from gesturebank.datasets.pipeline import content_digest as pipeline_digest
+from gesturebank.datasets.pipeline import lifter_name
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError
 from gesturebank.extract.cache import DetectionCache
@@ -114,7 +115,7 @@ class Schedule:
 
 
 def content_digest(config: Config) -> str:
-    return config.digest(*CONTENT_SECTIONS)
+    return pipeline_digest(config)
 
 
 def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:

@@ -33,7 +33,7 @@ from gesturebank.extract.detectors import (
 )
 from gesturebank.extract.frame_watch import watcher
 from gesturebank.extract.shots import ShotDetector, Shots
-from gesturebank.extract.tracking import Tracked, main_speaker
+from gesturebank.extract.tracking import Tracked, main_speaker, track_ids
 from gesturebank.extract.video import (
     VideoInfo,
     first_frame_time,
@@ -57,7 +57,8 @@ class ExtractionInfo:
 
     n_frames: frames analysed; person_fraction: frames where anybody was found; main_fraction:
     frames where the main speaker was; cache_hit: None when the detector is not cached;
-    audio_source: file the audio came from (None = no audio track).
+    audio_source: file the audio came from (None = no audio track); mouth_seconds: time spent
+    measuring mouths (`extract.roles`).
     """
 
     video: VideoInfo
@@ -68,6 +69,7 @@ class ExtractionInfo:
     cache_hit: bool | None
     audio_source: str | None
     detect_seconds: float
+    mouth_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -283,6 +285,45 @@ def _audio(path: Path, sample_rate: int) -> tuple[Audio | None, str | None]:
     return audio, (None if audio is None else str(source))
 
 
+def _who_speaks(
+    path: Path, multi: MultiPose2D, shots: Shots, audio: Audio | None, config: Config
+) -> tuple[Tracked, float]:
+    """The main speaker per shot, with everybody's roles when speech.mouths is on (a second,
+    cheaper decode at speech.mouth_rate_hz), or the person a `<stem>.people.toml` names; and
+    the seconds the mouths took."""
+    from gesturebank.extract.people_file import chosen_track, read_people_file
+    from gesturebank.extract.roles import measure_roles
+
+    ids = track_ids(multi, config.tracking, cuts=shots.cuts)
+    spec = read_people_file(path)
+    keep = None if spec is None else chosen_track(spec, multi=multi, ids=ids)
+    roles, mouth_s = None, 0.0
+    if config.speech.mouths and (ids >= 0).any():
+        t0 = time.perf_counter()
+        roles = measure_roles(
+            video=path,
+            multi=multi,
+            ids=ids,
+            audio=audio,
+            video_config=config.video,
+            config=config.speech,
+            threads=config.build.decode_threads,
+        )
+        mouth_s = time.perf_counter() - t0
+    tracked = main_speaker(
+        multi,
+        config.tracking,
+        cuts=shots.cuts,
+        audio=audio,
+        source=str(path),
+        ids=ids,
+        roles=roles,
+        speech=config.speech,
+        keep=keep,
+    )
+    return tracked, mouth_s
+
+
 def extract_take(
     video_path: str | os.PathLike[str],
     config: Config | None = None,
@@ -318,7 +359,7 @@ def extract_take(
     if anybody == 0:
         raise DetectionError(f"{path}: no person detected in any of {len(multi)} frames")
     audio, source = _audio(path, config.audio.sample_rate) if with_audio else (None, None)
-    tracked = main_speaker(multi, config.tracking, cuts=shots.cuts, audio=audio, source=str(path))
+    tracked, mouth_s = _who_speaks(path, multi, shots, audio, config)
     if tracked.report.main_switches:
         log.warning("%s: %d identity switches", path, len(tracked.report.main_switches))
     present = np.isfinite(tracked.pose.keypoints[..., 0]).any(axis=1)
@@ -331,5 +372,6 @@ def extract_take(
         cache_hit=found.cache_hit,
         audio_source=source,
         detect_seconds=detect_s,
+        mouth_seconds=mouth_s,
     )
     return Extraction(multi, shots, tracked, audio, summary, tuple(preview))

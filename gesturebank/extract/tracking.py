@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gesturebank.config import TrackingConfig
+from gesturebank.config import SpeechConfig, TrackingConfig
 from gesturebank.errors import DetectionError
 from gesturebank.extract.identity import (
     Switch,
@@ -52,6 +52,7 @@ from gesturebank.extract.identity import (
     shot_index,
     split_at_cuts,
 )
+from gesturebank.extract.roles import SPEAKING, UNKNOWN, Roles
 from gesturebank.extract.speech import (
     SILENCE_RMS,
     frame_step,
@@ -177,11 +178,20 @@ class TrackReport:
 @dataclass(frozen=True)
 class Tracked:
     """The main speaker's Pose2D (NaN where there is none), the (T, P) track id of every slot
-    (-1 = empty), the report."""
+    (-1 = empty), the report; with mouths measured, everybody's `roles` (UNKNOWN throughout a
+    shot in which nobody's mouth follows the speech: who speaks there is not known)."""
 
     pose: Pose2D
     ids: np.ndarray
     report: TrackReport
+    roles: Roles | None = None
+
+    def role_of(self, track: np.ndarray) -> np.ndarray:
+        """(T,) role code of the track given per frame (`report.main_ids` for the main
+        speaker's); UNKNOWN without roles."""
+        if self.roles is None:
+            return np.full(len(track), UNKNOWN, np.int8)
+        return self.roles.of(np.asarray(track))
 
 
 # ------------------------------------------------------------------------------- the choice
@@ -345,6 +355,123 @@ def _segment(
     return Choice(scene.time_at(start), scene.time_at(end), shot, reason, main, runner, scores)
 
 
+# A candidate seen facing the camera in at least this share of its frames faces it (Sports2D
+# demo: the man on the box 49 %, the woman walking past 3 %; Pose2Sim cam02: 60 % and 0 %).
+FACING_SHARE = 0.25
+
+
+def _runs(label: np.ndarray) -> list[tuple[int, int, int]]:
+    """(start, stop, value) of the runs of equal values of `label`."""
+    edges = np.flatnonzero(np.diff(label)) + 1
+    starts = np.r_[0, edges]
+    stops = np.r_[edges, len(label)]
+    return [(int(a), int(b), int(label[a])) for a, b in zip(starts, stops, strict=True)]
+
+
+def turns(
+    *, speaking: np.ndarray, rank: np.ndarray, timestamps: np.ndarray, min_turn_s: float
+) -> np.ndarray:
+    """(n,) column of the speaker at each frame of one shot, from `speaking (n, S)` (who
+    speaks at each frame) and `rank (S,)` (lower first, for frames where several speak).
+
+    A speaker takes the floor where they start speaking in at least half the frames of the
+    `min_turn_s` from there (a shorter turn, or a blip of a listener's mouth, changes nothing)
+    and keeps it through pauses until another takes it; the first one has it from the shot's
+    start. -1 when nobody speaks."""
+    n = len(speaking)
+    raw = np.full(n, -1, np.int64)
+    for c in np.argsort(rank, kind="stable")[::-1]:  # the best-ranked speaker written last wins
+        raw[speaking[:, c]] = c
+    label = np.full(n, -1, np.int64)
+    if not (raw >= 0).any():
+        return label
+    horizon = np.searchsorted(timestamps, timestamps + min_turn_s, side="left")
+    counts = np.vstack([np.zeros((1, speaking.shape[1]), np.int64), np.cumsum(speaking, 0)])
+    current = -1
+    for i in range(n):
+        c = int(raw[i])
+        if c >= 0 and c != current:
+            end = max(int(horizon[i]), i + 1)
+            if 2 * (counts[end, c] - counts[i, c]) >= end - i:
+                current = c
+        label[i] = current
+    if not (label >= 0).any():  # nobody speaks long at a stretch: the first who speaks
+        return np.full(n, raw[np.flatnonzero(raw >= 0)[0]], np.int64)
+    label[label < 0] = label[np.flatnonzero(label >= 0)[0]]  # the floor from the shot's start
+    return label
+
+
+def _by_roles(
+    scene: _Scene,
+    roles: Roles,
+    start: int,
+    stop: int,
+    *,
+    shot: int,
+    speech: SpeechConfig | None,
+) -> tuple[list[tuple[int, int, Choice]], bool]:
+    """The segments of one shot chosen by who speaks, and whether anybody's mouth followed
+    the speech there.
+
+    A track speaks in the shot when its role is "speaking" for at least min_speaking_s; then
+    the speaker at each frame is whoever of those speaks (ties: the best total score), held
+    through pauses (`turns`). Nobody speaks: alone, the one candidate is chosen as before;
+    among several, the one candidate seen facing the camera (FACING_SHARE of its frames), and
+    with none or several of them nobody (main_id -1, reason "nobody")."""
+    min_s = (speech or SpeechConfig()).min_speaking_s
+    ts = scene.ts[start:stop]
+    step = frame_step(scene.ts)
+    scores = scene.scores(start, stop)
+    role = roles.role[start:stop]
+    spoken = {
+        int(k): float((role[:, m] == SPEAKING).sum()) * step
+        for m, k in enumerate(roles.track_ids)
+        if int(k) in scores
+    }
+    speakers = [k for k, sec in spoken.items() if sec >= max(min_s, step)]
+    if speakers:
+        cols = [roles.column(k) for k in speakers]
+        speaking = np.stack([role[:, c] == SPEAKING for c in cols], axis=1)
+        rank = np.array([-scores[k]["total"] for k in speakers])
+        label = turns(speaking=speaking, rank=rank, timestamps=ts, min_turn_s=min_s)
+        out = []
+        for a, b, c in _runs(label):
+            main = speakers[c] if c >= 0 else -1
+            others = sorted((k for k in speakers if k != main), key=lambda k: -scores[k]["total"])
+            runner = others[0] if others else None
+            out.append(
+                (
+                    start + a,
+                    start + b,
+                    _segment(scene, start + a, start + b, shot, "speaks", main, runner, scores),
+                )
+            )
+        return out, True
+    cands = _candidates(scores)
+    if len(cands) <= 1:
+        return _choose(scene, start, stop, shot=shot, reason="shot", exclude=frozenset()), False
+    facing = []
+    for k in cands:
+        m = roles.column(k)
+        seen = (scene.ids[start:stop] == k).any(axis=1)
+        if (
+            m is not None
+            and seen.any()
+            and roles.facing[start:stop][seen, m].mean() >= FACING_SHARE
+        ):
+            facing.append(k)
+    if len(facing) == 1:
+        rest = frozenset(int(k) for k in np.unique(scene.ids[start:stop]) if k >= 0) - {facing[0]}
+        return _choose(scene, start, stop, shot=shot, reason="shot", exclude=rest), False
+    return [(start, stop, _segment(scene, start, stop, shot, "nobody", -1, None, cands))], False
+
+
+def track_ids(multi: MultiPose2D, config: TrackingConfig, *, cuts: np.ndarray | None) -> np.ndarray:
+    """(T, P) track id of every slot (-1 = empty), one set of ids per shot: what
+    `main_speaker` chooses among (give it back as its `ids`)."""
+    return _identities(multi, config, shot_index(timestamps=multi.timestamps, cuts=cuts))
+
+
 def _identities(multi: MultiPose2D, config: TrackingConfig, shot: np.ndarray) -> np.ndarray:
     """(T, P) ids, one set per shot: the detector's, else `link` run on each shot alone."""
     present = multi.present
@@ -366,17 +493,24 @@ def main_speaker(
     cuts: np.ndarray | None = None,
     audio: Audio | None = None,
     source: str = "take",
+    ids: np.ndarray | None = None,
+    roles: Roles | None = None,
+    speech: SpeechConfig | None = None,
+    keep: int | None = None,
 ) -> Tracked:
     """One main speaker per shot (module docstring): their Pose2D over the take, ids, report.
 
     multi: everybody, (T, P, K, 3), with `ids` when the detector tracks people; cuts: (S,)
     seconds, the first frame of each new shot (None: one shot); audio: the take's audio for the
-    speech term (None: speech term 0). Raises DetectionError (naming `source`) when nobody is
-    found in any frame.
+    speech term (None: speech term 0). ids: `track_ids(multi, config, cuts=cuts)` when already
+    made. roles: everybody's roles (`extract.roles`) on those ids: then the main speaker is the
+    one who speaks (`_by_roles`, with speech.min_speaking_s). keep: a track id named by the
+    user (`extract.people_file`): the main speaker wherever seen. Raises DetectionError (naming
+    `source`) when nobody is found in any frame.
     """
     config = config or TrackingConfig()
     shot = shot_index(timestamps=multi.timestamps, cuts=cuts)
-    ids = _identities(multi, config, shot)
+    ids = _identities(multi, config, shot) if ids is None else ids
     if not (ids >= 0).any():
         raise DetectionError(f"{source}: no person detected in any of {len(multi)} frames")
     envelope = None
@@ -389,11 +523,20 @@ def main_speaker(
     segments: list[tuple[int, int, Choice]] = []
     scores: dict[int, float] = {}
     switches: list[Switch] = []
+    role = None if roles is None else roles.role.copy()
     for s in np.unique(shot):
         frames = np.flatnonzero(shot == s)
         a, b = int(frames[0]), int(frames[-1]) + 1
         scores.update({k: v["total"] for k, v in scene.scores(a, b).items()})
-        segments += _choose(scene, a, b, shot=int(s), reason="shot", exclude=frozenset())
+        if keep is not None:
+            segments.append((a, b, _segment(scene, a, b, int(s), "named", keep, None, {})))
+        elif roles is not None:
+            shot_segments, spoke = _by_roles(scene, roles, a, b, shot=int(s), speech=speech)
+            segments += shot_segments
+            if not spoke and role is not None:  # who speaks here is not known
+                role[a:b] = UNKNOWN
+        else:
+            segments += _choose(scene, a, b, shot=int(s), reason="shot", exclude=frozenset())
         switches += find_switches(multi.timestamps[a:b], ids[a:b], config.switch_window_s)
 
     main_ids = np.full(len(multi), -1, np.int64)
@@ -401,7 +544,11 @@ def main_speaker(
         main_ids[a:b] = choice.main_id
     pose = gather(multi, ids, main_ids)
     spoken = [c for _, _, c in segments if c.main_id >= 0]
-    longest = max(spoken, key=lambda c: c.end_s - c.start_s)
+    longest = (
+        max(spoken, key=lambda c: c.end_s - c.start_s)
+        if spoken
+        else Choice(0.0, 0.0, 0, "nobody", -1, None)
+    )
     report = TrackReport(
         main_ids=main_ids,
         n_people=(ids >= 0).sum(axis=1).astype(np.int64),
@@ -412,4 +559,5 @@ def main_speaker(
         main_id=longest.main_id,
         main_coverage=float(np.isfinite(pose.keypoints[..., 0]).any(axis=1).mean()),
     )
-    return Tracked(pose, ids, report)
+    out_roles = None if roles is None or role is None else roles.with_role(role)
+    return Tracked(pose, ids, report, out_roles)

@@ -161,6 +161,8 @@
   }
 
   // ---------------------------------------------------------------- take page
+  var ROLE_COLOUR = {speaking: '#2e7d32', listening: '#90caf9', unknown: '#e0e0e0'};
+
   function timeline() {
     var T = D.timeline, w = 1100, left = 70, sx = linear(T.t0, T.t1, left, w - 20);
     var s = '', y = 8;
@@ -196,6 +198,15 @@
       });
       y += 20;
     }
+    (T.people || []).forEach(function (lane) {  // who speaks when, per person
+      s += text(4, y + 12, 'person ' + lane.person);
+      lane.runs.forEach(function (r) {
+        s += tag('rect', span(sx, [r[0], r[1]], y, 14, {'class': 'role ' + r[2],
+                 fill: ROLE_COLOUR[r[2]]}), tip(r[0] + '–' + r[1] + ' s: person ' +
+                 lane.person + ' ' + r[2]));
+      });
+      y += 20;
+    });
     s += text(4, y + 15, 'clips');
     T.segments.forEach(function (g) {
       var why = g.reasons.length ? ': ' + g.reasons.join('; ') : '';

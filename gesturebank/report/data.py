@@ -18,7 +18,7 @@ from urllib.parse import quote
 
 import numpy as np
 
-from gesturebank.clip import Clip
+from gesturebank.clip import ROLES, Clip
 from gesturebank.datasets import store
 from gesturebank.datasets.cut import frame_ends
 from gesturebank.errors import InputError
@@ -279,6 +279,31 @@ def speech_runs(clip: Clip) -> list[list[float]]:
     ]
 
 
+def role_runs(clip: Clip) -> list[list[Any]]:
+    """[t0, t1, role name] in source seconds of each run of one role in `clip.role`."""
+    role = np.asarray(clip.role, dtype=np.int8)
+    if not len(role):
+        return []
+    hop = float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 0.01
+    t = clip.start_s + np.asarray(clip.times, dtype=np.float64)
+    starts = np.r_[0, np.flatnonzero(np.diff(role)) + 1]
+    stops = np.r_[starts[1:], len(role)]
+    return [
+        [round(float(t[a]), 3), round(float(t[b - 1] + hop), 3), ROLES[int(role[a])]]
+        for a, b in zip(starts, stops, strict=True)
+    ]
+
+
+def _people(record: store.TakeRecord, clips: Mapping[str, Clip | str]) -> list[dict[str, Any]]:
+    """One lane per person with loaded clips: their id and the runs of their roles."""
+    lanes: dict[int, list[list[Any]]] = {}
+    for c in record.data_clips:
+        clip = clips[c.clip_id]
+        if isinstance(clip, Clip):
+            lanes.setdefault(int(clip.person), []).extend(role_runs(clip))
+    return [{"person": k, "runs": runs} for k, runs in sorted(lanes.items())]
+
+
 def _speech(record: store.TakeRecord, clips: Mapping[str, Clip | str]) -> dict[str, Any]:
     """Where speech was heard (runs, source seconds) within the clips that were loaded
     (`heard`), and the spans it was measured over (`measured`: those clips)."""
@@ -431,6 +456,7 @@ def take_data(
             "speakers": _speakers(choices),
             "speech": _speech(record, clips),
             "depth": _depth(record, clips),
+            "people": _people(record, clips),
             "preview": [round(t, 3) for t in record.preview_times],
         },
         "preview": _preview(out, record, clips),

@@ -53,7 +53,7 @@ def _filmed(
         change=np.full(n, 1.0, np.float32),
         speech=np.ones(len(angles["times"]), bool),  # a speaker heard throughout
         depth_confidence=np.ones(n, np.float32),  # the joints are exact: nothing to doubt
-        **angles,
+        **angles,  # type: ignore[arg-type]
     )
 
 

@@ -58,7 +58,7 @@ _VIDEO_RATE = (
     "change",
     "depth_confidence",
 )
-_CLOCK_RATE = ("angles", "angles01", "mask", "audio", "times", "speech")
+_CLOCK_RATE = ("angles", "angles01", "mask", "audio", "times", "speech", "role")
 
 
 def window(clip: Clip, t0: float, t1: float) -> Clip:

@@ -119,6 +119,8 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     assert (manifest["depth_confidence"] == 1.0).all()
     assert manifest["expected_hand_error_cm"].isna().all()
     assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
+    assert manifest["person"].dtype == np.int32 and (manifest["person"] >= 0).all()
+    assert manifest["speaking_fraction"].between(0, 1).all()
     for row in manifest.itertuples():
         path = out / "takes" / row.take_id / f"{row.clip_id}.npz"
         with np.load(path, allow_pickle=False) as d:
@@ -128,6 +130,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
             assert d["mask"].dtype == bool
             assert d["depth_confidence"].shape == d["timestamps"].shape
             assert d["depth_confidence"].dtype == np.float32
+            assert d["role"].shape == (row.n_frames,) and d["role"].dtype == np.int8
     assert set(info["takes"]) == {"s1_a", "s2_b"}
     assert info["takes"]["s1_a"]["clips"] == 2
 
@@ -240,10 +243,7 @@ def test_a_schema_3_dataset_is_refused_with_one_rebuild_line(tmp_path: Path) -> 
         gesturebank.datasets.open(out)
     message = str(exc.value)
     assert "\n" not in message
-    assert (
-        "schema_version 3, this gesturebank reads 4 (clips with speech activity and depth "
-        "confidence)" in message
-    )
+    assert f"schema_version 3, this gesturebank reads 4 ({store.SCHEMA_CONTENT})" in message
     assert f"rebuild it with build-dataset VIDEOS_DIR {out} --force" in message
 
 

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 import pytest
 
-from gesturebank.clip import Clip
+from gesturebank.clip import ROLES, Clip
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.build import BuildSummary
@@ -23,7 +23,7 @@ from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.report import dashboard_after_build, write_dashboard
-from gesturebank.report.data import reason_kind
+from gesturebank.report.data import reason_kind, role_runs
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.skeletons import COCO17, COCO17_BONES
 from gesturebank.testing.browser import CHROMIUM, Browser, Tab
@@ -607,3 +607,19 @@ def test_depth_lane_is_drawn_in_chromium(dataset: Path, browser: Browser) -> Non
     assert "depth confidence" in shown
     tab.close()
     assert _problems(browser.events, page) == []
+
+
+def test_role_runs_are_the_person_lane_of_the_timeline(dataset: Path) -> None:
+    """One lane per person: the runs of their roles in source seconds; the fixture's clips
+    know no roles (one unknown run per clip, person 0)."""
+    people = _data(_page(dataset, "s1_clean"))["timeline"]["people"]
+    assert [lane["person"] for lane in people] == [0]
+    assert {run[2] for run in people[0]["runs"]} == {"unknown"}
+    clip = synthetic_clip(seconds=2.0)
+    n = len(clip.times)
+    role = np.zeros(n, np.int8)
+    role[n // 2 :] = ROLES.index("speaking")
+    runs = role_runs(replace(clip, role=role, start_s=10.0))
+    assert [r[2] for r in runs] == ["unknown", "speaking"]
+    assert runs[0][0] == pytest.approx(10.0) and runs[0][1] == pytest.approx(runs[1][0])
+    assert runs[1][1] == pytest.approx(10.0 + clip.duration_s, abs=0.011)
