@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gesturebank.clip import Clip
-from gesturebank.config import Config
+from gesturebank.clip import Clip, kept_parts, part_mask, parts_label, parts_of
+from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
@@ -30,6 +30,7 @@ from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
 from gesturebank.extract.vad import RATE_HZ, SpeechActivity, silences, speech_activity
+from gesturebank.filters import butter_lowpass, interpolate_at
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.checks import absolute_reasons
 from gesturebank.qc.metrics import clip_metrics, measure_settings, spike_sizes
@@ -333,7 +334,7 @@ def _clip(
     profile: pepper.RobotProfile,
 ) -> Clip:
     """The arrays of frames [span.start, span.stop) on the clip's own clock."""
-    from gesturebank.robot.retarget import angle_support, pepper_angles
+    from gesturebank.robot.retarget import angle_support, head_roll, pepper_angles
 
     a, b = span.start, span.stop
     ts = view.pose2d.timestamps[a:b]
@@ -346,7 +347,8 @@ def _clip(
         pose3d.joints, view.valid[a:b], config.repair.max_spike
     )
     raw = pepper_angles(pose3d, config=config.retarget)
-    raw[~angle_support(valid)] = np.nan
+    support = angle_support(valid)
+    raw[~support] = np.nan
     processed = process_angles(
         raw=raw,
         timestamps=ts,
@@ -355,14 +357,25 @@ def _clip(
         retarget=config.retarget,
         profile=profile,
     )
+    # Each body part judged on its own (issue 32): one seen too little is masked whole.
+    parts = kept_parts(
+        processed.mask, max_part_unseen_fraction=config.clips.max_part_unseen_fraction
+    )
+    keep = part_mask(parts)
+    mask = processed.mask & keep
+    roll = head_roll(pose3d)
+    roll[~support[:, pepper.INDEX["HeadPitch"]]] = np.nan
+    known = mask[:, pepper.INDEX["HeadPitch"]]
+    clock = {"timestamps": ts, "clock": times, "known": known}
+    roll100 = head_roll_at(roll, **clock, processing=config.processing)
     start_s = float(times[0])
     return Clip(
         clip_id=clip_id,
         take_id=take_id,
         start_s=start_s,
-        angles=processed.angles,
-        angles01=processed.angles01,
-        mask=processed.mask,
+        angles=np.where(keep, processed.angles, np.nan).astype(np.float32),
+        angles01=np.where(keep, processed.angles01, np.nan).astype(np.float32),
+        mask=mask,
         audio=feats[i0 : i1 + 1],
         times=times - start_s,
         speech=speech_at(activity, times),
@@ -374,7 +387,26 @@ def _clip(
         repaired=view.repaired[a:b],
         n_people=view.n_people[a:b].astype(np.int16),
         change=np.asarray(view.change[a:b], dtype=np.float32),
+        head_roll=roll100,
     )
+
+
+def head_roll_at(
+    roll: np.ndarray,
+    *,
+    timestamps: np.ndarray,
+    clock: np.ndarray,
+    known: np.ndarray,
+    processing: ProcessingConfig,
+) -> np.ndarray:
+    """`roll (T,)` rad at the video's `timestamps` → `(N,)` float32 on the 100 Hz `clock`, as
+    the head's angles are processed (short gaps interpolated, the same low-pass; no robot
+    limits: Pepper has no roll joint), NaN where the head is not `known (N,)`."""
+    values, _ = interpolate_at(roll[:, None], timestamps, clock, max_gap_s=processing.max_gap_s)
+    smooth = butter_lowpass(
+        values, processing.rate_hz, cutoff_hz=processing.cutoff_hz, order=processing.butter_order
+    )[:, 0]
+    return np.where(known, smooth, np.nan).astype(np.float32)
 
 
 def take_activity(audio: Audio, timestamps: np.ndarray, config: Config) -> SpeechActivity:
@@ -474,6 +506,7 @@ def build_take(
                     "frames": int(clip.repaired.any(axis=1).sum()),
                 },
                 masked={j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)},
+                parts=parts_label(parts_of(clip.mask)),
                 measured=measured,
             )
         )

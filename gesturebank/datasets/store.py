@@ -1,4 +1,4 @@
-"""The dataset on disk (docs/architecture.md "The dataset on disk"), schema 2: clips, written take
+"""The dataset on disk (docs/architecture.md "The dataset on disk"), schema 4: clips, written take
 by take.
 
     out/dataset.json              `DatasetInfo`: schema version, tool version, resolved config,
@@ -35,14 +35,16 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from gesturebank.clip import Clip
+from gesturebank.clip import Clip, parse_parts, parts_label, parts_of
 from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
-# 3: every clip holds `speech` (100 Hz voice activity); 2: clips; 1: one unit per video.
-SCHEMA_VERSION = 3
+# 4: clips judged by body part (`parts` column, `head_roll` array); 3: every clip holds `speech`
+# (100 Hz voice activity); 2: clips; 1: one unit per video.
+SCHEMA_VERSION = 4
 SCHEMA_CONTENT = "clips with speech activity"  # what this version holds, in the refusal
+SCHEMA_CONTENT += ", body parts and head roll"
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
 TAKES_DIR = "takes"
@@ -75,6 +77,7 @@ MANIFEST_SCHEMA = pa.schema(
         ("masked", pa.map_(pa.string(), pa.float64())),
         ("config_digest", pa.string()),
         ("traits", pa.map_(pa.string(), pa.string())),
+        ("parts", pa.string()),
     ]
 )
 
@@ -90,7 +93,8 @@ class ClipRecord:
     start_s, end_s: the span in the source video, seconds. duration_s: seconds of the clip's
     100 Hz clock (n_frames frames). repairs: what the repair changed (counts). masked: share of
     the clip's frames where each Pepper joint is unknown. measured: digest of the QC settings the
-    metrics were measured with (so `refresh` knows when to measure again).
+    metrics were measured with (so `refresh` knows when to measure again). parts: the body parts
+    the clip has (`clip.PART_LABELS`: "head", "arms", "head+left_arm", ...; "" for a span).
     """
 
     clip_id: str
@@ -105,6 +109,7 @@ class ClipRecord:
     repairs: Mapping[str, int] = field(default_factory=dict)
     masked: Mapping[str, float] = field(default_factory=dict)
     measured: str = ""
+    parts: str = ""
 
     def __post_init__(self) -> None:
         if self.qc_status not in STATUSES:
@@ -126,6 +131,7 @@ class ClipRecord:
             "repairs": {k: int(v) for k, v in self.repairs.items()},
             "masked": {k: float(v) for k, v in self.masked.items()},
             "measured": self.measured,
+            "parts": self.parts,
         }
 
     @classmethod
@@ -143,6 +149,7 @@ class ClipRecord:
             repairs=dict(d.get("repairs", {})),
             masked=dict(d.get("masked", {})),
             measured=str(d.get("measured", "")),
+            parts=str(d.get("parts") or ""),
         )
 
 
@@ -367,6 +374,11 @@ def write_take(
     wanted = {c.clip_id for c in record.data_clips}
     if {c.clip_id for c in clips} != wanted:
         raise ValueError(f"{record.take_id}: the record's clips and the arrays differ")
+    records = {c.clip_id: c for c in record.data_clips}
+    for clip in clips:  # the invariant, where it is written: the manifest's parts are the mask's
+        has, said = parts_label(parts_of(clip.mask)), records[clip.clip_id].parts
+        if said != has:
+            raise ValueError(f"{clip.clip_id}: recorded parts {said!r}, its mask has {has!r}")
     tmp = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{record.take_id}.", suffix=".tmp"))
     os.chmod(tmp, permissions(folder=True))
     try:
@@ -472,6 +484,7 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
                 "metrics": list(d["metrics"].items()),
                 "repairs": list(d["repairs"].items()),
                 "masked": list(d["masked"].items()),
+                "parts": d["parts"],
             }
         )
     return rows
@@ -550,8 +563,10 @@ def _manifest_rows(table: pa.Table, info: DatasetInfo) -> list[ManifestRow]:
 class Dataset:
     """A built dataset folder, read lazily: a clip's arrays are loaded when asked for."""
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
+    def __init__(self, path: str | os.PathLike[str], *, require: str | None = None) -> None:
         self.path = Path(path)
+        # body parts every clip listed must have (`clips`); none required by default
+        self.require: frozenset[str] = parse_parts(require) if require else frozenset()
         self.info: DatasetInfo = read_dataset_json(self.path)
         try:
             self.manifest: pa.Table = pq.read_table(self.path / MANIFEST)
@@ -570,16 +585,25 @@ class Dataset:
         """Every manifest row (clips and spans), each a clip record with its take's."""
         return list(self._rows)
 
-    def clips(self, status: Status | None = "accepted") -> list[ManifestRow]:
-        """Manifest rows of the clips with arrays with this QC status (any when None)."""
+    def clips(
+        self, status: Status | None = "accepted", *, require: str | None = None
+    ) -> list[ManifestRow]:
+        """Manifest rows of the clips with arrays with this QC status (any when None) that have
+        every body part `require` names (e.g. "head", "arms"; None: the dataset's own `require`,
+        set by `open`)."""
+        need = self.require if require is None else parse_parts(require)
         return [
             r
             for r in self._rows
-            if r.clip.kind == "clip" and (status is None or r.clip.qc_status == status)
+            if r.clip.kind == "clip"
+            and (status is None or r.clip.qc_status == status)
+            and need <= parse_parts(r.clip.parts or "none")
         ]
 
-    def clip_ids(self, status: Status | None = "accepted") -> list[str]:
-        return [r.clip.clip_id for r in self.clips(status)]
+    def clip_ids(
+        self, status: Status | None = "accepted", *, require: str | None = None
+    ) -> list[str]:
+        return [r.clip.clip_id for r in self.clips(status, require=require)]
 
     def load_arrays(self, clip_id: str) -> dict[str, np.ndarray]:
         """All arrays of one clip as plain numpy (never unpickled)."""

@@ -24,13 +24,14 @@ Both are sums over the 11 joints (as Fig. 4.7); per-joint values are `jerk_raw/<
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from gesturebank.clip import Clip
+from gesturebank.clip import Clip, part_columns
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
@@ -451,6 +452,11 @@ def reach_metrics(
     )
 
 
+def _part_unknown(known: np.ndarray, part: str) -> float:
+    """Share of the 100 Hz clock in which no angle of `part` is known (NaN for no frames)."""
+    return float(np.mean(~known[:, part_columns(part)].any(axis=1))) if len(known) else math.nan
+
+
 def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetrics:
     """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure;
     `ClipMetrics` says what each is). trimmed_fraction, of the whole take, is left to the build.
@@ -511,6 +517,8 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         jerk_per_joint=tuple(float(j) for j in j_proc),
         head_unknown_fraction=float(np.mean(~head)) if len(known) else nan,
         arms_unknown_fraction=float(np.mean(~arms)) if len(known) else nan,
+        left_arm_unknown_fraction=_part_unknown(known, "left_arm"),
+        right_arm_unknown_fraction=_part_unknown(known, "right_arm"),
         torso_gap_s=longest_run_s(~torso, clip.timestamps),
         bone_cv_max=float(np.nanmax(cv)) if np.isfinite(cv).any() else nan,
         swap_events=float(max(swap_events(p) for p in shapes)),
