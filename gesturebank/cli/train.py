@@ -48,6 +48,14 @@ def train_cmd(
             "stopping may end sooner.",
         ),
     ] = None,
+    require: Annotated[
+        str | None,
+        typer.Option(
+            help="Body parts every training clip must have: head, arms, left_arm, right_arm or "
+            "joined by + (head+arms). Default: what the model's targets need (a whole-body "
+            "model: any clip, unknown joints masked).",
+        ),
+    ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
     quiet: QuietOption = False,
@@ -79,6 +87,7 @@ def train_cmd(
             config=config.train,
             quiet=quiet,
             epochs=epochs,
+            require=require,
         )
     out.print(result.stop_line(), highlight=False, soft_wrap=True)
     out.print(

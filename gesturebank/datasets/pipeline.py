@@ -323,23 +323,39 @@ def audio_clock(
     return i0, i1, c0 + hop_s * np.arange(i0, i1 + 1)
 
 
+def covering(audio: Audio, timestamps: np.ndarray, *, margin_s: float) -> Audio:
+    """`audio` zero-padded (digital silence) to cover the video's frames `timestamps` and
+    `margin_s` either side: time without audio (a late or short track) is silence, cut or
+    marked by the silence rule (`speech.max_silence_s`) like any other."""
+    sr = audio.sample_rate
+    before = max(0, math.ceil((audio.start_s - float(timestamps[0]) + margin_s) * sr))
+    end = audio.start_s + len(audio.signal) / sr
+    after = max(0, math.ceil((float(frame_ends(timestamps)[-1]) + margin_s - end) * sr))
+    if not before and not after:
+        return audio
+    signal = np.pad(np.asarray(audio.signal, np.float32), (before, after))
+    return audio._replace(signal=signal, start_s=audio.start_s - before / sr)
+
+
 def _clip(
     view: _View,
     span: Span,
     clip_id: str,
     take_id: str,
     feats: np.ndarray,
+    feats_start_s: float,
     activity: SpeechActivity,
     config: Config,
     profile: pepper.RobotProfile,
 ) -> Clip:
-    """The arrays of frames [span.start, span.stop) on the clip's own clock."""
+    """The arrays of frames [span.start, span.stop) on the clip's own clock; `feats` are the
+    audio features of the (padded, `covering`) track whose sample 0 is at `feats_start_s`."""
     from gesturebank.robot.retarget import angle_support, head_roll, pepper_angles
 
     a, b = span.start, span.stop
     ts = view.pose2d.timestamps[a:b]
     a_cfg = config.audio
-    i0, i1, times = audio_clock(ts, view.audio.start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
+    i0, i1, times = audio_clock(ts, feats_start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
     pose3d = view.lift(a, b)
     if view.lifter not in ("multiview", MOCAP):  # a lifter's own glitches (multiview: repaired)
         pose3d, _ = repair_pose3d(pose3d, config=config.repair)
@@ -454,10 +470,12 @@ def build_take(
     else:
         view = (_multi_view if take.multi_camera else _single_view)(take, config, chunks)
     profile = pepper.load_profile(config.robot.profile)
-    feats = features(view.audio.signal, view.audio.sample_rate, config.audio)
+    ts = view.pose2d.timestamps
     audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate
     audio_span = (float(view.audio.start_s), float(audio_end))
-    ts = view.pose2d.timestamps
+    # missing audio is silence (issue 32): features over digital silence where the track is not
+    heard = covering(view.audio, ts, margin_s=config.audio.winlen_s)
+    feats = features(heard.signal, heard.sample_rate, config.audio)
     activity = take_activity(view.audio, ts, config)
     present = np.isfinite(view.pose2d.keypoints[..., 0]).any(axis=1)
     cutting = cut_clips(
@@ -483,7 +501,9 @@ def build_take(
     rows: list[ClipRecord] = []
     for k, span in enumerate(cutting.clips):
         clip_id = f"{take.take_id}__c{k:03d}"
-        clip = _clip(view, span, clip_id, take.take_id, feats, activity, config, profile)
+        clip = _clip(
+            view, span, clip_id, take.take_id, feats, heard.start_s, activity, config, profile
+        )
         # trimmed_fraction: of the whole take, so each of its clips carries it
         metrics = replace(
             clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
