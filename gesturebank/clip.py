@@ -33,6 +33,13 @@ PART_JOINTS: dict[str, tuple[str, ...]] = {
     "left_arm": ("LShoulderRoll", "LShoulderPitch", "LElbowRoll", "LElbowYaw"),
     "right_arm": ("RShoulderRoll", "RShoulderPitch", "RElbowRoll", "RElbowYaw"),
 }
+# The COCO-17 keypoints only one part's angles need (`robot.retarget.NEEDS`): a part masked
+# whole takes them out of the QC's judgement too (its arm's bones, spikes and swaps).
+PART_KEYPOINTS: dict[str, tuple[str, ...]] = {
+    "head": ("nose", "left_eye", "right_eye", "left_ear", "right_ear"),
+    "left_arm": ("left_elbow", "left_wrist"),
+    "right_arm": ("right_elbow", "right_wrist"),
+}
 # The closed vocabulary of the manifest's `parts`: every set of parts, named once; both arms are
 # "arms". "none" (no part seen well enough) belongs to rejected clips only.
 PART_LABELS: dict[frozenset[str], str] = {

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from gesturebank.clip import Clip, part_columns
+from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, parts_of
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
@@ -461,7 +461,9 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure;
     `ClipMetrics` says what each is). trimmed_fraction, of the whole take, is left to the build.
 
-    A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged by its 3D:
+    Keypoints of a body part the clip does not have (masked whole, `clip.parts_of`) are left
+    out, as if unseen. A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged
+    by its 3D:
     spikes, swaps and freezes of the triangulated joints only, facing away and sideways as every
     camera sees them (`facing_away_from_all`), the person's size in the camera that sees them
     largest. The stored 2D (the reference camera's) is then only drawn, not judged.
@@ -482,7 +484,10 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     head = known[:, [INDEX["HeadPitch"], INDEX["HeadYaw"]]].any(axis=1)
     arms = known[:, [INDEX["LShoulderPitch"], INDEX["RShoulderPitch"]]].any(axis=1)
 
-    valid = np.asarray(clip.valid, dtype=bool)
+    # keypoints of a part masked whole (issue 32) are not judged: the clip does not keep them
+    valid = np.asarray(clip.valid, dtype=bool).copy()
+    for part in set(PARTS) - parts_of(known):
+        valid[:, [_I[k] for k in PART_KEYPOINTS[part]]] = False
     torso = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
     xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
     seen_xy = np.where(valid[..., None], xy, np.nan)
