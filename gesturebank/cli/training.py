@@ -185,6 +185,7 @@ def evaluate_timelines_command(
     subject: str | None = None,
     config: TrainConfig | None = None,
     console: Console | None = None,
+    require: str | None = None,
 ) -> dict[str, Any]:
     """Score the angle timelines other systems produced (`timelines`: folders of one file per
     clip of the split part, named by clip id) on a split of `dataset` (SI `fold`, default 0, or
@@ -198,7 +199,7 @@ def evaluate_timelines_command(
     if variant == "si" and fold is None:
         fold = 0
     cfg = config or TrainConfig()
-    ds = open_dataset(dataset)
+    ds = open_dataset(dataset, require=require)  # clips with the body parts required
     inputs = prepare(ds, variant=variant, fold=fold, subject=subject, part=split, config=cfg)
     systems = _timeline_systems(timelines, inputs.segments, ds)
     train_part = load_segments(ds, split_items(ds, variant, "train", fold=fold, subject=subject))
