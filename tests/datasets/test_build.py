@@ -25,7 +25,7 @@ TIMING = {"detect_s"}  # metrics that measure the run, not the data
 def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
     """What a user's script sees, without any gesturebank code."""
     info = json.loads((demo_dataset / "dataset.json").read_text())
-    assert info["schema_version"] == 3
+    assert info["schema_version"] == 4
     assert info["rates"] == {"pose_hz": 100.0, "audio_hz": 100.0}
     # models trained on the features must know their window (the dissertation's: none)
     assert info["audio_features"]["params"]["window"] == "none"
@@ -53,6 +53,7 @@ def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
         with np.load(path, allow_pickle=False) as d:
             angles, angles01, audio, times = d["angles"], d["angles01"], d["audio"], d["times"]
             mask, raw, ts = d["mask"], d["raw_angles"], d["timestamps"]
+            roll = d["head_roll"]
             assert d["pose3d_joints"].shape == (len(ts), 17, 3)
             start = float(d["start_s"])
         n = row["n_frames"]
@@ -65,6 +66,8 @@ def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
         assert row["duration_s"] == pytest.approx(n / 100)
         assert row["duration_s"] >= 3.0  # clips.min_s
         np.testing.assert_array_equal(mask, np.isfinite(angles))
+        assert row["parts"] == "head+arms"  # the demo's speakers are seen whole
+        assert roll.shape == (n,) and np.isfinite(roll[mask[:, 0]]).mean() > 0.9
         ok = mask
         assert ok.mean() > 0.5
         assert np.all((angles >= lower) | ~ok) and np.all((angles <= upper) | ~ok)
