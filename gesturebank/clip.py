@@ -2,6 +2,11 @@
 span of a take,
 one shot, one main speaker — with the arrays of one `takes/<take_id>/<clip_id>.npz`.
 
+A clip holds the body parts (`PARTS`: head, left arm, right arm) seen well enough; a part that
+was not has its angles masked whole (`mask` False, `angles` NaN), and `parts_of(mask)` names the
+parts a clip has with a label of `PART_LABELS` ("head", "arms", "head+left_arm", ...), the
+manifest's `parts` column.
+
 Every clip is on its own clock: `times` (the 100 Hz frame clock of angles and audio features)
 starts at 0, `timestamps` (the video frames the clip was made from) are on the same clock, and
 `start_s` says where clip time 0 lies in the source video. Nothing is pickled: strings are 0-d
@@ -10,19 +15,104 @@ unicode arrays, masks are bool arrays.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from gesturebank.errors import InputError
 from gesturebank.poses import Pose2D, Pose3D
-from gesturebank.robot.pepper import JOINTS
+from gesturebank.robot.pepper import INDEX, JOINTS
 from gesturebank.skeletons import COCO17
 
 # The role track's codes, in order: 0 unknown (who speaks is not known: no mouth seen, or
 # nobody's mouth follows the speech), 1 speaking, 2 listening (extract.roles).
 ROLES = ("unknown", "speaking", "listening")
+# Body parts, each judged on its own (issue 32): the Pepper joints that belong to it. HipRoll is
+# the torso's, which every angle needs, and belongs to none.
+PARTS = ("head", "left_arm", "right_arm")
+PART_JOINTS: dict[str, tuple[str, ...]] = {
+    "head": ("HeadPitch", "HeadYaw"),
+    "left_arm": ("LShoulderRoll", "LShoulderPitch", "LElbowRoll", "LElbowYaw"),
+    "right_arm": ("RShoulderRoll", "RShoulderPitch", "RElbowRoll", "RElbowYaw"),
+}
+# The COCO-17 keypoints only one part's angles need (`robot.retarget.NEEDS`): a part masked
+# whole takes them out of the QC's judgement too (its arm's bones, spikes and swaps).
+PART_KEYPOINTS: dict[str, tuple[str, ...]] = {
+    "head": ("nose", "left_eye", "right_eye", "left_ear", "right_ear"),
+    "left_arm": ("left_elbow", "left_wrist"),
+    "right_arm": ("right_elbow", "right_wrist"),
+}
+# The closed vocabulary of the manifest's `parts`: every set of parts, named once; both arms are
+# "arms". "none" (no part seen well enough) belongs to rejected clips only.
+PART_LABELS: dict[frozenset[str], str] = {
+    frozenset(): "none",
+    frozenset({"head"}): "head",
+    frozenset({"left_arm"}): "left_arm",
+    frozenset({"right_arm"}): "right_arm",
+    frozenset({"left_arm", "right_arm"}): "arms",
+    frozenset({"head", "left_arm"}): "head+left_arm",
+    frozenset({"head", "right_arm"}): "head+right_arm",
+    frozenset({"head", "left_arm", "right_arm"}): "head+arms",
+}
+_LABEL_PARTS = {label: parts for parts, label in PART_LABELS.items()}
+
+
+def parts_label(parts: Iterable[str]) -> str:
+    """The manifest label of a set of `PARTS`: {"head", "left_arm"} → "head+left_arm"."""
+    key = frozenset(parts)
+    if key not in PART_LABELS:
+        raise InputError(f"unknown body parts {sorted(key - set(PARTS))} (parts are {PARTS})")
+    return PART_LABELS[key]
+
+
+def parse_parts(label: str) -> frozenset[str]:
+    """The parts a label names: one of `PART_LABELS`' labels, or parts joined by "+" in any
+    order ("arms+head" = "head+arms"); InputError naming the vocabulary otherwise."""
+    if label in _LABEL_PARTS:
+        return _LABEL_PARTS[label]
+    words = [w.strip() for w in label.split("+")]
+    named = {w for w in words if w != "arms"} | (
+        {"left_arm", "right_arm"} if "arms" in words else set()
+    )
+    if not words or not named <= set(PARTS) or "none" in words:
+        known = ", ".join(label for label in _LABEL_PARTS if label != "none")
+        raise InputError(f"body parts {label!r}: not one of {known}")
+    return frozenset(named)
+
+
+def part_columns(part: str) -> list[int]:
+    """Columns of `part`'s joints in the (N, 11) angle arrays."""
+    return [INDEX[j] for j in PART_JOINTS[part]]
+
+
+def parts_of(mask: np.ndarray) -> frozenset[str]:
+    """The parts with some known angle in `mask (N, 11)` (a part masked whole has none)."""
+    known = np.asarray(mask, dtype=bool)
+    return frozenset(p for p in PARTS if known[:, part_columns(p)].any())
+
+
+def part_unknown(mask: np.ndarray) -> dict[str, float]:
+    """Share of the clock `mask (N, 11)` (True = known) in which no angle of each part is known."""
+    known = np.asarray(mask, dtype=bool)
+    if not len(known):
+        return dict.fromkeys(PARTS, 1.0)
+    return {p: float(np.mean(~known[:, part_columns(p)].any(axis=1))) for p in PARTS}
+
+
+def kept_parts(mask: np.ndarray, *, max_part_unseen_fraction: float) -> frozenset[str]:
+    """The parts unknown in at most `max_part_unseen_fraction` of the clock `mask (N, 11)`."""
+    unknown = part_unknown(mask)
+    return frozenset(p for p in PARTS if unknown[p] <= max_part_unseen_fraction)
+
+
+def part_mask(parts: Iterable[str]) -> np.ndarray:
+    """(11,) bool: the joints of `parts`, and HipRoll (the torso's, in every part)."""
+    keep = np.zeros(len(JOINTS), dtype=bool)
+    keep[INDEX["HipRoll"]] = True
+    for p in parts:
+        keep[part_columns(p)] = True
+    return keep
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,6 +127,8 @@ class Clip:
         times     (N,) float64 seconds from the clip's start
         speech    (N,) bool, speech heard at times[i] (voice activity; missing audio is silence)
         role      (N,) int8, the person's role at times[i]: an index into ROLES
+        head_roll (N,) float32 rad, the head's roll about its forward axis (+ = left ear up; Pepper
+                  has no such joint, seeds 002/004 use it), NaN where the head is unknown
     Video frames (T frames):
         raw_angles (T, 11) float32 rad, straight from the 3D pose (NaN where unsupported)
         timestamps (T,) float64 seconds on the clip's clock
@@ -69,6 +161,7 @@ class Clip:
     repaired: np.ndarray
     n_people: np.ndarray
     change: np.ndarray
+    head_roll: np.ndarray
     depth_confidence: np.ndarray
     person: int = 0
     role: np.ndarray | None = None
@@ -82,6 +175,7 @@ class Clip:
             "angles01": (self.angles01, (n, d)),
             "mask": (self.mask, (n, d)),
             "speech": (self.speech, (n,)),
+            "head_roll": (self.head_roll, (n,)),
             "raw_angles": (self.raw_angles, (t, d)),
             "valid": (self.valid, (t, len(COCO17))),
             "repaired": (self.repaired, (t, len(COCO17))),
@@ -114,6 +208,14 @@ class Clip:
             )
         if int(self.person) < 0:
             raise InputError(f"clip {self.clip_id}: person must be >= 0, got {self.person}")
+        if np.asarray(self.head_roll).dtype != np.float32:
+            raise InputError(
+                f"clip {self.clip_id}: head_roll must be float32, "
+                f"got {np.asarray(self.head_roll).dtype}"
+            )
+        head = np.asarray(self.mask, dtype=bool)[:, part_columns("head")].any(axis=1)
+        if np.isfinite(np.asarray(self.head_roll)[~head]).any():
+            raise InputError(f"clip {self.clip_id}: head_roll known where the head is not")
         if np.ndim(self.audio) != 2 or len(self.audio) != n:
             raise InputError(f"clip {self.clip_id}: audio must be (N, F) with N = {n}")
         if len(self.pose2d) != t or len(self.pose3d) != t:
@@ -154,6 +256,7 @@ class Clip:
             "depth_confidence": np.asarray(self.depth_confidence, dtype=np.float32),
             "person": np.array(self.person, dtype=np.int32),
             "role": np.asarray(self.role, dtype=np.int8),
+            "head_roll": np.asarray(self.head_roll, dtype=np.float32),
             **self.pose2d.to_arrays("pose2d_"),
             **self.pose3d.to_arrays("pose3d_"),
         }
@@ -182,6 +285,7 @@ class Clip:
                 depth_confidence=np.asarray(arrays["depth_confidence"]),
                 person=int(arrays["person"]) if "person" in arrays else 0,
                 role=np.asarray(arrays["role"]) if "role" in arrays else None,
+                head_roll=np.asarray(arrays["head_roll"]),
             )
         except KeyError as exc:
             raise InputError(f"clip arrays lack {exc.args[0]!r}") from None

@@ -190,13 +190,18 @@ def looped_speech(paths: Sequence[PathLike], *, seconds: float) -> np.ndarray:
     return np.tile(one, -(-n // len(one)))[:n]
 
 
-def write(frames: Frames, out: PathLike, *, speech: np.ndarray) -> Path:
+def write(frames: Frames, out: PathLike, *, speech: np.ndarray, audio_delay_s: float = 0.0) -> Path:
     """Encode the frames (pts = index, time base 1 / fps) with `speech` (16 kHz mono float32,
-    trimmed or zero-padded to the video's duration) as AAC; the file appears atomically."""
+    trimmed or zero-padded to the video's duration) as AAC; the file appears atomically.
+    audio_delay_s: the audio track starts this late (its first sample's pts), as in footage
+    whose sound was recorded apart and muxed late; the speech then ends with the video."""
     w, h = frames.size
     if w % 2 or h % 2:
         raise ValueError(f"{out}: yuv420p needs an even frame size, got {w}×{h}")
-    n_audio = round(frames.duration_s * SPEECH_RATE)
+    if not 0.0 <= audio_delay_s < frames.duration_s:
+        raise ValueError(f"{out}: audio_delay_s {audio_delay_s} is outside the video")
+    offset = round(audio_delay_s * SPEECH_RATE)  # samples of the video before the audio
+    n_audio = round(frames.duration_s * SPEECH_RATE) - offset
     audio = np.pad(speech[:n_audio], (0, max(0, n_audio - len(speech)))).astype(np.float32)
     final = Path(out)
     final.parent.mkdir(parents=True, exist_ok=True)
@@ -215,11 +220,11 @@ def write(frames: Frames, out: PathLike, *, speech: np.ndarray) -> Path:
                 frame.pts, frame.time_base = i, 1 / frames.fps
                 dst.mux(video.encode(frame))
                 # Audio up to the end of this frame, so the two streams stay interleaved.
-                until = min(n_audio, round((i + 1) / frames.fps * SPEECH_RATE))
+                until = min(n_audio, round((i + 1) / frames.fps * SPEECH_RATE) - offset)
                 while sent < until:
                     chunk = audio[sent : sent + hop].reshape(1, -1)
                     block = av.AudioFrame.from_ndarray(np.ascontiguousarray(chunk), "fltp", "mono")
-                    block.sample_rate, block.pts = SPEECH_RATE, sent
+                    block.sample_rate, block.pts = SPEECH_RATE, offset + sent
                     dst.mux(sound.encode(block))
                     sent += chunk.shape[1]
             dst.mux(video.encode(None))

@@ -48,6 +48,14 @@ def train_cmd(
             "stopping may end sooner.",
         ),
     ] = None,
+    require: Annotated[
+        str | None,
+        typer.Option(
+            help="Body parts every training clip must have: head, arms, left_arm, right_arm or "
+            "joined by + (head+arms). Default: what the model's targets need (a whole-body "
+            "model: any clip, unknown joints masked).",
+        ),
+    ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
     quiet: QuietOption = False,
@@ -79,6 +87,7 @@ def train_cmd(
             config=config.train,
             quiet=quiet,
             epochs=epochs,
+            require=require,
         )
     out.print(result.stop_line(), highlight=False, soft_wrap=True)
     out.print(
@@ -113,6 +122,13 @@ def evaluate(
     ] = None,
     fold: Annotated[int | None, typer.Option(help="Without a model: SI fold (default 0).")] = None,
     subject: Annotated[str | None, typer.Option(help="Without a model: SD subject.")] = None,
+    require: Annotated[
+        str | None,
+        typer.Option(
+            help="Without a model: body parts every scored clip must have (head, arms, "
+            "head+arms, ...). A model is scored on the parts it was trained on.",
+        ),
+    ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
 ) -> None:
@@ -134,11 +150,12 @@ def evaluate(
         if model_dir is None:
             raise InputError("evaluate needs a model folder (or a dataset with --timelines)")
         is_model = (model_dir / MODEL_JSON).is_file()
-        split_options = variant, fold, subject, config_file, sets
+        split_options = variant, fold, subject, require, config_file, sets
         if is_model and any(o is not None for o in split_options):
             raise InputError(
                 f"{model_dir}: a model is scored on its own split with its own config; "
-                "--variant/--fold/--subject/--config/--set are for timelines without a model"
+                "--variant/--fold/--subject/--require/--config/--set are for timelines without "
+                "a model"
             )
         if timelines and not is_model and dataset is None:  # `evaluate DATASET --timelines DIR`
             config = resolve_config(config_file=config_file, sets=sets, flags={}).train
@@ -151,6 +168,7 @@ def evaluate(
                 subject=subject,
                 config=config,
                 console=out,
+                require=require,
             )
             return
         evaluate_command(

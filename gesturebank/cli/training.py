@@ -41,6 +41,7 @@ from gesturebank.train.export import export_onnx
 from gesturebank.train.loss_plot import write_loss_png
 from gesturebank.train.model_folder import LOSS_PNG
 from gesturebank.train.models.build import build_model
+from gesturebank.train.parts import default_require, target_joints
 from gesturebank.train.registry import MODELS
 from gesturebank.train.torch_runtime import predict as torch_predict
 from gesturebank.train.torch_runtime import torch_settings
@@ -68,11 +69,14 @@ def train_command(
     *,
     quiet: bool = False,
     epochs: int | None = None,
+    require: str | None = None,
 ) -> TrainResult:
     """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
 
     `epochs` replaces the model's `max_epochs` (each stage's, for a model trained in stages);
     early stopping may still end it sooner. loss.png beside model.json draws the losses.
+    `require`: body parts every clip trained on must have ("head", "arms", ...); None: what the
+    model's targets need (`train.parts.default_require`).
 
     The model folder is written beside `out_dir` and swapped in whole, so no file of an older
     model survives and a failed or interrupted run keeps the old one.
@@ -83,7 +87,8 @@ def train_command(
         fold = 0
     out = Path(out_dir)
     model_folder.check_target(out)
-    ds = open_dataset(dataset)
+    need = require if require is not None else default_require(target_joints(MODELS.get(model)))
+    ds = open_dataset(dataset, require=need)
     train_segments = load_segments(
         ds, split_items(ds, variant, "train", fold=fold, subject=subject)
     )
@@ -180,6 +185,7 @@ def evaluate_timelines_command(
     subject: str | None = None,
     config: TrainConfig | None = None,
     console: Console | None = None,
+    require: str | None = None,
 ) -> dict[str, Any]:
     """Score the angle timelines other systems produced (`timelines`: folders of one file per
     clip of the split part, named by clip id) on a split of `dataset` (SI `fold`, default 0, or
@@ -193,7 +199,7 @@ def evaluate_timelines_command(
     if variant == "si" and fold is None:
         fold = 0
     cfg = config or TrainConfig()
-    ds = open_dataset(dataset)
+    ds = open_dataset(dataset, require=require)  # clips with the body parts required
     inputs = prepare(ds, variant=variant, fold=fold, subject=subject, part=split, config=cfg)
     systems = _timeline_systems(timelines, inputs.segments, ds)
     train_part = load_segments(ds, split_items(ds, variant, "train", fold=fold, subject=subject))

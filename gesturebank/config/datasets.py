@@ -29,6 +29,14 @@ class ClipsConfig(Section):
         description="A clip ends where the main speaker is absent (or no usable pose is left "
         "after repair) for longer than this, seconds; shorter gaps stay inside, masked.",
     )
+    max_part_unseen_fraction: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Each body part (head, left arm, right arm) is judged on its own: a part "
+        "whose angles are unknown in more than this share of a clip is masked whole, and the "
+        "clip keeps the others (its `parts`); a clip with no part left is rejected.",
+    )
 
     @model_validator(mode="after")
     def _lengths(self) -> ClipsConfig:

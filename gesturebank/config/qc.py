@@ -16,6 +16,8 @@ MetricName = Literal[
     "jerk",
     "head_unknown_fraction",
     "arms_unknown_fraction",
+    "left_arm_unknown_fraction",
+    "right_arm_unknown_fraction",
     "torso_gap_s",
     "bone_cv_max",
     "swap_events",
@@ -52,18 +54,21 @@ class QCConfig(Section):
     jitter_above_hz: float = Field(
         7.0, gt=0, description="Power above this frequency of the raw angles counts as jitter, Hz."
     )
-    max_head_unknown_fraction: float = Field(
-        0.5,
+    max_head_unknown_fraction: float | None = Field(
+        None,
         ge=0,
         le=1,
-        description="Largest share of the clip in which the head angles are unknown (face unseen).",
+        description="Opt-in whole-clip rule (0.5 before issue 32): largest share of the clip in "
+        "which the head angles are unknown. None = judged by part: an unseen head is masked "
+        "(clips.max_part_unseen_fraction) and the clip keeps its arms.",
     )
-    max_arms_unknown_fraction: float = Field(
-        0.5,
+    max_arms_unknown_fraction: float | None = Field(
+        None,
         ge=0,
         le=1,
-        description="Largest share of the clip in which both arms are unknown (one unseen arm "
-        "is only masked).",
+        description="Opt-in whole-clip rule (0.5 before issue 32): largest share of the clip in "
+        "which both arms are unknown. None = judged by part: unseen arms are masked "
+        "(clips.max_part_unseen_fraction) and a head-and-shoulders clip keeps its head.",
     )
     max_bone_cv: float = Field(
         0.25,

@@ -9,8 +9,12 @@ if TYPE_CHECKING:
     from gesturebank.datasets.store import Dataset
 
 
-def open(path: str | os.PathLike[str]) -> Dataset:  # shadows builtins.open on purpose
-    """Open a dataset folder written by `build-dataset`; takes are loaded lazily."""
+def open(  # shadows builtins.open on purpose
+    path: str | os.PathLike[str], *, require: str | None = None
+) -> Dataset:
+    """Open a dataset folder written by `build-dataset`; takes are loaded lazily. `require`:
+    body parts every listed clip must have ("head", "arms", "head+left_arm", ...; see
+    `clip.PART_LABELS`), e.g. "arms" for an arm model; None lists every clip."""
     from gesturebank.datasets.store import Dataset
 
-    return Dataset(path)
+    return Dataset(path, require=require)

@@ -3,9 +3,10 @@
 A clip is a run of video frames that lies in one shot, follows one main speaker, has a usable
 pose at its first and last frame, contains no unusable stretch longer than `clips.max_gap_s`
 (shorter ones stay inside, masked) nor a stretch without video frames (a damaged part of the
-file, `MISSING_INTERVALS`), has audio, holds no silence longer than `speech.max_silence_s` (the
-silences given, issue 32: shorter ones stay inside, marked in the clip's `speech`), and lasts at
-least `clips.min_s`; clips longer
+file, `MISSING_INTERVALS`), holds no silence longer than `speech.max_silence_s` (the silences
+given, issue 32: shorter ones stay inside, marked in the clip's `speech`; time without audio, a
+late or short track, counts as silence and is judged by the same rule), and lasts at least
+`clips.min_s`; clips longer
 than `clips.max_s` are split into equal parts. Every other stretch of the take becomes a dropped
 span with its reason, so the spans and clips together cover the whole take.
 
@@ -127,8 +128,9 @@ def cut_clips(
     speaker's track id per frame (−1 none; a change of speaker ends a clip); present (T,) bool:
     the main speaker was detected; usable (T,) bool: the repaired pose is good enough to keep
     (frames that are not stay inside a clip, masked, when the stretch is short); audio_span:
-    (first, last) time the audio features cover; silences: (start, end) s of each silence that
-    cuts (frames inside one give no clip, reason `SILENCE`).
+    (first, last) time of the audio track; silences: (start, end) s of each silence that cuts,
+    missing audio included (frames inside one give no clip, reason `SILENCE`, or "no audio"
+    where the track has none). Frames without audio outside them stay inside a clip, silent.
     """
     cutter = _Cutter(np.asarray(timestamps, dtype=np.float64), np.asarray(present, bool), config)
     t = cutter.t
@@ -155,11 +157,11 @@ def cut_clips(
         )
     edges = [0, *np.flatnonzero(boundary).tolist(), len(t)]
     for a0, b0 in itertools.pairwise(edges):
-        for a, b in _runs(~audio[a0:b0]):
+        for a, b in _runs(~audio[a0:b0] & silent[a0:b0]):
             cutter.drop(a0 + a, a0 + b, "no audio")
         for a, b in _runs(audio[a0:b0] & silent[a0:b0]):
             cutter.drop(a0 + a, a0 + b, SILENCE)
-        for a, b in _runs(audio[a0:b0] & ~silent[a0:b0]):
+        for a, b in _runs(~silent[a0:b0]):
             cutter.piece(a0 + a, a0 + b, usable)
     return Cutting(
         tuple(sorted(cutter.clips, key=lambda s: s.start)),

@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gesturebank.clip import Clip
-from gesturebank.config import Config
+from gesturebank.clip import Clip, kept_parts, part_mask, parts_label, parts_of
+from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
@@ -31,6 +31,7 @@ from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
 from gesturebank.extract.vad import RATE_HZ, SpeechActivity, silences, speech_activity
+from gesturebank.filters import butter_lowpass, interpolate_at
 from gesturebank.lift.depth_confidence import pose_confidence
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.checks import absolute_reasons
@@ -385,23 +386,39 @@ def audio_clock(
     return i0, i1, c0 + hop_s * np.arange(i0, i1 + 1)
 
 
+def covering(audio: Audio, timestamps: np.ndarray, *, margin_s: float) -> Audio:
+    """`audio` zero-padded (digital silence) to cover the video's frames `timestamps` and
+    `margin_s` either side: time without audio (a late or short track) is silence, cut or
+    marked by the silence rule (`speech.max_silence_s`) like any other."""
+    sr = audio.sample_rate
+    before = max(0, math.ceil((audio.start_s - float(timestamps[0]) + margin_s) * sr))
+    end = audio.start_s + len(audio.signal) / sr
+    after = max(0, math.ceil((float(frame_ends(timestamps)[-1]) + margin_s - end) * sr))
+    if not before and not after:
+        return audio
+    signal = np.pad(np.asarray(audio.signal, np.float32), (before, after))
+    return audio._replace(signal=signal, start_s=audio.start_s - before / sr)
+
+
 def _clip(
     view: _View,
     span: Span,
     clip_id: str,
     take_id: str,
     feats: np.ndarray,
+    feats_start_s: float,
     activity: SpeechActivity,
     config: Config,
     profile: pepper.RobotProfile,
 ) -> Clip:
-    """The arrays of frames [span.start, span.stop) on the clip's own clock."""
-    from gesturebank.robot.retarget import angle_support, pepper_angles
+    """The arrays of frames [span.start, span.stop) on the clip's own clock; `feats` are the
+    audio features of the (padded, `covering`) track whose sample 0 is at `feats_start_s`."""
+    from gesturebank.robot.retarget import angle_support, head_roll, pepper_angles
 
     a, b = span.start, span.stop
     ts = view.pose2d.timestamps[a:b]
     a_cfg = config.audio
-    i0, i1, times = audio_clock(ts, view.audio.start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
+    i0, i1, times = audio_clock(ts, feats_start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
     pose3d = view.lift(a, b)
     if view.lifter not in ("multiview", MOCAP):  # a lifter's own glitches (multiview: repaired)
         pose3d, _ = repair_pose3d(pose3d, config=config.repair)
@@ -409,7 +426,8 @@ def _clip(
         pose3d.joints, view.valid[a:b], config.repair.max_spike
     )
     raw = pepper_angles(pose3d, config=config.retarget)
-    raw[~angle_support(valid)] = np.nan
+    support = angle_support(valid)
+    raw[~support] = np.nan
     pose2d = view.pose2d.frames(a, b, origin_s=float(times[0]))
     processed = process_angles(
         raw=raw,
@@ -419,14 +437,25 @@ def _clip(
         retarget=config.retarget,
         profile=profile,
     )
+    # Each body part judged on its own (issue 32): one seen too little is masked whole.
+    parts = kept_parts(
+        processed.mask, max_part_unseen_fraction=config.clips.max_part_unseen_fraction
+    )
+    keep = part_mask(parts)
+    mask = processed.mask & keep
+    roll = head_roll(pose3d)
+    roll[~support[:, pepper.INDEX["HeadPitch"]]] = np.nan
+    known = mask[:, pepper.INDEX["HeadPitch"]]
+    clock = {"timestamps": ts, "clock": times, "known": known}
+    roll100 = head_roll_at(roll, **clock, processing=config.processing)
     start_s = float(times[0])
     return Clip(
         clip_id=clip_id,
         take_id=take_id,
         start_s=start_s,
-        angles=processed.angles,
-        angles01=processed.angles01,
-        mask=processed.mask,
+        angles=np.where(keep, processed.angles, np.nan).astype(np.float32),
+        angles01=np.where(keep, processed.angles01, np.nan).astype(np.float32),
+        mask=mask,
         audio=feats[i0 : i1 + 1],
         times=times - start_s,
         speech=speech_at(activity, times),
@@ -438,10 +467,29 @@ def _clip(
         repaired=view.repaired[a:b],
         n_people=view.n_people[a:b].astype(np.int16),
         change=np.asarray(view.change[a:b], dtype=np.float32),
+        head_roll=roll100,
         depth_confidence=lift_confidence(pose2d, pose3d, lifter=view.lifter),
         person=int(view.speaker[a]),
         role=role_at(view.role[a:b], ts, times),
     )
+
+
+def head_roll_at(
+    roll: np.ndarray,
+    *,
+    timestamps: np.ndarray,
+    clock: np.ndarray,
+    known: np.ndarray,
+    processing: ProcessingConfig,
+) -> np.ndarray:
+    """`roll (T,)` rad at the video's `timestamps` → `(N,)` float32 on the 100 Hz `clock`, as
+    the head's angles are processed (short gaps interpolated, the same low-pass; no robot
+    limits: Pepper has no roll joint), NaN where the head is not `known (N,)`."""
+    values, _ = interpolate_at(roll[:, None], timestamps, clock, max_gap_s=processing.max_gap_s)
+    smooth = butter_lowpass(
+        values, processing.rate_hz, cutoff_hz=processing.cutoff_hz, order=processing.butter_order
+    )[:, 0]
+    return np.where(known, smooth, np.nan).astype(np.float32)
 
 
 def lift_confidence(pose2d: Pose2D, pose3d: Pose3D, *, lifter: str) -> np.ndarray:
@@ -519,10 +567,12 @@ def build_take(
         views = _single_views(take, config, chunks)
     view = views[0]  # the audio, clock, detector and preview are the take's, the same in each
     profile = pepper.load_profile(config.robot.profile)
-    feats = features(view.audio.signal, view.audio.sample_rate, config.audio)
+    ts = view.pose2d.timestamps
     audio_end = view.audio.start_s + len(view.audio.signal) / view.audio.sample_rate
     audio_span = (float(view.audio.start_s), float(audio_end))
-    ts = view.pose2d.timestamps
+    # missing audio is silence (issue 32): features over digital silence where the track is not
+    heard = covering(view.audio, ts, margin_s=config.audio.winlen_s)
+    feats = features(heard.signal, heard.sample_rate, config.audio)
     activity = take_activity(view.audio, ts, config)
     trimmed = trimmed_share(ts, audio_span)  # judged on every clip (qc.max_trimmed_fraction)
     if trimmed > config.qc.max_trimmed_fraction:
@@ -552,7 +602,17 @@ def build_take(
         )
         for span in cutting.clips:
             clip_id = f"{take.take_id}__c{len(clips):03d}"
-            clip = _clip(person_view, span, clip_id, take.take_id, feats, activity, config, profile)
+            clip = _clip(
+                person_view,
+                span,
+                clip_id,
+                take.take_id,
+                feats,
+                heard.start_s,
+                activity,
+                config,
+                profile,
+            )
             # trimmed_fraction: of the whole take, so each of its clips carries it
             metrics = replace(
                 clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
@@ -577,6 +637,7 @@ def build_take(
                     masked={
                         j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)
                     },
+                    parts=parts_label(parts_of(clip.mask)),
                     measured=measured,
                     person=clip.person,
                     speaking_fraction=clip.speaking_fraction,

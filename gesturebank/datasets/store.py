@@ -1,4 +1,4 @@
-"""The dataset on disk (docs/architecture.md "The dataset on disk"), schema 2: clips, written take
+"""The dataset on disk (docs/architecture.md "The dataset on disk"), schema 4: clips, written take
 by take.
 
     out/dataset.json              `DatasetInfo`: schema version, tool version, resolved config,
@@ -36,19 +36,20 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from gesturebank.clip import Clip
+from gesturebank.clip import Clip, parse_parts, parts_label, parts_of
 from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
 # 4: every clip holds `depth_confidence` (per video frame), its person and role track (who
-# speaks when), the manifest `depth_confidence`, `expected_hand_error_cm`, `person` and
-# `speaking_fraction`; 3: every clip holds `speech` (100 Hz voice activity); 2: clips;
-# 1: one unit per video.
+# speaks when), `head_roll`, and is judged by body part; the manifest gains `depth_confidence`,
+# `expected_hand_error_cm`, `person`, `speaking_fraction` and `parts`; 3: every clip holds
+# `speech` (100 Hz voice activity); 2: clips; 1: one unit per video.
 SCHEMA_VERSION = 4
 # what this version holds, in the refusal
 SCHEMA_CONTENT = (
-    "clips with speech activity and depth confidence, each clip one person's with its role track"
+    "clips with speech activity, depth confidence, body parts and head roll, "
+    "each clip one person's with its role track"
 )
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
@@ -89,6 +90,7 @@ MANIFEST_SCHEMA = pa.schema(
         ("expected_hand_error_cm", pa.float64()),
         ("person", pa.int32()),
         ("speaking_fraction", pa.float64()),
+        ("parts", pa.string()),
     ]
 )
 
@@ -106,7 +108,9 @@ class ClipRecord:
     the clip's frames where each Pepper joint is unknown. measured: digest of the QC settings the
     metrics were measured with (so `refresh` knows when to measure again). person: the
     tracked person's id within the take (-1: a span, nobody's); speaking_fraction: share of
-    the clip's frames in which that person speaks (role "speaking"; 0 for a span).
+    the clip's frames in which that person speaks (role "speaking"; 0 for a span). parts: the
+    body parts the clip has (`clip.PART_LABELS`: "head", "arms", "head+left_arm", ...; "" for
+    a span).
     """
 
     clip_id: str
@@ -123,6 +127,7 @@ class ClipRecord:
     measured: str = ""
     person: int = 0
     speaking_fraction: float = 0.0
+    parts: str = ""
 
     def __post_init__(self) -> None:
         if self.person < (0 if self.kind == "clip" else -1):
@@ -153,6 +158,7 @@ class ClipRecord:
             "measured": self.measured,
             "person": int(self.person),
             "speaking_fraction": float(self.speaking_fraction),
+            "parts": self.parts,
         }
 
     @classmethod
@@ -172,6 +178,7 @@ class ClipRecord:
             measured=str(d.get("measured", "")),
             person=int(d["person"] if d.get("person") is not None else 0),
             speaking_fraction=float(d.get("speaking_fraction") or 0.0),
+            parts=str(d.get("parts") or ""),
         )
 
 
@@ -396,6 +403,11 @@ def write_take(
     wanted = {c.clip_id for c in record.data_clips}
     if {c.clip_id for c in clips} != wanted:
         raise ValueError(f"{record.take_id}: the record's clips and the arrays differ")
+    records = {c.clip_id: c for c in record.data_clips}
+    for clip in clips:  # the invariant, where it is written: the manifest's parts are the mask's
+        has, said = parts_label(parts_of(clip.mask)), records[clip.clip_id].parts
+        if said != has:
+            raise ValueError(f"{clip.clip_id}: recorded parts {said!r}, its mask has {has!r}")
     tmp = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{record.take_id}.", suffix=".tmp"))
     os.chmod(tmp, permissions(folder=True))
     try:
@@ -505,6 +517,7 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
                 "repairs": list(d["repairs"].items()),
                 "masked": list(d["masked"].items()),
                 **{k: _known(d["metrics"].get(k)) for k in DEPTH_COLUMNS},
+                "parts": d["parts"],
             }
         )
     return rows
@@ -588,8 +601,10 @@ def _manifest_rows(table: pa.Table, info: DatasetInfo) -> list[ManifestRow]:
 class Dataset:
     """A built dataset folder, read lazily: a clip's arrays are loaded when asked for."""
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
+    def __init__(self, path: str | os.PathLike[str], *, require: str | None = None) -> None:
         self.path = Path(path)
+        # body parts every clip listed must have (`clips`); none required by default
+        self.require: frozenset[str] = parse_parts(require) if require else frozenset()
         self.info: DatasetInfo = read_dataset_json(self.path)
         try:
             self.manifest: pa.Table = pq.read_table(self.path / MANIFEST)
@@ -608,16 +623,25 @@ class Dataset:
         """Every manifest row (clips and spans), each a clip record with its take's."""
         return list(self._rows)
 
-    def clips(self, status: Status | None = "accepted") -> list[ManifestRow]:
-        """Manifest rows of the clips with arrays with this QC status (any when None)."""
+    def clips(
+        self, status: Status | None = "accepted", *, require: str | None = None
+    ) -> list[ManifestRow]:
+        """Manifest rows of the clips with arrays with this QC status (any when None) that have
+        every body part `require` names (e.g. "head", "arms"; None: the dataset's own `require`,
+        set by `open`)."""
+        need = self.require if require is None else parse_parts(require)
         return [
             r
             for r in self._rows
-            if r.clip.kind == "clip" and (status is None or r.clip.qc_status == status)
+            if r.clip.kind == "clip"
+            and (status is None or r.clip.qc_status == status)
+            and need <= parse_parts(r.clip.parts or "none")
         ]
 
-    def clip_ids(self, status: Status | None = "accepted") -> list[str]:
-        return [r.clip.clip_id for r in self.clips(status)]
+    def clip_ids(
+        self, status: Status | None = "accepted", *, require: str | None = None
+    ) -> list[str]:
+        return [r.clip.clip_id for r in self.clips(status, require=require)]
 
     def load_arrays(self, clip_id: str) -> dict[str, np.ndarray]:
         """All arrays of one clip as plain numpy (never unpickled)."""

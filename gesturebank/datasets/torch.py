@@ -71,7 +71,8 @@ def split_items(
     """(clip_id, start, end) items of one part ('train' | 'val' | 'test') of a split.
 
     SI: `fold` selects splits/si_fold_XX.json, whole clips. SD: `subject` selects that subject's
-    segments in splits/sd.json.
+    segments in splits/sd.json. Clips without the body parts the dataset was opened to require
+    (`datasets.open(..., require=)`) are left out.
     """
     if part not in ("train", "val", "test"):
         raise InputError(f"split part must be train, val or test, got {part!r}")
@@ -84,7 +85,7 @@ def split_items(
         if not path.is_file():
             raise _missing_fold(dataset, fold)
         spec = _read_json(path)
-        return [(t, 0, n_frames[t]) for t in spec[part]]
+        return [(t, 0, n_frames[t]) for t in spec[part] if t in n_frames]
     if variant == "sd":
         if subject is None:
             raise InputError("a subject-dependent split needs a subject")
@@ -92,7 +93,8 @@ def split_items(
         if subject not in spec["subjects"]:
             known = ", ".join(sorted(spec["subjects"]))
             raise InputError(f"subject {subject!r} is not in {folder / 'sd.json'} ({known})")
-        return [(str(t), int(a), int(b)) for t, a, b in spec["subjects"][subject][part]]
+        items = spec["subjects"][subject][part]
+        return [(str(t), int(a), int(b)) for t, a, b in items if str(t) in n_frames]
     raise InputError(f"variant must be 'si' or 'sd', got {variant!r}")
 
 

@@ -33,6 +33,13 @@ from gesturebank.robot.pepper import JOINTS
 Verdict = tuple[Literal["accepted", "rejected"], list[str]]
 
 
+# A clip whose head and both arms were each unseen too long (clips.max_part_unseen_fraction):
+# every part masked (issue 32: parts are judged on their own, the clip keeps those seen).
+NO_PART = (
+    "no body part seen: head, left arm and right arm each unseen in more than "
+    "clips.max_part_unseen_fraction of the clip"
+)
+
 LABELS = {"jerk_raw": "raw jerk", "jerk": "processed jerk"}  # in the outlier reasons
 
 # The absolute checks as `absolute_reasons` applies them: metric → (QCConfig field, "max" | "min").
@@ -99,16 +106,21 @@ def absolute_reasons(metrics: ClipMetrics, config: QCConfig) -> list[str]:
         if number(value) < limit:
             reasons.append(text.format(v=value, lim=limit))
 
-    over(
-        m.head_unknown_fraction,
-        c.max_head_unknown_fraction,
-        "head unseen in {v:.0%} of the clip (max {lim:.0%})",
-    )
-    over(
-        m.arms_unknown_fraction,
-        c.max_arms_unknown_fraction,
-        "both arms unseen in {v:.0%} of the clip (max {lim:.0%})",
-    )
+    if c.max_head_unknown_fraction is not None:  # opt-in: judged by part by default
+        over(
+            m.head_unknown_fraction,
+            c.max_head_unknown_fraction,
+            "head unseen in {v:.0%} of the clip (max {lim:.0%})",
+        )
+    if c.max_arms_unknown_fraction is not None:
+        over(
+            m.arms_unknown_fraction,
+            c.max_arms_unknown_fraction,
+            "both arms unseen in {v:.0%} of the clip (max {lim:.0%})",
+        )
+    parts = (m.head_unknown_fraction, m.left_arm_unknown_fraction, m.right_arm_unknown_fraction)
+    if all(number(p) >= 1.0 for p in parts):  # every part masked: nothing left to learn from
+        reasons.append(NO_PART)
     over(m.bone_cv_max, c.max_bone_cv, "3D bone length varies by {v:.0%} (max {lim:.0%})")
     if c.max_limit_fraction is not None:  # opt-in: reach is reported, not judged, by default
         over(

@@ -30,7 +30,8 @@ class ClipMetrics:
     duration_s:            seconds of the 100 Hz clock
     jerk_raw, jerk:        J (Eq. 3.21) of the raw and the processed angles, summed over the
                            joints; per joint (in `pepper.JOINTS` order) `*_per_joint`
-    head_unknown_fraction, arms_unknown_fraction: shares of the 100 Hz clock unseen
+    head_unknown_fraction, arms_unknown_fraction: shares of the 100 Hz clock unseen (both arms)
+    left_arm_unknown_fraction, right_arm_unknown_fraction: each arm's (a part masked whole: 1)
     torso_gap_s:           longest stretch with a shoulder unseen
     bone_cv_max:           largest variation of a 3D bone's length (std / mean)
     swap_events, frozen_fraction, spike_max (shoulder widths): of the keypoints' motion
@@ -55,6 +56,8 @@ class ClipMetrics:
     jerk_per_joint: tuple[float, ...]
     head_unknown_fraction: float
     arms_unknown_fraction: float
+    left_arm_unknown_fraction: float
+    right_arm_unknown_fraction: float
     torso_gap_s: float
     bone_cv_max: float
     swap_events: float
@@ -97,6 +100,8 @@ class ClipMetrics:
             m[f"jerk/{name}"] = jp
         m["head_unknown_fraction"] = self.head_unknown_fraction
         m["arms_unknown_fraction"] = self.arms_unknown_fraction
+        m["left_arm_unknown_fraction"] = self.left_arm_unknown_fraction
+        m["right_arm_unknown_fraction"] = self.right_arm_unknown_fraction
         m["torso_gap_s"] = self.torso_gap_s
         m["bone_cv_max"] = self.bone_cv_max
         m["swap_events"] = self.swap_events
@@ -145,6 +150,8 @@ class ClipMetrics:
             jerk_per_joint=per_joint("jerk"),
             head_unknown_fraction=get("head_unknown_fraction"),
             arms_unknown_fraction=get("arms_unknown_fraction"),
+            left_arm_unknown_fraction=get("left_arm_unknown_fraction"),
+            right_arm_unknown_fraction=get("right_arm_unknown_fraction"),
             torso_gap_s=get("torso_gap_s"),
             bone_cv_max=get("bone_cv_max"),
             swap_events=get("swap_events"),

@@ -24,13 +24,14 @@ Both are sums over the 11 joints (as Fig. 4.7); per-joint values are `jerk_raw/<
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from gesturebank.clip import Clip
+from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, parts_of
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
@@ -461,11 +462,18 @@ def clip_hand_error_cm(clip: Clip) -> float:
     return expected_hand_error_cm(confidence=clip.depth_confidence, lifter=meta.get("lifter", ""))
 
 
+def _part_unknown(known: np.ndarray, part: str) -> float:
+    """Share of the 100 Hz clock in which no angle of `part` is known (NaN for no frames)."""
+    return float(np.mean(~known[:, part_columns(part)].any(axis=1))) if len(known) else math.nan
+
+
 def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetrics:
     """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure;
     `ClipMetrics` says what each is). trimmed_fraction, of the whole take, is left to the build.
 
-    A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged by its 3D:
+    Keypoints of a body part the clip does not have (masked whole, `clip.parts_of`) are left
+    out, as if unseen. A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged
+    by its 3D:
     spikes, swaps and freezes of the triangulated joints only, facing away and sideways as every
     camera sees them (`facing_away_from_all`), the person's size in the camera that sees them
     largest. The stored 2D (the reference camera's) is then only drawn, not judged.
@@ -486,7 +494,10 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     head = known[:, [INDEX["HeadPitch"], INDEX["HeadYaw"]]].any(axis=1)
     arms = known[:, [INDEX["LShoulderPitch"], INDEX["RShoulderPitch"]]].any(axis=1)
 
-    valid = np.asarray(clip.valid, dtype=bool)
+    # keypoints of a part masked whole (issue 32) are not judged: the clip does not keep them
+    valid = np.asarray(clip.valid, dtype=bool).copy()
+    for part in set(PARTS) - parts_of(known):
+        valid[:, [_I[k] for k in PART_KEYPOINTS[part]]] = False
     torso = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
     xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
     seen_xy = np.where(valid[..., None], xy, np.nan)
@@ -521,6 +532,8 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         jerk_per_joint=tuple(float(j) for j in j_proc),
         head_unknown_fraction=float(np.mean(~head)) if len(known) else nan,
         arms_unknown_fraction=float(np.mean(~arms)) if len(known) else nan,
+        left_arm_unknown_fraction=_part_unknown(known, "left_arm"),
+        right_arm_unknown_fraction=_part_unknown(known, "right_arm"),
         torso_gap_s=longest_run_s(~torso, clip.timestamps),
         bone_cv_max=float(np.nanmax(cv)) if np.isfinite(cv).any() else nan,
         swap_events=float(max(swap_events(p) for p in shapes)),

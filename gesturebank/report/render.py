@@ -51,6 +51,8 @@ _METRICS = (
     ("jerk", "processed jerk", "{:.3g} rad²/s⁵", 1.0),
     ("head_unknown_fraction", "head unseen", "{:.0f} %", 100.0),
     ("arms_unknown_fraction", "both arms unseen", "{:.0f} %", 100.0),
+    ("left_arm_unknown_fraction", "left arm unseen", "{:.0f} %", 100.0),
+    ("right_arm_unknown_fraction", "right arm unseen", "{:.0f} %", 100.0),
     ("torso_gap_s", "longest torso gap", "{:.2f} s", 1.0),
     ("bone_cv_max", "bone length variation", "{:.1f} %", 100.0),
     ("out_of_reach_fraction", "beyond reach", "{:.0f} %", 100.0),

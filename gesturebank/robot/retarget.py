@@ -28,6 +28,10 @@ offsets (ê ∥ x̂, β = 0), a pure pitch-roll-yaw-roll chain.
   off the shoulder → elbow line, so e.g. a hanging arm bent 90° forwards is ElbowRoll ∓81° on
   the urdf chain.
 - HeadYaw/Pitch: face direction (mid-ears → mid-eyes) = Rz(yaw)·Ry(pitch)·x̂ in the torso frame.
+- Head roll (`head_roll`, no Pepper joint; seeds 002/004 use three head angles): the head is
+  turned R = Rz(yaw)·Ry(pitch)·Rx(roll), so its left axis (ear line + eye line) is R·ŷ;
+  roll = atan2(lateral·ẑ', lateral·ŷ') with ŷ' = Rz(yaw)·ŷ, ẑ' = Rz(yaw)·Ry(pitch)·ẑ of the same
+  yaw and pitch (+ = left ear up, the head tilted towards its right shoulder).
 - HipRoll: lean of the torso's up axis along the hip line (left hip − right hip). URDF HipRoll
   turns about −x, so positive = upper body leans to its left, as in the dissertation's code.
 
@@ -306,6 +310,34 @@ def _head(face: np.ndarray, nose: np.ndarray, lateral: np.ndarray) -> tuple[np.n
     yaw = np.arctan2(hy, hx)
     pitch = np.arctan2(-face[2], np.hypot(face[0], face[1]))  # + = face down
     return pitch, yaw
+
+
+def head_roll(pose: Pose3D | np.ndarray) -> np.ndarray:
+    """The head's roll `(T,)` float32 rad from COCO-17 joints `(T, 17, 3)` (module docstring):
+    yaw and pitch as `pepper_angles` measures them (face direction, then the head's lateral
+    axis turned about it). NaN where the face direction, the ears or the eyes are missing."""
+    p = _points(pose)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fwd, left, up = _body_frame(p)
+
+        def local(v: np.ndarray) -> np.ndarray:
+            return np.stack([_dot(v, fwd), _dot(v, left), _dot(v, up)])
+
+        ears = (p["left_ear"] + p["right_ear"]) / 2
+        face = local((p["left_eye"] + p["right_eye"]) / 2 - ears)
+        lateral = local(_head_lateral(p))
+        pitch, yaw = _head(face, local(p["nose"] - ears), lateral)
+        roll = _head_roll(lateral, pitch, yaw)
+    return roll.astype(np.float32)
+
+
+def _head_roll(lateral: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(T,) roll of the head's left axis `lateral` (3, T) about its forward axis, given its
+    (pitch, yaw): the angle from ŷ' = Rz(yaw)·ŷ towards ẑ' = Rz(yaw)·Ry(pitch)·ẑ."""
+    cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
+    y_axis = np.stack([-sy, cy, np.zeros_like(cy)])
+    z_axis = np.stack([cy * sp, sy * sp, cp])  # Rz(yaw)·Ry(pitch)·ẑ, + pitch = face down
+    return np.arctan2(_dot(lateral, z_axis), _dot(lateral, y_axis))
 
 
 def _hip_roll(up: np.ndarray, hips: np.ndarray) -> np.ndarray:

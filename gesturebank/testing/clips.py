@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.clip import Clip
+from gesturebank.clip import Clip, part_columns, parts_label, parts_of
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
@@ -40,6 +40,7 @@ def _filmed(
     conf = np.where(np.isfinite(xy[..., 0]), 1.0, np.nan)[..., None]
     valid = np.asarray(np.isfinite(joints).all(axis=-1))
     n = len(timestamps)
+    head = np.asarray(angles["mask"])[:, part_columns("head")].any(axis=1)
     return Clip(
         clip_id=clip_id,
         take_id=clip_id.rsplit("__", 1)[0],
@@ -52,6 +53,7 @@ def _filmed(
         n_people=np.ones(n, np.int16),
         change=np.full(n, 1.0, np.float32),
         speech=np.ones(len(angles["times"]), bool),  # a speaker heard throughout
+        head_roll=np.where(head, 0.0, np.nan).astype(np.float32),  # Pepper's FK: a level head
         depth_confidence=np.ones(n, np.float32),  # the joints are exact: nothing to doubt
         **angles,  # type: ignore[arg-type]
     )
@@ -187,6 +189,7 @@ def write_dataset(
                         j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)
                     },
                     measured=measured,
+                    parts=parts_label(parts_of(clip.mask)),
                 )
             )
             start += clip.duration_s

@@ -29,7 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from gesturebank.clip import Clip
+from gesturebank.clip import Clip, part_columns
 from gesturebank.config import ProcessingConfig, RetargetConfig, RobotConfig
 from gesturebank.datasets.process import process_angles
 from gesturebank.robot import pepper
@@ -58,7 +58,16 @@ _VIDEO_RATE = (
     "change",
     "depth_confidence",
 )
-_CLOCK_RATE = ("angles", "angles01", "mask", "audio", "times", "speech", "role")
+_CLOCK_RATE = (
+    "angles",
+    "angles01",
+    "mask",
+    "audio",
+    "times",
+    "speech",
+    "role",
+    "head_roll",
+)
 
 
 def window(clip: Clip, t0: float, t1: float) -> Clip:
@@ -286,4 +295,8 @@ def rederive(
         angles=processed.angles,
         angles01=processed.angles01,
         mask=processed.mask,
+        # the roll is the head's: unknown where the head now is (Clip's invariant)
+        head_roll=np.where(
+            processed.mask[:, part_columns("head")].any(axis=1), clip.head_roll, np.nan
+        ).astype(np.float32),
     )

@@ -30,6 +30,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from gesturebank import __version__
+from gesturebank.clip import parts_label
 from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_folder, output_errors, write_bytes_atomic
@@ -89,6 +90,7 @@ class ModelInfo(BaseModel):
     audio: AudioConfig
     rate_hz: float | None = None  # pose frames per second
     reach: str | None = None  # the angles' reach mode (older folders do not say)
+    require: str | None = None  # body parts every clip it was trained on had (None: any)
     result: TrainingRecord | None = None
 
     def need(self, folder: Path, key: str) -> Any:
@@ -156,6 +158,7 @@ def write(
         audio=dataset.info.config.audio,
         rate_hz=dataset.info.rates.pose_hz,
         reach=reach_of(dataset.info.config),  # the angles' reach mode, for synthesize
+        require=parts_label(dataset.require) if dataset.require else None,
         result=TrainingRecord(
             best_epoch=result.best_epoch,
             best_val_loss=result.best_val_loss,

@@ -53,6 +53,7 @@ def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
         with np.load(path, allow_pickle=False) as d:
             angles, angles01, audio, times = d["angles"], d["angles01"], d["audio"], d["times"]
             mask, raw, ts = d["mask"], d["raw_angles"], d["timestamps"]
+            roll = d["head_roll"]
             assert d["pose3d_joints"].shape == (len(ts), 17, 3)
             confidence = d["depth_confidence"]
             assert confidence.shape == ts.shape and confidence.dtype == np.float32
@@ -71,6 +72,8 @@ def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
         assert row["duration_s"] == pytest.approx(n / 100)
         assert row["duration_s"] >= 3.0  # clips.min_s
         np.testing.assert_array_equal(mask, np.isfinite(angles))
+        assert row["parts"] == "head+arms"  # the demo's speakers are seen whole
+        assert roll.shape == (n,) and np.isfinite(roll[mask[:, 0]]).mean() > 0.9
         ok = mask
         assert ok.mean() > 0.5
         assert np.all((angles >= lower) | ~ok) and np.all((angles <= upper) | ~ok)

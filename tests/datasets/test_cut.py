@@ -66,10 +66,14 @@ def test_too_short_pieces_are_dropped_with_their_length() -> None:
     assert r.dropped[0].reason == "too short: 2.00 s < 3 s"
 
 
-def test_no_audio_is_dropped() -> None:
-    _t, r = cut(600, audio_span=(0.0, 12.0))
+def test_no_audio_is_silence_cut_when_long_marked_when_short() -> None:
+    """Issue 32: missing audio counts as silence (the VAD hears none there, so its silences
+    cover it): 8 s without audio cut, named "no audio"; 0.5 s late audio stays in the clip."""
+    _t, r = cut(600, audio_span=(0.0, 12.0), silences=[(12.0, 20.0)])
     assert r.clips[-1].end_s <= 12.0 + 1 / 30
     assert r.dropped[-1].reason == "no audio" and r.dropped[-1].stop == 600
+    _t, late = cut(600, audio_span=(0.5, 20.0))  # 0.5 s: shorter than any cutting silence
+    assert [(c.start, c.stop) for c in late.clips] == [(0, 600)] and not late.dropped
 
 
 def test_max_s_splits_into_equal_parts() -> None:
@@ -125,3 +129,20 @@ def test_a_long_silence_cuts_the_clip_with_its_reason() -> None:
     assert SILENCE.startswith("no speech") and "silence" in SILENCE
     _, whole = cut(900, silences=[(0.0, 31.0)])
     assert not whole.clips and [d.reason for d in whole.dropped] == [SILENCE]
+
+
+def test_missing_audio_is_padded_with_silence() -> None:
+    """The build's features cover every frame: a track 0.5 s late (and short at the end) is
+    padded with digital silence, its samples kept where they were."""
+    from gesturebank.datasets.pipeline import covering
+    from gesturebank.extract.audio_io import Audio
+
+    t = np.arange(0, 3.0, 1 / 30)
+    late = Audio(np.ones(16000, np.float32), 16000, 0.5, 0.5)  # 0.5–1.5 s
+    heard = covering(late, t, margin_s=0.025)
+    assert heard.start_s <= -0.025 and heard.start_s + len(heard.signal) / 16000 >= 3.0 + 0.025
+    first = round((0.5 - heard.start_s) * 16000)
+    assert not heard.signal[:first].any() and heard.signal[first : first + 16000].all()
+    assert not heard.signal[first + 16000 :].any()
+    whole = Audio(np.ones(16000 * 4, np.float32), 16000, 0.0, -0.5)
+    assert covering(whole, t, margin_s=0.025) is whole  # nothing missing: unchanged

@@ -1,4 +1,4 @@
-"""The on-disk dataset (schema 3): atomic per-take folders of clips, resumability, manifest,
+"""The on-disk dataset (schema 4): atomic per-take folders of clips, resumability, manifest,
 dataset.json, the lazy reader — and what a user's script sees without gesturebank."""
 
 import json
@@ -25,7 +25,9 @@ def clip(take: str, k: int = 0, seconds: float = 3.5, seed: int = 0) -> Clip:
 
 def record(take: str, clips: list[Clip], digest: str = "d1", **kw) -> store.TakeRecord:
     rows = [
-        store.ClipRecord(c.clip_id, "clip", 10.0 * i, 10.0 * i + c.duration_s, "accepted")
+        store.ClipRecord(
+            c.clip_id, "clip", 10.0 * i, 10.0 * i + c.duration_s, "accepted", parts="head+arms"
+        )
         for i, c in enumerate(clips)
     ]
     rows += kw.pop("spans", [])
@@ -61,6 +63,28 @@ def test_record_must_match_the_clips_written(tmp_path: Path) -> None:
     clips = [clip("a"), clip("a", 1)]
     with pytest.raises(ValueError, match="differ"):
         store.write_take(tmp_path, record("a", clips), clips[:1])
+
+
+def test_recorded_parts_must_be_the_masks(tmp_path: Path) -> None:
+    """The invariant where a take is written: the manifest's `parts` name the parts the clip's
+    mask has; a clip whose arms are masked whole is "head"."""
+    whole = clip("a")
+    with pytest.raises(ValueError, match="recorded parts 'head', its mask has 'head\\+arms'"):
+        good = record("a", [whole])
+        said = replace(good.clips[0], parts="head")
+        store.write_take(tmp_path, replace(good, clips=(said,)), [whole])
+    arms = np.zeros(11, bool)
+    arms[2:10] = True  # the eight arm joints
+    head_only = replace(
+        whole,
+        mask=whole.mask & ~arms,
+        angles=np.where(arms, np.nan, whole.angles).astype(np.float32),
+        angles01=np.where(arms, np.nan, whole.angles01).astype(np.float32),
+    )
+    rec = record("a", [head_only])
+    rec = replace(rec, clips=(replace(rec.clips[0], parts="head"),))
+    store.write_take(tmp_path, rec, [head_only])
+    assert store.read_record(tmp_path, "a").clips[0].parts == "head"
 
 
 def test_corrupt_record_counts_as_not_built(tmp_path: Path) -> None:
@@ -121,6 +145,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
     assert manifest["person"].dtype == np.int32 and (manifest["person"] >= 0).all()
     assert manifest["speaking_fraction"].between(0, 1).all()
+    assert list(manifest["parts"]) == ["head+arms"] * 3
     for row in manifest.itertuples():
         path = out / "takes" / row.take_id / f"{row.clip_id}.npz"
         with np.load(path, allow_pickle=False) as d:
@@ -131,6 +156,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
             assert d["depth_confidence"].shape == d["timestamps"].shape
             assert d["depth_confidence"].dtype == np.float32
             assert d["role"].shape == (row.n_frames,) and d["role"].dtype == np.int8
+            assert d["head_roll"].shape == (row.n_frames,) and d["head_roll"].dtype == np.float32
     assert set(info["takes"]) == {"s1_a", "s2_b"}
     assert info["takes"]["s1_a"]["clips"] == 2
 
@@ -144,6 +170,10 @@ def test_reader_and_schema_1_message(tmp_path: Path) -> None:
     np.testing.assert_array_equal(loaded.angles, takes["s1_a"][1].angles)
     assert loaded.pose2d.skeleton == takes["s1_a"][1].pose2d.skeleton
     assert [row.clip.clip_id for row, _ in ds] == ["s1_a__c000", "s1_a__c001"]
+    assert ds.clip_ids(require="head") == ds.clip_ids(require="arms+head") == ds.clip_ids()
+    assert gesturebank.datasets.open(out, require="left_arm").clip_ids() == ds.clip_ids()
+    with pytest.raises(InputError, match="body parts 'hands'"):
+        ds.clip_ids(require="hands")
     with pytest.raises(InputError, match="no clip 'nope'"):
         ds.load("nope")
     (out / "dataset.json").write_text(json.dumps({"schema_version": 1}))

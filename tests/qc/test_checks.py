@@ -12,7 +12,7 @@ from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.refresh import refresh
-from gesturebank.qc.checks import QCConfig, absolute_reasons, robust_z, verdicts
+from gesturebank.qc.checks import NO_PART, QCConfig, absolute_reasons, robust_z, verdicts
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.robot import pepper
@@ -56,6 +56,20 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
     assert absolute_reasons(typed(dict.fromkeys(GOOD, float("nan"))), QCConfig()) == []
 
 
+def test_parts_are_judged_alone_and_a_clip_needs_one() -> None:
+    """Issue 32: a head-only clip (arms masked whole) passes; with no part left it is rejected,
+    and the old whole-clip rule is opt-in."""
+    head_only = {**GOOD, "arms_unknown_fraction": 1.0}
+    head_only |= {"left_arm_unknown_fraction": 1.0, "right_arm_unknown_fraction": 1.0}
+    assert absolute_reasons(typed(head_only), QCConfig()) == []
+    nothing = {**head_only, "head_unknown_fraction": 1.0}
+    assert absolute_reasons(typed(nothing), QCConfig()) == [NO_PART]
+    old = QCConfig(max_arms_unknown_fraction=0.5)
+    assert absolute_reasons(typed(head_only), old) == [
+        "both arms unseen in 100% of the clip (max 50%)"
+    ]
+
+
 @pytest.mark.parametrize(
     ("key", "value", "text"),
     [
@@ -78,7 +92,8 @@ def test_a_good_take_passes_and_nan_fails_nothing() -> None:
     ],
 )
 def test_each_absolute_check_gives_its_reason_with_numbers(key, value, text) -> None:
-    reasons = absolute_reasons(typed({**GOOD, key: value}), QCConfig())
+    whole = QCConfig(max_head_unknown_fraction=0.5, max_arms_unknown_fraction=0.5)  # opt-in
+    reasons = absolute_reasons(typed({**GOOD, key: value}), whole)
     assert len(reasons) == 1 and text in reasons[0]
 
 

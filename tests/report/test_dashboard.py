@@ -145,6 +145,12 @@ def _mix_take(out: Path, clips: list[Clip]) -> None:
     store.write_record(out, record)
 
 
+# The whole-clip rules on (opt-in since issue 32), so that an unseen head is a threshold shown
+WHOLE = Config.model_validate(
+    {"qc": {"max_head_unknown_fraction": 0.5, "max_arms_unknown_fraction": 0.5}}
+)
+
+
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("dashboard")
@@ -162,13 +168,13 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
         "s4_mixed": mixed,
         "s6_clean": [_clean("s6_clean", 0, 60), _clean("s6_clean", 1, 61)],
     }
-    write_dataset(out, takes)
+    write_dataset(out, takes, config=WHOLE)
     _mix_take(out, mixed)
     failed = store.TakeRecord(
         "s5_failed", "s5", "s5_failed.mp4", "x", failed="no audio track", seconds=3.0
     )
     store.write_record(out, failed)
-    refresh(out, Config())
+    refresh(out, WHOLE)
     write_dashboard(out)
     return out
 
@@ -348,7 +354,12 @@ def test_after_a_build_the_dashboard_is_written_or_says_why_not(
 def test_every_absolute_check_has_its_threshold_for_the_dashboard() -> None:
     """checks.THRESHOLDS (what the page shows) and absolute_reasons (what rejects) agree: a
     metric just past its limit gives exactly one reason and fails exactly its own check."""
-    qc = QCConfig(max_jerk_raw=1e4, max_limit_fraction=0.6)  # both opt-in checks on
+    qc = QCConfig(  # the opt-in checks on
+        max_jerk_raw=1e4,
+        max_limit_fraction=0.6,
+        max_head_unknown_fraction=0.5,
+        max_arms_unknown_fraction=0.5,
+    )
     for key, (field, side) in THRESHOLDS.items():
         limit = getattr(qc, field)
         past = limit * 1.5 + 1 if side == "max" else limit * 0.5

@@ -9,6 +9,7 @@ import pytest
 import torch
 
 import gesturebank.datasets as gds
+from gesturebank.config import Config
 from gesturebank.datasets.torch import (
     FrameDataset,
     WindowDataset,
@@ -135,12 +136,14 @@ def test_every_subject_has_stats_even_with_only_rejected_clips(tmp_path: Path) -
     for subject, unknown in (("good", 0), ("bad", 350)):
         t = np.arange(400)[:, None] / 100
         angles01 = 0.5 + 0.1 * np.sin(2 * np.pi * 0.5 * t + rng.uniform(0, 6, 11))
-        angles01[:unknown] = np.nan  # head and arms unseen in most of it: rejected
+        angles01[:unknown] = np.nan  # head and arms unseen in most of it
         audio = rng.normal(5.0, 2.0, (400, 26))
         takes[f"{subject}_t"] = [
             clip_from_targets(angles01, audio, clip_id=f"{subject}_t__c000", profile=profile)
         ]
-    ds = gds.open(write_dataset(tmp_path, takes))
+    # rejected by the whole-clip rule (opt-in since issue 32; a build masks such parts whole)
+    whole = Config.model_validate({"qc": {"max_head_unknown_fraction": 0.5}})
+    ds = gds.open(write_dataset(tmp_path, takes, config=whole))
     assert ds.clip_ids("rejected") == ["bad_t__c000"]
     mean, std = znorm_stats(ds, "bad")
     audio = takes["bad_t"][0].audio.astype(np.float64)

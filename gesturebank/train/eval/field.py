@@ -111,10 +111,10 @@ def prepare_trained(
     part: str,
     config: TrainConfig,
 ) -> tuple[Dataset, SplitInputs]:
-    """`prepare` on the split a model was trained on (its model.json: variant, fold, subject),
-    from `dataset`, else the dataset it was trained on."""
+    """`prepare` on the split a model was trained on (its model.json: variant, fold, subject,
+    the body parts its clips had), from `dataset`, else the dataset it was trained on."""
     info = folder.info
-    ds = open_dataset(dataset or info.need(folder.path, "dataset"))
+    ds = open_dataset(dataset or info.need(folder.path, "dataset"), require=info.require)
     variant: str = info.need(folder.path, "variant")
     inputs = prepare(
         ds, variant=variant, fold=info.fold, subject=info.subject, part=part, config=config
