@@ -32,6 +32,8 @@ class Clip:
         audio     (N, F) float32 audio features, frame i centred on times[i]
         times     (N,) float64 seconds from the clip's start
         speech    (N,) bool, speech heard at times[i] (voice activity; missing audio is silence)
+        partner_speaking (N,) bool, the partner clip's person is speaking at times[i] (all
+                  False without a partner; `datasets.partners`)
     Video frames (T frames):
         raw_angles (T, 11) float32 rad, straight from the 3D pose (NaN where unsupported)
         timestamps (T,) float64 seconds on the clip's clock
@@ -41,6 +43,8 @@ class Clip:
         n_people  (T,) int16: people the detector saw in the frame
         change    (T,) float32: image change vs the previous frame (shot detector), NaN unknown
     start_s: where clip time 0 lies in the source video, seconds.
+    partner_clip_id: the clip of another person of the same take that overlaps this one in time
+        (the listener of a speaker, or the speaker of a listener), "" when none.
     """
 
     clip_id: str
@@ -60,6 +64,8 @@ class Clip:
     repaired: np.ndarray
     n_people: np.ndarray
     change: np.ndarray
+    partner_clip_id: str
+    partner_speaking: np.ndarray
 
     def __post_init__(self) -> None:
         n, t, d = len(self.times), len(self.timestamps), len(JOINTS)
@@ -68,6 +74,7 @@ class Clip:
             "angles01": (self.angles01, (n, d)),
             "mask": (self.mask, (n, d)),
             "speech": (self.speech, (n,)),
+            "partner_speaking": (self.partner_speaking, (n,)),
             "raw_angles": (self.raw_angles, (t, d)),
             "valid": (self.valid, (t, len(COCO17))),
             "repaired": (self.repaired, (t, len(COCO17))),
@@ -79,10 +86,14 @@ class Clip:
                 raise InputError(
                     f"clip {self.clip_id}: {name} must be {shape}, got {np.shape(value)}"
                 )
-        if np.asarray(self.speech).dtype != np.bool_:
-            raise InputError(
-                f"clip {self.clip_id}: speech must be bool, got {np.asarray(self.speech).dtype}"
-            )
+        for name in ("speech", "partner_speaking"):
+            dtype = np.asarray(getattr(self, name)).dtype
+            if dtype != np.bool_:
+                raise InputError(f"clip {self.clip_id}: {name} must be bool, got {dtype}")
+        if self.partner_clip_id == self.clip_id:
+            raise InputError(f"clip {self.clip_id}: a clip cannot be its own partner")
+        if not self.partner_clip_id and np.any(self.partner_speaking):
+            raise InputError(f"clip {self.clip_id}: partner_speaking is set but it has no partner")
         if np.ndim(self.audio) != 2 or len(self.audio) != n:
             raise InputError(f"clip {self.clip_id}: audio must be (N, F) with N = {n}")
         if len(self.pose2d) != t or len(self.pose3d) != t:
@@ -111,6 +122,8 @@ class Clip:
             "repaired": np.asarray(self.repaired, dtype=bool),
             "n_people": np.asarray(self.n_people, dtype=np.int16),
             "change": np.asarray(self.change, dtype=np.float32),
+            "partner_clip_id": np.array(self.partner_clip_id),
+            "partner_speaking": np.asarray(self.partner_speaking, dtype=bool),
             **self.pose2d.to_arrays("pose2d_"),
             **self.pose3d.to_arrays("pose3d_"),
         }
@@ -136,6 +149,8 @@ class Clip:
                 repaired=np.asarray(arrays["repaired"]),
                 n_people=np.asarray(arrays["n_people"]),
                 change=np.asarray(arrays["change"]),
+                partner_clip_id=str(arrays["partner_clip_id"]),
+                partner_speaking=np.asarray(arrays["partner_speaking"]),
             )
         except KeyError as exc:
             raise InputError(f"clip arrays lack {exc.args[0]!r}") from None

@@ -12,7 +12,7 @@ from pydantic_core import PydanticCustomError
 from gesturebank.config.section import Section
 from gesturebank.registry import plugin_section
 
-Variant = Literal["si", "sd"]
+Variant = Literal["si", "sd", "dyadic"]
 
 
 class EvalConfig(Section):

@@ -24,6 +24,7 @@ import numpy as np
 from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
+from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
@@ -374,6 +375,8 @@ def _clip(
         repaired=view.repaired[a:b],
         n_people=view.n_people[a:b].astype(np.int16),
         change=np.asarray(view.change[a:b], dtype=np.float32),
+        partner_clip_id="",  # set for the whole take (`datasets.partners.pair_clips`)
+        partner_speaking=np.zeros(len(times), bool),
     )
 
 
@@ -488,6 +491,9 @@ def build_take(
                 (span.reason,),
             )
         )
+    clips = pair_clips(clips)  # one person per take today: no partners until build.people
+    partners = {c.clip_id: c.partner_clip_id for c in clips}
+    rows = [replace(r, partner_clip_id=partners.get(r.clip_id, "")) for r in rows]
     rows.sort(key=lambda r: r.start_s)
     ends = frame_ends(ts)
     audio_stats = _audio_sums([c.audio for c in clips], feats.shape[1])

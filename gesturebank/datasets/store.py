@@ -37,12 +37,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from gesturebank.clip import Clip
 from gesturebank.config import Config
+from gesturebank.datasets.partners import check_partners
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
-# 3: every clip holds `speech` (100 Hz voice activity); 2: clips; 1: one unit per video.
-SCHEMA_VERSION = 3
-SCHEMA_CONTENT = "clips with speech activity"  # what this version holds, in the refusal
+# 4: clips of several people, paired (partner_clip_id, partner_speaking); 3: every clip holds
+# `speech` (100 Hz voice activity); 2: clips; 1: one unit per video.
+SCHEMA_VERSION = 4
+# what this version holds, in the refusal
+SCHEMA_CONTENT = "clips with speech activity, paired with their partner's clip"
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
 TAKES_DIR = "takes"
@@ -75,6 +78,7 @@ MANIFEST_SCHEMA = pa.schema(
         ("masked", pa.map_(pa.string(), pa.float64())),
         ("config_digest", pa.string()),
         ("traits", pa.map_(pa.string(), pa.string())),
+        ("partner_clip_id", pa.string()),
     ]
 )
 
@@ -90,7 +94,8 @@ class ClipRecord:
     start_s, end_s: the span in the source video, seconds. duration_s: seconds of the clip's
     100 Hz clock (n_frames frames). repairs: what the repair changed (counts). masked: share of
     the clip's frames where each Pepper joint is unknown. measured: digest of the QC settings the
-    metrics were measured with (so `refresh` knows when to measure again).
+    metrics were measured with (so `refresh` knows when to measure again). partner_clip_id: the
+    clip's partner (`datasets.partners`), "" when none.
     """
 
     clip_id: str
@@ -105,6 +110,7 @@ class ClipRecord:
     repairs: Mapping[str, int] = field(default_factory=dict)
     masked: Mapping[str, float] = field(default_factory=dict)
     measured: str = ""
+    partner_clip_id: str = ""
 
     def __post_init__(self) -> None:
         if self.qc_status not in STATUSES:
@@ -126,6 +132,7 @@ class ClipRecord:
             "repairs": {k: int(v) for k, v in self.repairs.items()},
             "masked": {k: float(v) for k, v in self.masked.items()},
             "measured": self.measured,
+            "partner_clip_id": self.partner_clip_id,
         }
 
     @classmethod
@@ -143,6 +150,7 @@ class ClipRecord:
             repairs=dict(d.get("repairs", {})),
             masked=dict(d.get("masked", {})),
             measured=str(d.get("measured", "")),
+            partner_clip_id=str(d.get("partner_clip_id") or ""),
         )
 
 
@@ -367,6 +375,10 @@ def write_take(
     wanted = {c.clip_id for c in record.data_clips}
     if {c.clip_id for c in clips} != wanted:
         raise ValueError(f"{record.take_id}: the record's clips and the arrays differ")
+    check_partners(clips, take_id=record.take_id)  # the invariant, where clips are written
+    partners = {c.clip_id: c.partner_clip_id for c in clips}
+    if any(partners[c.clip_id] != c.partner_clip_id for c in record.data_clips):
+        raise ValueError(f"{record.take_id}: the record's partners and the clips' differ")
     tmp = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{record.take_id}.", suffix=".tmp"))
     os.chmod(tmp, permissions(folder=True))
     try:
@@ -468,7 +480,7 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
             {
                 **base,
                 **{k: d[k] for k in ("clip_id", "kind", "start_s", "end_s", "qc_status")},
-                **{k: d[k] for k in ("qc_reasons", "duration_s", "n_frames")},
+                **{k: d[k] for k in ("qc_reasons", "duration_s", "n_frames", "partner_clip_id")},
                 "metrics": list(d["metrics"].items()),
                 "repairs": list(d["repairs"].items()),
                 "masked": list(d["masked"].items()),

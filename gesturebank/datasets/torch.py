@@ -71,7 +71,7 @@ def split_items(
     """(clip_id, start, end) items of one part ('train' | 'val' | 'test') of a split.
 
     SI: `fold` selects splits/si_fold_XX.json, whole clips. SD: `subject` selects that subject's
-    segments in splits/sd.json.
+    segments in splits/sd.json. Dyadic: splits/dyadic.json, whole clips.
     """
     if part not in ("train", "val", "test"):
         raise InputError(f"split part must be train, val or test, got {part!r}")
@@ -85,6 +85,14 @@ def split_items(
             raise _missing_fold(dataset, fold)
         spec = _read_json(path)
         return [(t, 0, n_frames[t]) for t in spec[part]]
+    if variant == "dyadic":
+        path = folder / "dyadic.json"
+        if not path.is_file():
+            raise InputError(
+                f"{folder}: no dyadic split: no clip has a partner (build with "
+                'build.people = "all" on footage of two people)'
+            )
+        return [(t, 0, n_frames[t]) for t in _read_json(path)[part]]
     if variant == "sd":
         if subject is None:
             raise InputError("a subject-dependent split needs a subject")
@@ -93,7 +101,7 @@ def split_items(
             known = ", ".join(sorted(spec["subjects"]))
             raise InputError(f"subject {subject!r} is not in {folder / 'sd.json'} ({known})")
         return [(str(t), int(a), int(b)) for t, a, b in spec["subjects"][subject][part]]
-    raise InputError(f"variant must be 'si' or 'sd', got {variant!r}")
+    raise InputError(f"variant must be 'si', 'sd' or 'dyadic', got {variant!r}")
 
 
 def _missing_fold(dataset: Dataset, fold: int) -> InputError:

@@ -52,6 +52,8 @@ def _filmed(
         n_people=np.ones(n, np.int16),
         change=np.full(n, 1.0, np.float32),
         speech=np.ones(len(angles["times"]), bool),  # a speaker heard throughout
+        partner_clip_id="",
+        partner_speaking=np.zeros(len(angles["times"]), bool),
         **angles,
     )
 
@@ -150,10 +152,12 @@ def write_dataset(
     *,
     subjects: Mapping[str, str] | None = None,
     config: Config | None = None,
+    in_turn: bool = True,
 ) -> Path:
     """A dataset folder holding `takes` (take id → its clips, ids `<take id>__cNNN`), each
     measured and judged by the real QC; subject = `subjects[take id]`, else the take id's part
-    before the first "_". Returns `out`."""
+    before the first "_". in_turn: the clips follow each other in their take (False: each keeps
+    its start_s, e.g. two people's clips at the same time). Returns `out`."""
     from gesturebank.qc.checks import absolute_reasons
     from gesturebank.qc.metrics import clip_metrics
 
@@ -166,7 +170,8 @@ def write_dataset(
         start = 0.0
         placed = []
         for clip in clips:
-            clip = replace(clip, start_s=start)  # the clips follow each other in the take
+            if in_turn:
+                clip = replace(clip, start_s=start)
             placed.append(clip)
             metrics = clip_metrics(clip, profile=profile, qc=c.qc)
             reasons = absolute_reasons(metrics, c.qc)
@@ -174,8 +179,8 @@ def write_dataset(
                 store.ClipRecord(
                     clip_id=clip.clip_id,
                     kind="clip",
-                    start_s=start,
-                    end_s=start + clip.duration_s,
+                    start_s=clip.start_s,
+                    end_s=clip.start_s + clip.duration_s,
                     qc_status="rejected" if reasons else "accepted",
                     qc_reasons=tuple(reasons),
                     duration_s=clip.duration_s,
@@ -186,9 +191,10 @@ def write_dataset(
                         j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)
                     },
                     measured=measured,
+                    partner_clip_id=clip.partner_clip_id,
                 )
             )
-            start += clip.duration_s
+            start = max(start, clip.start_s + clip.duration_s)  # the take's end so far
         feats = np.concatenate([clip.audio for clip in clips]).astype(np.float64)
         record = store.TakeRecord(
             take_id=take_id,

@@ -1,4 +1,4 @@
-"""The on-disk dataset (schema 3): atomic per-take folders of clips, resumability, manifest,
+"""The on-disk dataset (schema 4): atomic per-take folders of clips, resumability, manifest,
 dataset.json, the lazy reader — and what a user's script sees without gesturebank."""
 
 import json
@@ -113,8 +113,9 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     takes = {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)], "s2_b": [clip("s2_b", seed=2)]}
     out = write_dataset(tmp_path, takes)
     info = json.loads((out / "dataset.json").read_text())
-    assert info["schema_version"] == 3
+    assert info["schema_version"] == 4
     manifest = pd.read_parquet(out / "manifest.parquet")
+    assert list(manifest["partner_clip_id"]) == ["", "", ""]  # one person per take: no partner
     assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
     for row in manifest.itertuples():
         path = out / "takes" / row.take_id / f"{row.clip_id}.npz"
@@ -123,6 +124,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
             assert d["audio"].shape == (row.n_frames, 26)
             assert d["times"][0] == 0.0  # each clip on its own clock
             assert d["mask"].dtype == bool
+            assert str(d["partner_clip_id"]) == "" and not d["partner_speaking"].any()
     assert set(info["takes"]) == {"s1_a", "s2_b"}
     assert info["takes"]["s1_a"]["clips"] == 2
 
@@ -234,7 +236,7 @@ def test_a_schema_2_dataset_is_refused_with_one_rebuild_line(tmp_path: Path) -> 
         gesturebank.datasets.open(out)
     message = str(exc.value)
     assert "\n" not in message
-    assert "schema_version 2, this gesturebank reads 3 (clips with speech activity)" in message
+    assert "schema_version 2, this gesturebank reads 4 (clips with speech activity" in message
     assert f"rebuild it with build-dataset VIDEOS_DIR {out} --force" in message
 
 
