@@ -17,7 +17,7 @@ on how a clip stores them.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -57,6 +57,13 @@ def role_of(clip: Clip) -> np.ndarray:
     none)."""
     role = getattr(clip, "role", None)
     return np.zeros(len(clip.times), np.int8) if role is None else np.asarray(role, np.int8)
+
+
+def role_in(arrays: Mapping[str, np.ndarray], n: int) -> np.ndarray:
+    """The role track `(n,)` int8 of a clip's arrays as read from its file (all "unknown" when
+    the file has none)."""
+    role = arrays.get("role")
+    return np.zeros(n, np.int8) if role is None else np.asarray(role, np.int8)
 
 
 def voice_of(clip: Clip) -> Voice:

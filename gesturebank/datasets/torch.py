@@ -20,14 +20,17 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import torch
 from torch.utils.data import Dataset as TorchDataset
 
+from gesturebank.config import Target
+from gesturebank.datasets.listener import listener_inputs, listener_mask
+from gesturebank.datasets.partners import role_in
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
 from gesturebank.datasets.store import Dataset
 from gesturebank.errors import InputError
@@ -45,7 +48,8 @@ class Segment:
 
     audio: (n, F) float32 z-normalised features; target: (n, 11) float32 angles in [0, 1] with
     unknown entries 0; mask: (n, 11) bool, True where the target is known; angles: (n, 11)
-    float32 radians, NaN where unknown (for metrics).
+    float32 radians, NaN where unknown (for metrics); role: (n,) int8, the clip's role track
+    (`clip.ROLES` codes), None when not loaded.
     """
 
     clip_id: str
@@ -55,6 +59,7 @@ class Segment:
     target: np.ndarray
     mask: np.ndarray
     angles: np.ndarray
+    role: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.audio)
@@ -137,8 +142,15 @@ def znorm_stats(dataset: Dataset, subject: str) -> tuple[np.ndarray, np.ndarray]
     return np.asarray(stats[subject].mean), np.asarray(stats[subject].std)
 
 
-def load_segments(dataset: Dataset, items: Sequence[SplitItem]) -> list[Segment]:
-    """Load the items' frames, z-normalise audio per subject, build targets and masks."""
+def load_segments(
+    dataset: Dataset, items: Sequence[SplitItem], *, target: Target | None = None
+) -> list[Segment]:
+    """Load the items' frames, z-normalise audio per subject, build targets and masks.
+
+    target: "speaker" (None: the same) — every known angle of every item; "listener"
+    (`datasets.listener`) — the items of clips with a partner, the partner's speaking flag as
+    one more input column, only head angles on listening frames known; items without any are
+    left out."""
     subjects = {r.clip.clip_id: r.take.subject for r in dataset.clips(None)}
     stats: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     cache: dict[str, dict[str, np.ndarray]] = {}
@@ -154,8 +166,36 @@ def load_segments(dataset: Dataset, items: Sequence[SplitItem]) -> list[Segment]
         audio = apply_znorm(arrays["audio"][start:end], mean, std)
         angles01 = np.asarray(arrays["angles01"][start:end], dtype=np.float32)
         angles = np.asarray(arrays["angles"][start:end], dtype=np.float32)
-        out.append(make_segment(clip_id, subject, start, audio, angles01, angles))
+        role = role_in(arrays, len(arrays["times"]))[start:end]
+        segment: Segment | None = make_segment(
+            clip_id, subject, start, audio, angles01, angles, role=role
+        )
+        if target == "listener" and segment is not None:
+            segment = _as_listener(segment, arrays, start, end)
+        if segment is not None:
+            out.append(segment)
     return out
+
+
+def _as_listener(
+    segment: Segment, arrays: Mapping[str, np.ndarray], start: int, end: int
+) -> Segment | None:
+    """The segment as a listener example (`datasets.listener`); None when its clip has no
+    partner or it has no known head angle on a listening frame."""
+    if not str(arrays["partner_clip_id"]):
+        return None
+    assert segment.role is not None  # load_segments reads it
+    mask = listener_mask(mask=segment.mask, role=segment.role)
+    if not mask.any():
+        return None
+    speaking = np.asarray(arrays["partner_speaking"][start:end], bool)
+    return replace(
+        segment,
+        audio=listener_inputs(audio=segment.audio, partner_speaking=speaking),
+        target=np.where(mask, segment.target, 0.0).astype(np.float32),
+        mask=mask,
+        angles=np.where(mask, segment.angles, np.nan).astype(np.float32),  # scored there only
+    )
 
 
 def make_segment(
@@ -165,8 +205,10 @@ def make_segment(
     audio: np.ndarray,
     angles01: np.ndarray,
     angles: np.ndarray,
+    role: np.ndarray | None = None,
 ) -> Segment:
-    """A Segment from z-normalised audio `(n, F)` and angles `(n, 11)` (NaN = unknown)."""
+    """A Segment from z-normalised audio `(n, F)` and angles `(n, 11)` (NaN = unknown), with
+    the role track `(n,)` when known."""
     audio = np.asarray(audio, dtype=np.float32)
     bad_audio = ~np.isfinite(audio).all(axis=1)
     mask = np.isfinite(angles01) & ~bad_audio[:, None]
@@ -178,6 +220,7 @@ def make_segment(
         target=np.where(mask, angles01, 0.0).astype(np.float32),
         mask=mask,
         angles=np.where(np.isfinite(angles01), angles, np.nan).astype(np.float32),
+        role=role,
     )
 
 
