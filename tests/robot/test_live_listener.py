@@ -140,3 +140,21 @@ def test_live_help_names_the_roles() -> None:
     assert result.exit_code == 0
     text = " ".join(result.output.replace("│", " ").split())
     assert "--role <speaker|listener>" in text and "listens and nods" in text
+
+
+def test_synthesize_with_a_listener_model_moves_only_the_head(
+    listener_model: Path, speech: Path, tmp_path: Path
+) -> None:
+    """Offline, a listener model gets the file's speaking flag (the VAD) and its timeline moves
+    the head only; the flag matters: another flag gives another head motion."""
+    from gesturebank.train.synthesis import synthesize
+
+    heard = synthesize(listener_model, speech, tmp_path / "a.csv")
+    never = SpeechConfig(threshold=0.999, release_threshold=0.999)  # hears (almost) no speech
+    deaf = synthesize(listener_model, speech, tmp_path / "b.csv", speech=never)
+    robot = load_frame_model(listener_model).robot
+    rest = pepper.clamp(pepper.neutral_pose().reshape(1, -1), robot)[0]
+    for angles in (heard, deaf):
+        assert np.isfinite(angles).all()
+        np.testing.assert_array_equal(angles[:, ~HEAD], np.tile(rest[~HEAD], (len(angles), 1)))
+    assert np.abs(heard[:, HEAD] - deaf[:, HEAD]).max() > 1e-4

@@ -20,7 +20,11 @@ from gesturebank.robot import pepper
 from gesturebank.testing.clips import synthetic_clip, write_dataset
 
 HEAD = [pepper.INDEX["HeadPitch"], pepper.INDEX["HeadYaw"]]
-QUICK = {"mlp": {"max_epochs": 3}, "lstm": {"max_epochs": 2, "seq_len": 100}}
+QUICK = {
+    "mlp": {"max_epochs": 3},
+    "blstm": {"max_epochs": 1, "layers": 1, "units": 8, "receptive": 9, "span": 3},
+    "eval": {"fgd_epochs": 2},
+}
 
 
 def test_listener_segments_see_the_partners_flag_and_know_only_the_listening_head(
@@ -49,11 +53,12 @@ def test_listener_segments_see_the_partners_flag_and_know_only_the_listening_hea
 def test_a_listener_model_trains_records_its_target_and_is_scored_per_role(
     dyad_dataset: Path, tmp_path: Path
 ) -> None:
+    """Issue 32's acceptance: `train --model blstm --target listener` trains and evaluates."""
     cfg = TrainConfig.model_validate({**QUICK, "target": "listener"})
     out = tmp_path / "listener"
-    train_command(dyad_dataset, "lstm", "dyadic", out_dir=out, config=cfg, quiet=True)
+    train_command(dyad_dataset, "blstm", "dyadic", out_dir=out, config=cfg, quiet=True)
     info = json.loads((out / "model.json").read_text())
-    assert info["target"] == "listener" and info["causal"] and info["variant"] == "dyadic"
+    assert info["target"] == "listener" and info["variant"] == "dyadic"
     assert info["architecture"]["n_features"] == 27  # 26 features + the speaking flag
     report = evaluate_command(out)
     roles = report["per_role"]
