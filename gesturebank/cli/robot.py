@@ -281,7 +281,9 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
             f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
             + (" (+ the speaking flag)" if flag else "")
         )
-    return LiveModel(model, mean, std, folder.profile, folder.audio, folder.info.reach, target)
+    return LiveModel(
+        model, mean, std, folder.profile, folder.audio, folder.info.reach, listener=bool(flag)
+    )
 
 
 def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:

@@ -69,8 +69,9 @@ class FrameModel(Protocol):
 @dataclass(frozen=True, eq=False)
 class LiveModel:
     """A frame model with what it needs around it: z-norm stats `(F,)`, robot, audio config, the
-    reach mode of the angles it was trained on (None: its folder does not say), and its target
-    ("speaker", or "listener": it also takes the speaking flag and drives the head only)."""
+    reach mode of the angles it was trained on (None: its folder does not say), and whether it
+    is a listener model (`train --target listener`: it also takes the speaking flag and drives
+    the head only)."""
 
     model: FrameModel
     audio_mean: np.ndarray
@@ -78,7 +79,12 @@ class LiveModel:
     robot: pepper.RobotProfile
     audio: AudioConfig
     reach: str | None = None
-    target: str = "speaker"
+    listener: bool = False
+
+    @property
+    def target(self) -> str:
+        """What the model predicts, as model.json says: "speaker" or "listener"."""
+        return "listener" if self.listener else "speaker"
 
     @property
     def profile(self) -> str:
@@ -130,7 +136,7 @@ class LiveSynth:
         )
         self.safety = SafetyFilter(self.profile, start)
         self.rest = start  # a listener holds every joint but the head here
-        self.listening = model.target == "listener"
+        self.listening = model.listener
         self.speech = (
             StreamingSpeech(sample_rate=self.audio.sample_rate, config=speech or SpeechConfig())
             if self.listening

@@ -40,7 +40,7 @@ class SplitInputs:
     fgd_note: str | None  # why there is no FGD, when there is none
 
 
-def split_key(variant: str, fold: int | None, subject: str | None, target: str = "speaker") -> str:
+def split_key(variant: str, fold: int | None, subject: str | None, target: str) -> str:
     """A split's folder name under the dataset's fgd/: si-fold00, sd-<subject>, dyadic; with
     "-listener" for the listener target (other motion: the listeners' heads)."""
     key = {"si": f"si-fold{fold or 0:02d}", "dyadic": "dyadic"}.get(variant, f"sd-{subject}")
