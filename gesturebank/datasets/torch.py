@@ -14,6 +14,10 @@ Unknown pose (NaN in `angles01`) is handled with a mask, never by inventing valu
   `seq_len` is padded at its end with zero audio and mask 0: the LSTM is causal, so padding after
   a frame never changes that frame's output.
 Frames whose audio is not finite are zeroed and masked too.
+
+The listener target (`load_segments(..., target="listener")`, seed 004) loads only the clips with
+a partner, adds the partner's speaking flag as one more input column and keeps only the head
+angles on the clip's listening frames as known (`datasets.listener`).
 """
 
 from __future__ import annotations
