@@ -2,7 +2,7 @@
 paired, the partner's speaking track is sampled at the clip's times, and the store refuses a
 take whose partners break the rule (another person, the same take, overlapping)."""
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -24,27 +24,14 @@ from gesturebank.datasets.partners import (
 )
 from gesturebank.errors import InputError
 from gesturebank.testing.clips import synthetic_clip, write_dataset
+from gesturebank.testing.dyads import with_person
 
 HOP = 0.01
 
 
-@dataclass(frozen=True, eq=False)
-class PersonClip(Clip):
-    """A clip with the person and role the roles branch adds to `Clip` (until they are merged:
-    then `replace(clip, person=…, role=…)` does the same)."""
-
-    person: int = 0
-    role: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
-
-
 def person_clip(clip_id: str, person: int, start_s: float, seconds: float, role: int) -> Clip:
-    c = synthetic_clip(seconds=seconds, clip_id=clip_id)
-    fields_ = {f: getattr(c, f) for f in Clip.__dataclass_fields__}
-    return PersonClip(
-        **{**fields_, "start_s": start_s},
-        person=person,
-        role=np.full(len(c.times), role, np.int8),
-    )
+    c = replace(synthetic_clip(seconds=seconds, clip_id=clip_id), start_s=start_s)
+    return with_person(c, person=person, role=np.full(len(c.times), role, np.int8))
 
 
 def voice(clip_id: str, person: int, start_s: float, n: int, speaking=None) -> Voice:
