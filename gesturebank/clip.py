@@ -129,6 +129,8 @@ class Clip:
         role      (N,) int8, the person's role at times[i]: an index into ROLES
         head_roll (N,) float32 rad, the head's roll about its forward axis (+ = left ear up; Pepper
                   has no such joint, seeds 002/004 use it), NaN where the head is unknown
+        partner_speaking (N,) bool, the partner clip's person is speaking at times[i] (all
+                  False without a partner; `datasets.partners`)
     Video frames (T frames):
         raw_angles (T, 11) float32 rad, straight from the 3D pose (NaN where unsupported)
         timestamps (T,) float64 seconds on the clip's clock
@@ -142,6 +144,8 @@ class Clip:
                   motion capture)
     start_s: where clip time 0 lies in the source video, seconds.
     person: the tracked person's id within the take (>= 0; 0 for a motion-capture take).
+    partner_clip_id: the clip of another person of the same take that overlaps this one in time
+        (the listener of a speaker, or the speaker of a listener), "" when none.
     """
 
     clip_id: str
@@ -163,6 +167,8 @@ class Clip:
     change: np.ndarray
     head_roll: np.ndarray
     depth_confidence: np.ndarray
+    partner_clip_id: str
+    partner_speaking: np.ndarray
     person: int = 0
     role: np.ndarray | None = None
 
@@ -176,6 +182,7 @@ class Clip:
             "mask": (self.mask, (n, d)),
             "speech": (self.speech, (n,)),
             "head_roll": (self.head_roll, (n,)),
+            "partner_speaking": (self.partner_speaking, (n,)),
             "raw_angles": (self.raw_angles, (t, d)),
             "valid": (self.valid, (t, len(COCO17))),
             "repaired": (self.repaired, (t, len(COCO17))),
@@ -189,10 +196,6 @@ class Clip:
                 raise InputError(
                     f"clip {self.clip_id}: {name} must be {shape}, got {np.shape(value)}"
                 )
-        if np.asarray(self.speech).dtype != np.bool_:
-            raise InputError(
-                f"clip {self.clip_id}: speech must be bool, got {np.asarray(self.speech).dtype}"
-            )
         confidence = np.asarray(self.depth_confidence)
         if confidence.dtype != np.float32 or not ((confidence >= 0) & (confidence <= 1)).all():
             raise InputError(
@@ -216,6 +219,14 @@ class Clip:
         head = np.asarray(self.mask, dtype=bool)[:, part_columns("head")].any(axis=1)
         if np.isfinite(np.asarray(self.head_roll)[~head]).any():
             raise InputError(f"clip {self.clip_id}: head_roll known where the head is not")
+        for name in ("speech", "partner_speaking"):
+            dtype = np.asarray(getattr(self, name)).dtype
+            if dtype != np.bool_:
+                raise InputError(f"clip {self.clip_id}: {name} must be bool, got {dtype}")
+        if self.partner_clip_id == self.clip_id:
+            raise InputError(f"clip {self.clip_id}: a clip cannot be its own partner")
+        if not self.partner_clip_id and np.any(self.partner_speaking):
+            raise InputError(f"clip {self.clip_id}: partner_speaking is set but it has no partner")
         if np.ndim(self.audio) != 2 or len(self.audio) != n:
             raise InputError(f"clip {self.clip_id}: audio must be (N, F) with N = {n}")
         if len(self.pose2d) != t or len(self.pose3d) != t:
@@ -257,6 +268,8 @@ class Clip:
             "person": np.array(self.person, dtype=np.int32),
             "role": np.asarray(self.role, dtype=np.int8),
             "head_roll": np.asarray(self.head_roll, dtype=np.float32),
+            "partner_clip_id": np.array(self.partner_clip_id),
+            "partner_speaking": np.asarray(self.partner_speaking, dtype=bool),
             **self.pose2d.to_arrays("pose2d_"),
             **self.pose3d.to_arrays("pose3d_"),
         }
@@ -286,6 +299,8 @@ class Clip:
                 person=int(arrays["person"]) if "person" in arrays else 0,
                 role=np.asarray(arrays["role"]) if "role" in arrays else None,
                 head_roll=np.asarray(arrays["head_roll"]),
+                partner_clip_id=str(arrays["partner_clip_id"]),
+                partner_speaking=np.asarray(arrays["partner_speaking"]),
             )
         except KeyError as exc:
             raise InputError(f"clip arrays lack {exc.args[0]!r}") from None

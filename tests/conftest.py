@@ -48,3 +48,12 @@ def demo_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
     assert not summary.failed, summary.failed
     write_dashboard(out)  # as build-dataset does after the build
     return out
+
+
+@pytest.fixture(scope="session")
+def dyad_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """20 generated takes of two people talking in turn, paired, with a dyadic split
+    (gesturebank.testing.dyads): the listener nods with the partner's speech."""
+    from gesturebank.testing.dyads import write_dyad_dataset
+
+    return write_dyad_dataset(tmp_path_factory.mktemp("dyads") / "ds", seconds=4.0)

@@ -44,6 +44,12 @@ UNRELATED = {
     ("gesturebank.testing.speech_motion.write_speech_motion_dataset", "seed"): (
         "the synthetic dataset's own random draw, not the splits' or the trainer's seed"
     ),
+    ("gesturebank.testing.dyads.write_dyad_dataset", "seed"): (
+        "the generated dataset's own random draw, not the splits' or the trainer's seed"
+    ),
+    ("gesturebank.testing.corrupt.corrupt", "target"): (
+        "what the corruption hits (pose or angles), not what a model predicts"
+    ),
     ("gesturebank.testing.tiny_models.write_model_dir", "seed"): (
         "the test model's random weights, not the splits' or the trainer's seed"
     ),

@@ -27,6 +27,8 @@ from gesturebank.config import (
     PlaybackConfig,
     RenderConfig,
     RobotConfig,
+    SpeechConfig,
+    Target,
 )
 from gesturebank.errors import InputError, RobotError
 from gesturebank.robot import pepper
@@ -190,8 +192,15 @@ def live_command(
     max_seconds: float | None = None,
     znorm: str = "*",
     csv: bool = False,
+    role: str | None = None,
+    speech: SpeechConfig | None = None,
 ) -> LiveResult:
-    """`gesturebank live MODEL_DIR --backend naoqi|sim|record [--input mic|FILE.wav]`.
+    """`gesturebank live MODEL_DIR --backend naoqi|sim|record [--input mic|FILE.wav]
+    [--role speaker|listener]`.
+
+    `role`: what the robot does — "speaker" (moves with its own speech) or "listener" (listens
+    and nods: the head only, from a listener model); None: the model's target. A model trained
+    for the other role is refused in one line. `speech`: the listener's speech detection.
 
     `csv` (record only; also when `out` ends in .csv): write the poses sent as an angle
     timeline that `replay` and `export` read, instead of the JSON lines of every call."""
@@ -207,7 +216,13 @@ def live_command(
     if csv and backend != "record":
         raise InputError(f"--csv writes the record backend's file; not with --backend {backend}")
     model = load_frame_model(model_dir, znorm)
-    synth = LiveSynth(model, audio=audio_config, config=cfg)
+    if role is not None and role != model.target:
+        how = "--target listener" if role == "listener" else "--target speaker (the default)"
+        raise InputError(
+            f"{model_dir}: a {model.target} model cannot play --role {role}: train one with "
+            f"`gesturebank train {how}` (a causal model: lstm, aud2motion or mlp)"
+        )
+    synth = LiveSynth(model, audio=audio_config, config=cfg, speech=speech)
     rate = synth.audio.sample_rate
     if input == "mic":
         chunks = mic_chunks(synth.hop, rate, max_seconds=max_seconds)
@@ -259,11 +274,16 @@ def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
         )
     mean, std = folder.znorm(znorm)
     model = model_folder.OnnxFrameModel(folder.graph)
-    if model.n_features is not None and model.n_features != len(mean):
+    target = folder.info.target
+    flag = 1 if target == "listener" else 0  # a listener also takes the speaking flag
+    if model.n_features is not None and model.n_features != len(mean) + flag:
         raise InputError(
             f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
+            + (" (+ the speaking flag)" if flag else "")
         )
-    return LiveModel(model, mean, std, folder.profile, folder.audio, folder.info.reach)
+    return LiveModel(
+        model, mean, std, folder.profile, folder.audio, folder.info.reach, listener=bool(flag)
+    )
 
 
 def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:
@@ -382,6 +402,15 @@ def live(
             "instead of the JSON lines of every call.",
         ),
     ] = False,
+    role: Annotated[
+        Target | None,
+        typer.Option(
+            help="'speaker': the robot moves as it speaks; 'listener': it listens and nods, only "
+            "its head moving with the person's speech (a causal model trained with --target "
+            "listener). Default: the model's target.",
+            show_default=False,
+        ),
+    ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
 ) -> None:
@@ -391,6 +420,10 @@ def live(
     the LSTM and aud2motion) → inverse normalisation → Kalman smoothing → safety → the backend.
     Per-frame latency p50/p99 is reported at the end. Causal models only (mlp, lstm,
     aud2motion); the others need future audio: play them with synthesize.
+
+    --role listener (seed 004): the robot listens; a listener model (train --target listener)
+    turns the speech and whether the person speaks (Silero VAD, [speech] thresholds) into head
+    motion; the arms and hip hold still; the same safety and speed limits apply.
     """
     from gesturebank.cli.robot import live_command
 
@@ -407,6 +440,8 @@ def live(
             max_seconds=seconds,
             znorm=znorm,
             csv=as_csv,
+            role=role,
+            speech=config.speech,
         )
     p50, p99 = result.latency_ms()
     out.print(

@@ -24,7 +24,7 @@ from gesturebank.cli.options import (
     resolve_config,
 )
 from gesturebank.cli.terminal import out, user_errors
-from gesturebank.config import Variant
+from gesturebank.config import Target, Variant
 from gesturebank.errors import InputError
 from gesturebank.train.registry import MODELS
 
@@ -33,8 +33,21 @@ def train_cmd(
     dataset: DatasetArg,
     model: Annotated[str, typer.Option(help=f"The network, {one_of(MODELS)}.")] = "mlp",
     variant: Annotated[
-        Variant, typer.Option(help="'si' subject-independent (a fold) or 'sd' (one subject).")
+        Variant,
+        typer.Option(
+            help="'si' subject-independent (a fold), 'sd' (one subject) or 'dyadic' (seed 004's "
+            "85/10/5 split, a clip always with its partner: splits/dyadic.json)."
+        ),
     ] = "si",
+    target: Annotated[
+        Target | None,
+        typer.Option(
+            help="What the model predicts: 'speaker' (the person's motion from their speech) or "
+            "'listener' (a listener's head from the partner's speech and speaking flag, loss on "
+            "listening frames; needs paired clips). Default: train.target ('speaker').",
+            show_default=False,
+        ),
+    ] = None,
     fold: Annotated[int | None, typer.Option(help="SI fold (default 0).")] = None,
     subject: Annotated[str | None, typer.Option(help="SD subject.")] = None,
     out_dir: Annotated[
@@ -69,6 +82,10 @@ def train_cmd(
     epoch limit; the last line says which. On a terminal a progress bar shows the losses; in a
     log, one line per epoch.
 
+    --target listener (seed 004) trains on the clips that have a partner (build.people = "all"):
+    the listener's head (HeadPitch, HeadYaw) on its listening frames, from the speech and the
+    partner's speaking flag; a causal one (lstm, aud2motion, mlp) can run `live --role listener`.
+
     Writes weights (state dict), the resolved config, the audio normalisers, loss.png (training
     and validation loss per epoch) and an ONNX export (plus a stateful one-step ONNX model for
     the causal recurrent ones, LSTM and aud2motion, which `live` runs) into the --out folder.
@@ -76,7 +93,9 @@ def train_cmd(
     from gesturebank.cli.training import train_command
 
     with user_errors():
-        config = resolve_config(config_file=config_file, sets=sets, flags={})
+        config = resolve_config(
+            config_file=config_file, sets=sets, flags={"train": {"target": target}}
+        )
         result = train_command(
             dataset=dataset,
             model=model,
@@ -118,7 +137,9 @@ def evaluate(
     ] = None,
     variant: Annotated[
         Variant | None,
-        typer.Option(help="Without a model: the split, 'si' (a fold; the default) or 'sd'."),
+        typer.Option(
+            help="Without a model: the split, 'si' (a fold; the default), 'sd' or 'dyadic'."
+        ),
     ] = None,
     fold: Annotated[int | None, typer.Option(help="Without a model: SI fold (default 0).")] = None,
     subject: Annotated[str | None, typer.Option(help="Without a model: SD subject.")] = None,

@@ -36,6 +36,7 @@ from gesturebank.train.eval.evaluate import (
     table,
 )
 from gesturebank.train.eval.field import SplitInputs
+from gesturebank.train.eval.roles import per_role
 from gesturebank.train.eval.timelines import system_angles
 from gesturebank.train.export import export_onnx
 from gesturebank.train.loss_plot import write_loss_png
@@ -87,19 +88,31 @@ def train_command(
         fold = 0
     out = Path(out_dir)
     model_folder.check_target(out)
-    need = require if require is not None else default_require(target_joints(MODELS.get(model)))
+    # a listener model predicts the head only (seed 004), whatever the model class predicts
+    targets = pepper.HEAD_JOINTS if cfg.target == "listener" else target_joints(MODELS.get(model))
+    need = require if require is not None else default_require(targets)
     ds = open_dataset(dataset, require=need)
-    train_segments = load_segments(
-        ds, split_items(ds, variant, "train", fold=fold, subject=subject)
+    train_segments, val_segments = (
+        load_segments(
+            ds, split_items(ds, variant, p, fold=fold, subject=subject), target=cfg.target
+        )
+        for p in ("train", "val")
     )
-    val_segments = load_segments(ds, split_items(ds, variant, "val", fold=fold, subject=subject))
+    if cfg.target == "listener" and not (train_segments and val_segments):
+        raise InputError(
+            f"{ds.path}: the {variant} split has no listener example in its train or val part "
+            "(a clip with a partner and listening frames): build the dataset with "
+            'build.people = "all" from footage of two people talking'
+        )
     if not train_segments or not val_segments:
         raise InputError(f"{ds.path}: the {variant} split has an empty train or val part")
     n_features = train_segments[0].audio.shape[1]
     with torch_settings(cfg.seed, cfg.threads):
         net = build_model(model, n_features, cfg)
-    part = f"fold {fold}" if variant == "si" else f"subject {subject}"
-    what = f"{model.upper()}-{variant.upper()} {part}"
+    part = {"si": f"fold {fold}", "sd": f"subject {subject}"}.get(variant, "split")
+    what = f"{model.upper()}-{variant.upper()} {part}" + (
+        " (listener)" if cfg.target == "listener" else ""
+    )
     # the temporary folder is made before training, so an unwritable --out fails at once
     with model_folder.writing(out) as tmp:
         result = train(
@@ -160,6 +173,7 @@ def evaluate_command(
         fgd=inputs.fgd,
         onsets=inputs.onsets,
     )
+    roles = per_role(segments, pred01=pred01, angles=systems[name])
     report = {
         "model": name,
         "split": split,
@@ -167,12 +181,32 @@ def evaluate_command(
         "fold": info.fold,
         "subject": info.subject,
         "fgd_version": inputs.fgd.version if inputs.fgd else None,
+        "target": info.target,
         "per_subject": results,
         "average": average(results),
+        "per_role": roles,
     }
     model_folder.write_metrics(folder.path, report)
-    _print_tables(results, f"{name} on {split} ({ds.path.name})", inputs, console or Console())
+    title = f"{name} on {split} ({ds.path.name})"
+    if info.target != "speaker":
+        title = f"{name} ({info.target}) on {split} ({ds.path.name})"
+    _print_tables(results, title, inputs, console or Console())
+    _print_roles(roles, f"{title}: per role", console or Console())
     return report
+
+
+def _print_roles(scores: dict[str, dict[str, float]], title: str, out: Console) -> None:
+    """The model's L and RMSE on the frames of each role (`train.eval.roles`)."""
+    from rich.table import Table
+
+    grid = Table(title=title, title_justify="left")
+    for column in ("role", "frames", "known entries", "L", "RMSE (rad)"):
+        grid.add_column(column, justify="left" if column == "role" else "right")
+    for role, s in scores.items():
+        grid.add_row(
+            role, f"{s['frames']:.0f}", f"{s['known']:.0f}", f"{s['L']:.4f}", f"{s['rmse_rad']:.4f}"
+        )
+    out.print(grid)
 
 
 def evaluate_timelines_command(
@@ -202,7 +236,9 @@ def evaluate_timelines_command(
     ds = open_dataset(dataset, require=require)  # clips with the body parts required
     inputs = prepare(ds, variant=variant, fold=fold, subject=subject, part=split, config=cfg)
     systems = _timeline_systems(timelines, inputs.segments, ds)
-    train_part = load_segments(ds, split_items(ds, variant, "train", fold=fold, subject=subject))
+    train_part = load_segments(
+        ds, split_items(ds, variant, "train", fold=fold, subject=subject), target=cfg.target
+    )
     if not train_part:
         raise InputError(f"{ds.path}: the train part of this split is empty (no mean pose)")
     profile = pepper.load_profile(ds.info.robot_profile)
@@ -216,7 +252,7 @@ def evaluate_timelines_command(
         fgd=inputs.fgd,
         onsets=inputs.onsets,
     )
-    part = f"fold {fold}" if variant == "si" else f"subject {subject}"
+    part = {"si": f"fold {fold}", "sd": f"subject {subject}"}.get(variant, "split")
     title = f"{', '.join(systems)} on {variant.upper()} {part}, {split} ({ds.path.name})"
     _print_tables(results, title, inputs, console or Console())
     return {

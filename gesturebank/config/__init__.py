@@ -62,6 +62,7 @@ from gesturebank.config.train import (
     MLPConfig,
     RMSpropScheduleConfig,
     SpanBLSTMConfig,
+    Target,
     TrainConfig,
     Variant,
 )
@@ -108,6 +109,7 @@ __all__ = [
     "SplitsConfig",
     "SynthConfig",
     "SynthLook",
+    "Target",
     "TrackingConfig",
     "TrainConfig",
     "Variant",

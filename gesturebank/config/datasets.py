@@ -86,11 +86,18 @@ class SplitsConfig(Section):
     include_rejected: bool = Field(
         False, description="Put takes the QC rejected into the splits too (failed ones never)."
     )
+    dyadic_fractions: tuple[float, float, float] = Field(
+        (0.85, 0.10, 0.05),
+        description="Dyadic split (seed 004 §5: 85 / 10 / 5 %): train, validation, test shares "
+        "of the clips, a clip always in its partner's part.",
+    )
 
     @model_validator(mode="after")
     def _fractions(self) -> SplitsConfig:
-        if min(self.sd_fractions) < 0 or abs(sum(self.sd_fractions) - 1) > 1e-9:
-            raise ValueError("sd_fractions must be three non-negative numbers summing to 1")
+        for name in ("sd_fractions", "dyadic_fractions"):
+            fractions = getattr(self, name)
+            if min(fractions) < 0 or abs(sum(fractions) - 1) > 1e-9:
+                raise ValueError(f"{name} must be three non-negative numbers summing to 1")
         return self
 
 

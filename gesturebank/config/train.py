@@ -12,7 +12,10 @@ from pydantic_core import PydanticCustomError
 from gesturebank.config.section import Section
 from gesturebank.registry import plugin_section
 
-Variant = Literal["si", "sd"]
+Variant = Literal["si", "sd", "dyadic"]
+# Whose head a model predicts (seed 004): the speaker's motion from their own speech (every
+# model before), or a listener's head from the partner's speech.
+Target = Literal["speaker", "listener"]
 
 
 class EvalConfig(Section):
@@ -241,6 +244,12 @@ class TrainConfig(Section):
     aud2repr2pose: Aud2Repr2PoseConfig = Field(default_factory=Aud2Repr2PoseConfig)
     dcccae: DCCCAEConfig = Field(default_factory=DCCCAEConfig)
     rmsprop: RMSpropScheduleConfig = Field(default_factory=RMSpropScheduleConfig)
+    target: Target = Field(
+        "speaker",
+        description="What the model predicts: 'speaker' (the clip's person's motion from the "
+        "speech) or 'listener' (seed 004: a listener's head from the partner's speech; input "
+        "the audio features plus the partner's speaking flag, loss on listening frames).",
+    )
     learning_rate: float = Field(1e-3, gt=0, description="Adam learning rate (Keras default).")
     patience: int = Field(
         10, ge=1, description="Stop after this many epochs without a lower validation loss."

@@ -25,6 +25,7 @@ import numpy as np
 from gesturebank.clip import Clip, kept_parts, part_mask, parts_label, parts_of
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
+from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
@@ -471,6 +472,8 @@ def _clip(
         depth_confidence=lift_confidence(pose2d, pose3d, lifter=view.lifter),
         person=int(view.speaker[a]),
         role=role_at(view.role[a:b], ts, times),
+        partner_clip_id="",  # set for the whole take (`datasets.partners.pair_clips`)
+        partner_speaking=np.zeros(len(times), bool),
     )
 
 
@@ -656,6 +659,9 @@ def build_take(
                 )
             )
             n_spans += 1
+    clips = pair_clips(clips)  # clips of two people at once (build.people = "all") are partners
+    partners = {c.clip_id: c.partner_clip_id for c in clips}
+    rows = [replace(r, partner_clip_id=partners.get(r.clip_id, "")) for r in rows]
     rows.sort(key=lambda r: r.start_s)
     ends = frame_ends(ts)
     audio_stats = _audio_sums([c.audio for c in clips], feats.shape[1])

@@ -9,6 +9,11 @@ Subject-dependent (SD): within each subject, their clips in time order (take, th
 take) are cut by time into the first 70 %, the next 15 % and the last 15 %, as
 (clip_id, start_frame, end_frame) segments.
 
+Dyadic (seed 004 §5, §7): clips shuffled (seeded) and cut into `dyadic_fractions` of the clips
+(85 / 10 / 5 %), but a clip and its partner (`datasets.partners`) always land in the same part,
+so a speaker's test clip never has its listener in training or validation (the dyadic leakage
+constraint). The unit shuffled is a group: the clips linked by partnership, a pair in a dyad.
+
 Dropped spans and failed takes never enter a split; clips the QC rejected only when asked.
 """
 
@@ -99,10 +104,54 @@ def subject_dependent(
     return {"variant": "sd", "fractions": list(fractions), "subjects": per_subject}
 
 
+def partner_groups(records: Sequence[Mapping[str, Any]]) -> list[list[str]]:
+    """The clips of `records` grouped by partnership (connected: a clip, its partner, the
+    partner's partner, ...), each group in the records' order; a clip without partner alone.
+    A partner outside `records` (e.g. rejected) is ignored."""
+    ids = [r["clip_id"] for r in records]
+    parent = {i: i for i in ids}
+
+    def root(i: str) -> str:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for r in records:
+        partner = r.get("partner_clip_id") or ""
+        if partner in parent:
+            parent[root(r["clip_id"])] = root(partner)
+    groups: dict[str, list[str]] = {}
+    for i in ids:
+        groups.setdefault(root(i), []).append(i)
+    return list(groups.values())
+
+
+def dyadic(records: Sequence[Mapping[str, Any]], *, config: SplitsConfig) -> dict[str, Any]:
+    """Dyadic split: the clip ids of train, val and test (`config.dyadic_fractions` of the
+    clips), partner groups shuffled by `config.seed` and never divided. A group goes to the part
+    its first clip falls in, counting clips in the shuffled order."""
+    usable = _usable(records, config.include_rejected)
+    groups = partner_groups(usable)
+    order = [groups[i] for i in np.random.default_rng(config.seed).permutation(len(groups))]
+    total = sum(len(g) for g in order)
+    f = config.dyadic_fractions
+    cuts = (round(total * f[0]), round(total * (f[0] + f[1])))
+    parts: dict[str, list[str]] = {p: [] for p in PARTS}
+    before = 0
+    for group in order:
+        part = "train" if before < cuts[0] else "val" if before < cuts[1] else "test"
+        parts[part] += group
+        before += len(group)
+    paired = sum(1 for r in usable if r.get("partner_clip_id"))
+    return {"variant": "dyadic", "fractions": list(f), "paired_clips": paired, **parts}
+
+
 def write_splits(
     out: Path, records: Sequence[Mapping[str, Any]], config: SplitsConfig | None = None
 ) -> list[str]:
-    """Write splits/si_fold_XX.json (when there are ≥ 3 subjects) and splits/sd.json.
+    """Write splits/si_fold_XX.json (when there are ≥ 3 subjects), splits/sd.json and
+    splits/dyadic.json (when clips have partners).
 
     Returns notes on what could not be written (e.g. too few subjects for SI)."""
     c = config or SplitsConfig()
@@ -119,4 +168,8 @@ def write_splits(
         notes.append(f"no subject-independent splits: {exc}")
     sd = subject_dependent(records, config=c)
     write_bytes_atomic(folder / "sd.json", json.dumps(sd, indent=1).encode())
+    (folder / "dyadic.json").unlink(missing_ok=True)
+    split = dyadic(records, config=c)
+    if split["paired_clips"]:
+        write_bytes_atomic(folder / "dyadic.json", json.dumps(split, indent=1).encode())
     return notes

@@ -38,18 +38,20 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from gesturebank.clip import Clip, parse_parts, parts_label, parts_of
 from gesturebank.config import Config
+from gesturebank.datasets.partners import check_partners
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
 # 4: every clip holds `depth_confidence` (per video frame), its person and role track (who
-# speaks when), `head_roll`, and is judged by body part; the manifest gains `depth_confidence`,
-# `expected_hand_error_cm`, `person`, `speaking_fraction` and `parts`; 3: every clip holds
-# `speech` (100 Hz voice activity); 2: clips; 1: one unit per video.
+# speaks when), `head_roll`, its partner (`partner_clip_id`, `partner_speaking`), and is judged
+# by body part; the manifest gains `depth_confidence`, `expected_hand_error_cm`, `person`,
+# `speaking_fraction`, `parts` and `partner_clip_id`; 3: every clip holds `speech` (100 Hz
+# voice activity); 2: clips; 1: one unit per video.
 SCHEMA_VERSION = 4
 # what this version holds, in the refusal
 SCHEMA_CONTENT = (
     "clips with speech activity, depth confidence, body parts and head roll, "
-    "each clip one person's with its role track"
+    "each clip one person's with its role track, paired with their partner's clip"
 )
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
@@ -91,6 +93,7 @@ MANIFEST_SCHEMA = pa.schema(
         ("person", pa.int32()),
         ("speaking_fraction", pa.float64()),
         ("parts", pa.string()),
+        ("partner_clip_id", pa.string()),
     ]
 )
 
@@ -110,7 +113,7 @@ class ClipRecord:
     tracked person's id within the take (-1: a span, nobody's); speaking_fraction: share of
     the clip's frames in which that person speaks (role "speaking"; 0 for a span). parts: the
     body parts the clip has (`clip.PART_LABELS`: "head", "arms", "head+left_arm", ...; "" for
-    a span).
+    a span). partner_clip_id: the clip's partner (`datasets.partners`), "" when none.
     """
 
     clip_id: str
@@ -128,6 +131,7 @@ class ClipRecord:
     person: int = 0
     speaking_fraction: float = 0.0
     parts: str = ""
+    partner_clip_id: str = ""
 
     def __post_init__(self) -> None:
         if self.person < (0 if self.kind == "clip" else -1):
@@ -159,6 +163,7 @@ class ClipRecord:
             "person": int(self.person),
             "speaking_fraction": float(self.speaking_fraction),
             "parts": self.parts,
+            "partner_clip_id": self.partner_clip_id,
         }
 
     @classmethod
@@ -179,6 +184,7 @@ class ClipRecord:
             person=int(d["person"] if d.get("person") is not None else 0),
             speaking_fraction=float(d.get("speaking_fraction") or 0.0),
             parts=str(d.get("parts") or ""),
+            partner_clip_id=str(d.get("partner_clip_id") or ""),
         )
 
 
@@ -408,6 +414,10 @@ def write_take(
         has, said = parts_label(parts_of(clip.mask)), records[clip.clip_id].parts
         if said != has:
             raise ValueError(f"{clip.clip_id}: recorded parts {said!r}, its mask has {has!r}")
+    check_partners(clips, take_id=record.take_id)  # the invariant, where clips are written
+    partners = {c.clip_id: c.partner_clip_id for c in clips}
+    if any(partners[c.clip_id] != c.partner_clip_id for c in record.data_clips):
+        raise ValueError(f"{record.take_id}: the record's partners and the clips' differ")
     tmp = Path(tempfile.mkdtemp(dir=folder.parent, prefix=f".{record.take_id}.", suffix=".tmp"))
     os.chmod(tmp, permissions(folder=True))
     try:
@@ -511,7 +521,7 @@ def manifest_rows(record: TakeRecord) -> list[dict[str, Any]]:
             {
                 **base,
                 **{k: d[k] for k in ("clip_id", "kind", "start_s", "end_s", "qc_status")},
-                **{k: d[k] for k in ("qc_reasons", "duration_s", "n_frames")},
+                **{k: d[k] for k in ("qc_reasons", "duration_s", "n_frames", "partner_clip_id")},
                 **{k: d[k] for k in ("person", "speaking_fraction")},
                 "metrics": list(d["metrics"].items()),
                 "repairs": list(d["repairs"].items()),

@@ -14,20 +14,26 @@ Unknown pose (NaN in `angles01`) is handled with a mask, never by inventing valu
   `seq_len` is padded at its end with zero audio and mask 0: the LSTM is causal, so padding after
   a frame never changes that frame's output.
 Frames whose audio is not finite are zeroed and masked too.
+
+The listener target (`load_segments(..., target="listener")`, seed 004) loads only the clips with
+a partner, adds the partner's speaking flag as one more input column and keeps only the head
+angles on the clip's listening frames as known (`datasets.listener`).
 """
 
 from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import torch
 from torch.utils.data import Dataset as TorchDataset
 
+from gesturebank.config import Target
+from gesturebank.datasets.listener import listener_inputs, listener_mask
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
 from gesturebank.datasets.store import Dataset
 from gesturebank.errors import InputError
@@ -45,7 +51,8 @@ class Segment:
 
     audio: (n, F) float32 z-normalised features; target: (n, 11) float32 angles in [0, 1] with
     unknown entries 0; mask: (n, 11) bool, True where the target is known; angles: (n, 11)
-    float32 radians, NaN where unknown (for metrics).
+    float32 radians, NaN where unknown (for metrics); role: (n,) int8, the clip's role track
+    (`clip.ROLES` codes), None when not loaded.
     """
 
     clip_id: str
@@ -55,6 +62,7 @@ class Segment:
     target: np.ndarray
     mask: np.ndarray
     angles: np.ndarray
+    role: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.audio)
@@ -71,8 +79,8 @@ def split_items(
     """(clip_id, start, end) items of one part ('train' | 'val' | 'test') of a split.
 
     SI: `fold` selects splits/si_fold_XX.json, whole clips. SD: `subject` selects that subject's
-    segments in splits/sd.json. Clips without the body parts the dataset was opened to require
-    (`datasets.open(..., require=)`) are left out.
+    segments in splits/sd.json. Dyadic: splits/dyadic.json, whole clips. Clips without the body
+    parts the dataset was opened to require (`datasets.open(..., require=)`) are left out.
     """
     if part not in ("train", "val", "test"):
         raise InputError(f"split part must be train, val or test, got {part!r}")
@@ -86,6 +94,14 @@ def split_items(
             raise _missing_fold(dataset, fold)
         spec = _read_json(path)
         return [(t, 0, n_frames[t]) for t in spec[part] if t in n_frames]
+    if variant == "dyadic":
+        path = folder / "dyadic.json"
+        if not path.is_file():
+            raise InputError(
+                f"{folder}: no dyadic split: no clip has a partner (build with "
+                'build.people = "all" on footage of two people)'
+            )
+        return [(t, 0, n_frames[t]) for t in _read_json(path)[part] if t in n_frames]
     if variant == "sd":
         if subject is None:
             raise InputError("a subject-dependent split needs a subject")
@@ -95,7 +111,7 @@ def split_items(
             raise InputError(f"subject {subject!r} is not in {folder / 'sd.json'} ({known})")
         items = spec["subjects"][subject][part]
         return [(str(t), int(a), int(b)) for t, a, b in items if str(t) in n_frames]
-    raise InputError(f"variant must be 'si' or 'sd', got {variant!r}")
+    raise InputError(f"variant must be 'si', 'sd' or 'dyadic', got {variant!r}")
 
 
 def _missing_fold(dataset: Dataset, fold: int) -> InputError:
@@ -131,8 +147,15 @@ def znorm_stats(dataset: Dataset, subject: str) -> tuple[np.ndarray, np.ndarray]
     return np.asarray(stats[subject].mean), np.asarray(stats[subject].std)
 
 
-def load_segments(dataset: Dataset, items: Sequence[SplitItem]) -> list[Segment]:
-    """Load the items' frames, z-normalise audio per subject, build targets and masks."""
+def load_segments(
+    dataset: Dataset, items: Sequence[SplitItem], *, target: Target | None = None
+) -> list[Segment]:
+    """Load the items' frames, z-normalise audio per subject, build targets and masks.
+
+    target: "speaker" (None: the same) — every known angle of every item; "listener"
+    (`datasets.listener`) — the items of clips with a partner, the partner's speaking flag as
+    one more input column, only head angles on listening frames known; items without any are
+    left out."""
     subjects = {r.clip.clip_id: r.take.subject for r in dataset.clips(None)}
     stats: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     cache: dict[str, dict[str, np.ndarray]] = {}
@@ -148,8 +171,36 @@ def load_segments(dataset: Dataset, items: Sequence[SplitItem]) -> list[Segment]
         audio = apply_znorm(arrays["audio"][start:end], mean, std)
         angles01 = np.asarray(arrays["angles01"][start:end], dtype=np.float32)
         angles = np.asarray(arrays["angles"][start:end], dtype=np.float32)
-        out.append(make_segment(clip_id, subject, start, audio, angles01, angles))
+        role = np.asarray(arrays["role"], np.int8)[start:end]
+        segment: Segment | None = make_segment(
+            clip_id, subject, start, audio, angles01, angles, role=role
+        )
+        if target == "listener" and segment is not None:
+            segment = _as_listener(segment, arrays, start, end)
+        if segment is not None:
+            out.append(segment)
     return out
+
+
+def _as_listener(
+    segment: Segment, arrays: Mapping[str, np.ndarray], start: int, end: int
+) -> Segment | None:
+    """The segment as a listener example (`datasets.listener`); None when its clip has no
+    partner or it has no known head angle on a listening frame."""
+    if not str(arrays["partner_clip_id"]):
+        return None
+    assert segment.role is not None  # load_segments reads it
+    mask = listener_mask(mask=segment.mask, role=segment.role)
+    if not mask.any():
+        return None
+    speaking = np.asarray(arrays["partner_speaking"][start:end], bool)
+    return replace(
+        segment,
+        audio=listener_inputs(audio=segment.audio, partner_speaking=speaking),
+        target=np.where(mask, segment.target, 0.0).astype(np.float32),
+        mask=mask,
+        angles=np.where(mask, segment.angles, np.nan).astype(np.float32),  # scored there only
+    )
 
 
 def make_segment(
@@ -159,8 +210,10 @@ def make_segment(
     audio: np.ndarray,
     angles01: np.ndarray,
     angles: np.ndarray,
+    role: np.ndarray | None = None,
 ) -> Segment:
-    """A Segment from z-normalised audio `(n, F)` and angles `(n, 11)` (NaN = unknown)."""
+    """A Segment from z-normalised audio `(n, F)` and angles `(n, 11)` (NaN = unknown), with
+    the role track `(n,)` when known."""
     audio = np.asarray(audio, dtype=np.float32)
     bad_audio = ~np.isfinite(audio).all(axis=1)
     mask = np.isfinite(angles01) & ~bad_audio[:, None]
@@ -172,6 +225,7 @@ def make_segment(
         target=np.where(mask, angles01, 0.0).astype(np.float32),
         mask=mask,
         angles=np.where(np.isfinite(angles01), angles, np.nan).astype(np.float32),
+        role=role,
     )
 
 

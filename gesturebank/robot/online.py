@@ -7,6 +7,11 @@ speed) → backend. Input: the microphone (sounddevice) or a WAV streamed in rea
 loop is testable without an audio device. Per-frame latency (chunk available → pose handed to the
 backend) is measured and summarised as p50/p99.
 
+A listener model (`train --target listener`, seed 004) makes the robot listen: its input is the
+feature frame plus the speaker's speaking flag (1.0 while the person at the microphone speaks:
+`extract.vad_stream`, causal), and it drives only the head (`pepper.HEAD_JOINTS`); every other
+joint holds the start pose through the same Kalman filter and safety limits.
+
 The model is any `FrameModel` with what it needs around it (`LiveModel`): the audio config it
 was trained with, z-norm stats (the dissertation's online mode used the whole dataset's) and the
 robot profile. The caller builds it: `gesturebank live` from the model folder `gesturebank train`
@@ -26,9 +31,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from gesturebank.config import AudioConfig, PlaybackConfig
+from gesturebank.config import AudioConfig, PlaybackConfig, SpeechConfig
 from gesturebank.errors import InputError, RobotError
 from gesturebank.extract.audio_features import apply_znorm, frame_features, frame_length, frame_step
+from gesturebank.extract.vad_stream import StreamingSpeech
 from gesturebank.filters import KalmanConstAcc
 from gesturebank.robot import pepper
 from gesturebank.robot.audio_out import PORTAUDIO_HINT
@@ -38,6 +44,8 @@ from gesturebank.robot.playback import Player
 from gesturebank.robot.safety import SafetyFilter, safe_pose, speed_profile
 
 log = logging.getLogger(__name__)
+
+HEAD = np.isin(np.array(pepper.JOINTS), pepper.HEAD_JOINTS)  # (11,) the joints a listener moves
 
 PathLike = str | os.PathLike[str]
 
@@ -60,8 +68,10 @@ class FrameModel(Protocol):
 
 @dataclass(frozen=True, eq=False)
 class LiveModel:
-    """A frame model with what it needs around it: z-norm stats `(F,)`, robot, audio config, and
-    the reach mode of the angles it was trained on (None: its folder does not say)."""
+    """A frame model with what it needs around it: z-norm stats `(F,)`, robot, audio config, the
+    reach mode of the angles it was trained on (None: its folder does not say), and whether it
+    is a listener model (`train --target listener`: it also takes the speaking flag and drives
+    the head only)."""
 
     model: FrameModel
     audio_mean: np.ndarray
@@ -69,6 +79,12 @@ class LiveModel:
     robot: pepper.RobotProfile
     audio: AudioConfig
     reach: str | None = None
+    listener: bool = False
+
+    @property
+    def target(self) -> str:
+        """What the model predicts, as model.json says: "speaker" or "listener"."""
+        return "listener" if self.listener else "speaker"
 
     @property
     def profile(self) -> str:
@@ -99,7 +115,9 @@ class LiveSynth:
         audio: AudioConfig | None = None,
         config: PlaybackConfig | None = None,
         start_pose: np.ndarray | None = None,
+        speech: SpeechConfig | None = None,
     ) -> None:
+        """speech: the speech detection of a listener model (default: SpeechConfig())."""
         self.audio = audio or model.audio
         if self.audio.features != model.features:
             raise InputError(
@@ -117,6 +135,13 @@ class LiveSynth:
             len(pepper.JOINTS), dt=self.dt, q=cfg.kalman_q, r=cfg.kalman_r, x0=start
         )
         self.safety = SafetyFilter(self.profile, start)
+        self.rest = start  # a listener holds every joint but the head here
+        self.listening = model.listener
+        self.speech = (
+            StreamingSpeech(sample_rate=self.audio.sample_rate, config=speech or SpeechConfig())
+            if self.listening
+            else None
+        )
         model.model.reset()
 
     def push(self, chunk: np.ndarray) -> np.ndarray:
@@ -129,8 +154,12 @@ class LiveSynth:
         w[-self.hop :] = x
         feats = frame_features(w[1:], self.audio.sample_rate, self.audio, previous=float(w[0]))
         z = apply_znorm(feats, self.model.audio_mean, self.model.audio_std)
+        if self.speech is not None:  # the speaker's flag: the person at the microphone speaks
+            z = np.append(z, np.float32(self.speech.push(x)))
         angles01 = self.model.model.step(z)
         angles = pepper.denormalise(angles01.reshape(1, -1), self.profile)[0]  # ν⁻¹, Eq. 3.14
+        if self.listening:
+            angles = np.where(HEAD, angles, self.rest)
         smooth = self.kalman.step(angles)
         return self.safety.step(smooth, self.dt)
 

@@ -34,6 +34,9 @@ JOINTS = (
     "RElbowYaw",
     "HipRoll",
 )
+# The joints that move Pepper's head: what a listener model predicts and `live --role listener`
+# drives (seed 004's nod and yaw; Pepper has no head roll).
+HEAD_JOINTS = ("HeadPitch", "HeadYaw")
 INDEX = {name: i for i, name in enumerate(JOINTS)}
 DEFAULT_PROFILE = "pepper-1.7"
 _PROFILE_FILES = {"pepper-1.7": "pepper-1.7.toml", "pepper-1.8": "pepper-1.8.toml"}

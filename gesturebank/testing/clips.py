@@ -55,6 +55,8 @@ def _filmed(
         speech=np.ones(len(angles["times"]), bool),  # a speaker heard throughout
         head_roll=np.where(head, 0.0, np.nan).astype(np.float32),  # Pepper's FK: a level head
         depth_confidence=np.ones(n, np.float32),  # the joints are exact: nothing to doubt
+        partner_clip_id="",
+        partner_speaking=np.zeros(len(angles["times"]), bool),
         **angles,  # type: ignore[arg-type]
     )
 
@@ -153,10 +155,12 @@ def write_dataset(
     *,
     subjects: Mapping[str, str] | None = None,
     config: Config | None = None,
+    in_turn: bool = True,
 ) -> Path:
     """A dataset folder holding `takes` (take id → its clips, ids `<take id>__cNNN`), each
     measured and judged by the real QC; subject = `subjects[take id]`, else the take id's part
-    before the first "_". Returns `out`."""
+    before the first "_". in_turn: the clips follow each other in their take (False: each keeps
+    its start_s, e.g. two people's clips at the same time). Returns `out`."""
     from gesturebank.qc.checks import absolute_reasons
     from gesturebank.qc.metrics import clip_metrics
 
@@ -169,7 +173,8 @@ def write_dataset(
         start = 0.0
         placed = []
         for clip in clips:
-            clip = replace(clip, start_s=start)  # the clips follow each other in the take
+            if in_turn:
+                clip = replace(clip, start_s=start)
             placed.append(clip)
             metrics = clip_metrics(clip, profile=profile, qc=c.qc)
             reasons = absolute_reasons(metrics, c.qc)
@@ -177,8 +182,8 @@ def write_dataset(
                 store.ClipRecord(
                     clip_id=clip.clip_id,
                     kind="clip",
-                    start_s=start,
-                    end_s=start + clip.duration_s,
+                    start_s=clip.start_s,
+                    end_s=clip.start_s + clip.duration_s,
                     qc_status="rejected" if reasons else "accepted",
                     qc_reasons=tuple(reasons),
                     duration_s=clip.duration_s,
@@ -190,9 +195,10 @@ def write_dataset(
                     },
                     measured=measured,
                     parts=parts_label(parts_of(clip.mask)),
+                    partner_clip_id=clip.partner_clip_id,
                 )
             )
-            start += clip.duration_s
+            start = max(start, clip.start_s + clip.duration_s)  # the take's end so far
         feats = np.concatenate([clip.audio for clip in clips]).astype(np.float64)
         record = store.TakeRecord(
             take_id=take_id,

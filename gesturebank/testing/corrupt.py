@@ -67,6 +67,7 @@ _CLOCK_RATE = (
     "speech",
     "role",
     "head_roll",
+    "partner_speaking",
 )
 
 

@@ -1,8 +1,9 @@
 """The trained-model folder on disk (as `datasets.store` is the dataset): names, write, load, ONNX.
 
     weights.pt         state dict (read with torch.load(weights_only=True))
-    model.json         architecture, whether the model is causal (live mode needs it), variant
-                       and split, resolved TrainConfig, audio config, frame rate, training history
+    model.json         architecture, whether the model is causal (live mode needs it), its target
+                       ("speaker" or "listener": live and evaluate check it), variant and
+                       split, resolved TrainConfig, audio config, frame rate, training history
     normalisers.json   audio z-norm stats per subject and "*" (dataset.json), angle limits, robot
                        profile, joint names, the training mean pose (normalised) for the baseline
     model.onnx         offline inference graph; model_step.onnx for stateful causal models
@@ -82,7 +83,8 @@ class ModelInfo(BaseModel):
     tool_version: str | None = None
     architecture: dict[str, Any] | None = None  # `models.build.architecture`: kind, sizes
     causal: bool = True  # folders from before the key held MLP or LSTM models, both causal
-    variant: str | None = None  # "si" | "sd"
+    variant: str | None = None  # "si" | "sd" | "dyadic"
+    target: str = "speaker"  # what it predicts (`config.Target`); folders before it: speaker
     fold: int | None = None
     subject: str | None = None
     dataset: str | None = None  # the dataset folder it was trained on
@@ -151,6 +153,7 @@ def write(
         architecture=architecture(net),
         causal=bool(net.causal) if isinstance(net, SpeechToMotion) else False,
         variant=variant,
+        target=config.target,
         fold=fold,
         subject=subject,
         dataset=str(dataset.path.resolve()),

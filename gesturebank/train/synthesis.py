@@ -3,15 +3,22 @@
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gesturebank.config import SpeechConfig
+from gesturebank.datasets.listener import HEAD, listener_inputs
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import apply_znorm, features
+from gesturebank.robot import pepper
 from gesturebank.train import model_folder
 from gesturebank.train.eval.evaluate import postprocess
 from gesturebank.train.export import OnnxModel
 from gesturebank.train.model_folder import MODEL_ONNX
+
+if TYPE_CHECKING:  # the decoder is imported when a file is read
+    from gesturebank.extract.audio_io import Audio
 
 PathLike = str | os.PathLike[str]
 
@@ -22,6 +29,7 @@ def synthesize(
     out_csv: PathLike,
     *,
     znorm: str = "*",
+    speech: SpeechConfig | None = None,
 ) -> np.ndarray:
     """Offline synthesis (§4.4.1): audio file → angles `(N, 11)` rad, also written as CSV.
 
@@ -30,6 +38,10 @@ def synthesize(
     model → ν⁻¹ → Butterworth post-smoothing → clamp. Written as an angle timeline
     (`robot.timeline`): time_s (centre of each feature window, seconds from the first sample)
     and the 11 joint names, under a header naming the model's robot profile and reach mode.
+
+    A listener model (`train --target listener`) also takes whether the file's speaker speaks
+    (Silero VAD with `speech`'s thresholds, default SpeechConfig()) and moves only the head: the
+    other joints hold the neutral pose.
     """
     from gesturebank.extract.audio_io import read_audio
     from gesturebank.robot.timeline import Timeline, write_timeline
@@ -44,14 +56,27 @@ def synthesize(
         mean, std = feats.mean(axis=0), feats.std(axis=0)
     else:
         mean, std = folder.znorm(znorm)
+    times = np.arange(len(feats)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
+    x = apply_znorm(feats, mean, std)
+    if info.target == "listener":
+        x = listener_inputs(audio=x, partner_speaking=_speaking(track, times, speech))
     # a model with a latent (the CVAE) samples z, drawn with the training seed: reproducible
-    pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(
-        apply_znorm(feats, mean, std), z_seed=cfg.seed
-    )
+    pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(x, z_seed=cfg.seed)
     angles = postprocess(pred01, folder.profile, float(info.need(folder.path, "rate_hz")), cfg)
-    times = np.arange(len(angles)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
+    if info.target == "listener":
+        rest = pepper.clamp(pepper.neutral_pose().reshape(1, -1), folder.profile)
+        angles = np.where(HEAD, angles, rest).astype(angles.dtype)
     line = Timeline.of(  # reach None: older model folders do not say
         times, angles, profile=folder.profile.name, reach=info.reach
     )
     write_timeline(out_csv, line)
     return angles
+
+
+def _speaking(track: Audio, times: np.ndarray, speech: SpeechConfig | None) -> np.ndarray:
+    """(N,) bool: speech heard at each of `times` (s from the file's first sample)."""
+    from gesturebank.extract.vad import RATE_HZ, speech_activity
+
+    t0 = float(times[0]) - 0.5 / RATE_HZ  # activity frame k is centred on t0 + (k + ½) / rate
+    activity = speech_activity(track, t0=t0, n_frames=len(times), config=speech or SpeechConfig())
+    return activity.speech

@@ -5,7 +5,13 @@ from pathlib import Path
 import pytest
 
 from gesturebank.config import SplitsConfig
-from gesturebank.datasets.splits import subject_dependent, subject_independent, write_splits
+from gesturebank.datasets.splits import (
+    dyadic,
+    partner_groups,
+    subject_dependent,
+    subject_independent,
+    write_splits,
+)
 from gesturebank.errors import InputError
 
 
@@ -115,3 +121,79 @@ def test_rejected_clips_enter_the_splits_only_when_asked(tmp_path: Path) -> None
     sd = json.loads((tmp_path / "splits" / "sd.json").read_text())
     listed = {t for parts in sd["subjects"].values() for p in parts.values() for t, _, _ in p}
     assert "s00_t0__c000" in listed
+
+
+def seed_004_corpus(utterances: int = 3600) -> list[dict]:
+    """Manifest rows shaped like seed 004's corpus (§3.1): two actors, 3600 utterances, each
+    filmed as the speaker's clip and the listener's clip of the same moment, paired; the actors
+    take turns at speaking (A speaks the even utterances)."""
+    rows = []
+    for u in range(utterances):
+        take = f"dyad_t{u // 100:02d}"
+        speaker, listener = ("A", "B") if u % 2 == 0 else ("B", "A")
+        ids = (f"{take}__c{2 * (u % 100):03d}", f"{take}__c{2 * (u % 100) + 1:03d}")
+        for own, partner, actor in ((ids[0], ids[1], speaker), (ids[1], ids[0], listener)):
+            rows.append(
+                {
+                    "clip_id": own,
+                    "take_id": take,
+                    "kind": "clip",
+                    "start_s": 6.0 * (u % 100),
+                    "subject": actor,
+                    "qc_status": "accepted",
+                    "n_frames": 600,
+                    "partner_clip_id": partner,
+                }
+            )
+    return rows
+
+
+def leaks(split: dict, rows: list[dict]) -> list[str]:
+    """Test clips whose partner is in train or validation (seed 004 §7's constraint)."""
+    partner = {r["clip_id"]: r["partner_clip_id"] for r in rows}
+    seen = set(split["train"]) | set(split["val"])
+    return [c for c in split["test"] if partner.get(c) in seen]
+
+
+def test_dyadic_split_reproduces_seed_004s_counts_and_keeps_partners_apart() -> None:
+    """Seed 004 §5 splits its 3600 utterances 85 / 10 / 5 %: 3060 / 360 / 180. On a table of
+    its size the dyadic split gives exactly those utterances (pairs) per part, and no test
+    clip's partner is in train or validation."""
+    rows = seed_004_corpus()
+    split = dyadic(rows, config=SplitsConfig())
+    assert [len(split[p]) // 2 for p in ("train", "val", "test")] == [3060, 360, 180]
+    assert all(len(split[p]) % 2 == 0 for p in ("train", "val", "test"))
+    assert leaks(split, rows) == []
+    every = split["train"] + split["val"] + split["test"]
+    assert sorted(every) == sorted(r["clip_id"] for r in rows) and len(set(every)) == len(every)
+    # both actors are tested, as speaker and as listener
+    subject = {r["clip_id"]: r["subject"] for r in rows}
+    assert {subject[c] for c in split["test"]} == {"A", "B"}
+    # the same 85/10/5 cut of single clips, blind to partners, would leak (the rule matters)
+    blind = dyadic([{**r, "partner_clip_id": ""} for r in rows], config=SplitsConfig())
+    assert len(leaks(blind, rows)) > 100
+
+
+def test_partner_chains_stay_in_one_part_and_unpaired_clips_still_split() -> None:
+    """A listener's clip overlapping two clips of the speaker links all three; clips without a
+    partner are split one by one."""
+    rows = [
+        {"clip_id": "t__c000", "partner_clip_id": "t__c001"},
+        {"clip_id": "t__c001", "partner_clip_id": "t__c000"},
+        {"clip_id": "t__c002", "partner_clip_id": "t__c001"},
+        {"clip_id": "t__c003", "partner_clip_id": "gone__c000"},  # its partner is not usable
+        {"clip_id": "u__c000", "partner_clip_id": ""},
+    ]
+    assert partner_groups(rows) == [["t__c000", "t__c001", "t__c002"], ["t__c003"], ["u__c000"]]
+
+
+def test_dyadic_json_is_written_only_when_clips_have_partners(tmp_path: Path) -> None:
+    write_splits(tmp_path, manifest(3))
+    assert not (tmp_path / "splits" / "dyadic.json").exists()
+    rows = seed_004_corpus(200)
+    write_splits(tmp_path, rows)
+    written = json.loads((tmp_path / "splits" / "dyadic.json").read_text())
+    assert written["variant"] == "dyadic" and written["paired_clips"] == 400
+    assert leaks(written, rows) == []
+    write_splits(tmp_path, manifest(3))  # rebuilt without partners: no stale dyadic split
+    assert not (tmp_path / "splits" / "dyadic.json").exists()

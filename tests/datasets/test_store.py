@@ -142,6 +142,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     # synthetic clips: exact joints (confidence 1), no lifter with a calibration (NaN)
     assert (manifest["depth_confidence"] == 1.0).all()
     assert manifest["expected_hand_error_cm"].isna().all()
+    assert list(manifest["partner_clip_id"]) == ["", "", ""]  # one person per take: no partner
     assert list(manifest["clip_id"]) == ["s1_a__c000", "s1_a__c001", "s2_b__c000"]
     assert manifest["person"].dtype == np.int32 and (manifest["person"] >= 0).all()
     assert manifest["speaking_fraction"].between(0, 1).all()
@@ -157,6 +158,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
             assert d["depth_confidence"].dtype == np.float32
             assert d["role"].shape == (row.n_frames,) and d["role"].dtype == np.int8
             assert d["head_roll"].shape == (row.n_frames,) and d["head_roll"].dtype == np.float32
+            assert str(d["partner_clip_id"]) == "" and not d["partner_speaking"].any()
     assert set(info["takes"]) == {"s1_a", "s2_b"}
     assert info["takes"]["s1_a"]["clips"] == 2
 

@@ -40,9 +40,11 @@ class SplitInputs:
     fgd_note: str | None  # why there is no FGD, when there is none
 
 
-def split_key(variant: str, fold: int | None, subject: str | None) -> str:
-    """A split's folder name under the dataset's fgd/: si-fold00, sd-<subject>."""
-    return f"si-fold{fold:02d}" if variant == "si" else f"sd-{subject}"
+def split_key(variant: str, fold: int | None, subject: str | None, target: str) -> str:
+    """A split's folder name under the dataset's fgd/: si-fold00, sd-<subject>, dyadic; with
+    "-listener" for the listener target (other motion: the listeners' heads)."""
+    key = {"si": f"si-fold{fold or 0:02d}", "dyadic": "dyadic"}.get(variant, f"sd-{subject}")
+    return key if target == "speaker" else f"{key}-{target}"
 
 
 def known_runs(segments: list[Segment]) -> list[np.ndarray]:
@@ -52,6 +54,10 @@ def known_runs(segments: list[Segment]) -> list[np.ndarray]:
         ok = np.isfinite(s.angles).all(axis=1)
         out += [s.angles[a:b] for a, b in _runs(ok)]
     return out
+
+
+def _item(segment: Segment) -> tuple[str, int, int]:
+    return segment.clip_id, segment.start, segment.start + len(segment)
 
 
 def prepare(
@@ -65,8 +71,11 @@ def prepare(
 ) -> SplitInputs:
     """Load split part `part` and the train and val parts, train or reuse the FGD autoencoder,
     find the onsets. No FGD (with the reason) when train + val hold fewer than 2 chunks."""
-    items = split_items(dataset, variant, part, fold=fold, subject=subject)
-    segments = load_segments(dataset, items)
+    segments = load_segments(
+        dataset,
+        split_items(dataset, variant, part, fold=fold, subject=subject),
+        target=config.target,
+    )
     if not segments:
         raise InputError(f"{dataset.path}: the {part} part of this split is empty")
     learn_items = [
@@ -74,16 +83,17 @@ def prepare(
         for p in ("train", "val")
         for item in split_items(dataset, variant, p, fold=fold, subject=subject)
     ]
-    learn = load_segments(dataset, learn_items)
+    learn = load_segments(dataset, learn_items, target=config.target)
+    items = [_item(s) for s in segments]  # the listener target leaves some out
     scored = set(items)
-    donors = [s for s, item in zip(learn, learn_items, strict=True) if item not in scored]
+    donors = [s for s in learn if _item(s) not in scored]
     rate_hz = float(dataset.info.rates.pose_hz)
     natural = chunks(known_runs(learn), rate_hz=rate_hz, config=config.eval)
     fgd, note = None, None
     if len(natural) >= 2:
         fgd = feature_model(
             dataset.path,
-            split_key(variant, fold, subject),
+            split_key(variant, fold, subject, config.target),
             natural,
             config=config.eval,
             seed=config.seed,
