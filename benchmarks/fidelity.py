@@ -8,7 +8,9 @@ gets (a COCO-17 Pose2D with the camera's intrinsics). Scored in robot space
 Pepper-FK elbow and hand error, head direction error, and mirror consistency (the view flipped
 left-right, its angles mirrored back, against the unflipped lift). `blazepose-world` needs the
 detector's own 3D and has no perfect-2D row. Stretches: `test.bvh` 31–51 s is the acceptance
-set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3.
+set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3
+(with `--detected`, test2.bvh from 0 s is rendered and detected). The `learned` lifter was
+trained on test.bvh outside 31–51 s only (benchmarks/train_lifter.py).
 
 The multi-view rig (issue 30; with `--detected SECONDS`, and a 2 s, 320×180, 3-camera true-2D
 row in `--quick`): the same stretch rendered by 3 and 4 cameras spread over `[synth]
@@ -88,7 +90,7 @@ from gesturebank.synth.take import Performer, cached_render, render_cache, rig_a
 from gesturebank.synth.truth import CALIBRATION, Truth
 
 MONOCULAR = ("blazepose-world", "geometric", "fitted")
-TRUTH_LIFTERS = ("geometric", "fitted", "resolved")  # blazepose-world: no perfect-2D row
+TRUTH_LIFTERS = ("geometric", "fitted", "resolved", "learned")  # blazepose-world: no perfect-2D row
 TRUTH_BVH = "bvhtools/testBvhFiles/{}.bvh"
 # (file, start s, end s): tune only on `tune`; `acceptance` is issue 30's; `holdout` evaluates.
 TRUTH_SETS = {  # stretches where the person stays within about a metre (a fixed camera)
@@ -97,8 +99,10 @@ TRUTH_SETS = {  # stretches where the person stays within about a metre (a fixed
     "holdout": (("test2", 0.0, 20.0), ("test3", 20.0, 40.0)),
 }
 QUICK_TRUTH = ("test", 31.0, 33.0)
-DETECTED_LIFTERS = ("blazepose-world", "geometric", "fitted", "resolved")
+DETECTED_LIFTERS = ("blazepose-world", "geometric", "fitted", "resolved", "learned")
 DETECTED_START_S = 31.0
+# --truth-set → the motion and start (s) of the detected renders: test.bvh from 31 s, test2's first
+DETECTED_MOTIONS = {"acceptance": ("test", 31.0), "tune": ("test", 21.0), "holdout": ("test2", 0.0)}
 # view name → (azimuth from the take's front, degrees; camera above the head)
 TRUTH_VIEWS = {
     "0°": (0.0, False),
@@ -304,11 +308,11 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
             )  # fmt: skip
 
 
-def render_truth(config: Config, synth: SynthConfig) -> Truth:
-    """The cached render of test.bvh under `synth` (gesturebank.synth)."""
+def render_truth(config: Config, synth: SynthConfig, motion: str = "test") -> Truth:
+    """The cached render of `motion`.bvh under `synth` (gesturebank.synth)."""
     samples = default_samples_dir()
     speech = [samples / rel for rel in SPEECH]
-    performer = Performer(samples / TRUTH_BVH.format("test"))
+    performer = Performer(samples / TRUTH_BVH.format(motion))
     return cached_render([performer], config=synth, mocap=config.mocap, speech=speech,
                          cache=render_cache(samples))  # fmt: skip
 
@@ -323,23 +327,27 @@ def detect_cached(config: Config, video: Path) -> Pose2D:
     return pose
 
 
-def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Table:
-    """Renders of test.bvh from `DETECTED_START_S` (gesturebank.synth, cached by checksum), the
+def detected_table(config: Config, seconds: float, azimuths: list[float],
+                   motion: tuple[str, float] = ("test", DETECTED_START_S),
+                   lifters: tuple[str, ...] = DETECTED_LIFTERS) -> Table:  # fmt: skip
+    """Renders of `motion` (bvh name, start s; gesturebank.synth, cached by checksum), the
     real BlazePose detector on each (its Pose2D cached beside the render by the video's
     checksum), every monocular lifter scored against the render's truth."""
+    name, start = motion
     seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]] = {}
     for azimuth in azimuths:
-        synth = SynthConfig(azimuths_deg=[azimuth], start_s=DETECTED_START_S, length_s=seconds)
-        truth = render_truth(config, synth)
+        synth = SynthConfig(azimuths_deg=[azimuth], start_s=start, length_s=seconds)
+        truth = render_truth(config, synth, name)
         pose = detect_cached(config, truth.videos[0])
         seen[f"{azimuth:g}°"] = [(pose, truth.cameras[0], truth.joints3d.astype(np.float64))]
-    end = DETECTED_START_S + seconds
-    table = Table(title=f"Detected 2D: BlazePose on renders of test.bvh {DETECTED_START_S:g}–"
-                  f"{end:g} s (mirror: the detections flipped, not the video)")  # fmt: skip
+    table = Table(
+        title=f"Detected 2D: BlazePose on renders of {name}.bvh {start:g}–"
+        f"{start + seconds:g} s (mirror: the detections flipped, not the video)"
+    )
     for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
                 "elbow cm", "hand cm", "head °", "mirror °", "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
-    add_rows(table, config, DETECTED_LIFTERS, seen)
+    add_rows(table, config, lifters, seen)
     return table
 
 
@@ -397,7 +405,9 @@ def main() -> None:
                         help="also render SECONDS of test.bvh at 0/30/60° and score every lifter "
                         "on BlazePose's 2D (minutes; cached)")  # fmt: skip
     parser.add_argument("--lifters", default=",".join(TRUTH_LIFTERS),
-                        help="comma-separated lifters of the truth tables")  # fmt: skip
+                        help="comma-separated lifters of the perfect-2D table")  # fmt: skip
+    parser.add_argument("--detected-lifters", default=",".join(DETECTED_LIFTERS),
+                        help="comma-separated lifters of the detected table")  # fmt: skip
     args = parser.parse_args()
     console = Console(width=max(Console().width, 160))  # 14+ columns: keep them readable
     if args.only != "demo":
@@ -408,8 +418,11 @@ def main() -> None:
         title = f"Perfect 2D: motion-capture truth projected ({where}), scored on Pepper"
         console.print(truth_table(config, stretches, views, tuple(args.lifters.split(",")), title))
         if args.detected:
-            console.print(detected_table(config, args.detected, [0.0, 30.0, 60.0]))
-            console.print(rig_table(config, args.detected, (3, 4), detected=True))
+            motion = DETECTED_MOTIONS[args.truth_set]
+            lifters = tuple(args.detected_lifters.split(","))
+            console.print(detected_table(config, args.detected, [0.0, 30.0, 60.0], motion, lifters))
+            if args.truth_set == "acceptance":
+                console.print(rig_table(config, args.detected, (3, 4), detected=True))
         elif args.quick:  # true 2D only, a small render (its calibration is all it gives)
             console.print(rig_table(config, QUICK_RIG_S, (3,), detected=False, size=QUICK_RIG))
     if args.only == "truth":
