@@ -58,7 +58,7 @@ def check_table(path: Path, joints: np.ndarray, times: np.ndarray, config: Confi
     front, left, up = body_axes(truth)
     neck, hips = truth[:, 5:7].mean(1), truth[:, 11:13].mean(1)
     chest = np.mean(0.75 * neck + 0.25 * hips, axis=0)
-    lifter = LearnedLifter(learned=LearnedConfig(model=str(path)))
+    lifter = LearnedLifter(learned=LearnedConfig(onnx_file=str(path)))
     table = Table(title=f"learned lifter, true 2D of test.bvh {CHECK_S[0]:g}–{CHECK_S[1]:g} s")
     for col in ("view", "arm MAE °", "wrong sign %", "hand cm", "frames/s"):
         table.add_column(col, justify="right")
@@ -104,7 +104,7 @@ def main() -> None:
             "random cameras, detector-like noise, mirrored",
             "command": command,
             "schedule": {k: getattr(schedule, k) for k in ("steps", "batch", "outputs",
-                         "learning_rate", "final_learning_rate", "seed", "threads")},
+                         "lr_start", "lr_end", "rng_seed", "torch_threads")},
             "minutes": round(minutes, 1),
         })  # fmt: skip
         console.print(f"wrote {out} ({out.stat().st_size / 1e6:.2f} MB) after {minutes:.1f} min")

@@ -225,7 +225,7 @@ class ResolvedConfig(Section):
 class LearnedConfig(Section):
     """Options of the `learned` lifter: a temporal convolution net (ONNX) from 2D to 3D."""
 
-    model: str = Field(
+    onnx_file: str = Field(
         "",
         description="The lifter's ONNX file; empty = the one shipped in the package "
         "(gesturebank/data/learned-lifter.onnx, trained by benchmarks/train_lifter.py). Its "

@@ -48,7 +48,7 @@ class Architecture:
     channels: int = 128
     dilations: tuple[int, ...] = (3, 9, 27)
     kernel: int = 3
-    dropout: float = 0.1
+    dropout_p: float = 0.1
 
     @property
     def receptive(self) -> int:
@@ -65,8 +65,8 @@ class TemporalLifterNet(nn.Module):
         c, k = arch.channels, arch.kernel
         self.arch = arch
         self.stem = nn.Sequential(nn.Conv1d(F.N_FEATURES, c, k, bias=False), nn.BatchNorm1d(c),
-                                  nn.ReLU(), nn.Dropout(arch.dropout))  # fmt: skip
-        self.blocks = nn.ModuleList(self._block(c, k, d, arch.dropout) for d in arch.dilations)
+                                  nn.ReLU(), nn.Dropout(arch.dropout_p))  # fmt: skip
+        self.blocks = nn.ModuleList(self._block(c, k, d, arch.dropout_p) for d in arch.dilations)
         self.trims = [(k - 1) * d // 2 for d in arch.dilations]
         self.head = nn.Conv1d(c, F.N_OUTPUTS, 1)
 
@@ -91,9 +91,9 @@ class Cameras:
 
     front_share: float = 0.75  # the rest anywhere around the person
     front_deg: float = 90.0  # azimuth ± this many degrees from the person's front
-    height_m: tuple[float, float] = (-0.3, 1.0)  # above the chest
-    distance_m: tuple[float, float] = (2.0, 5.0)
-    fov_deg: tuple[float, float] = (35.0, 75.0)
+    height_range_m: tuple[float, float] = (-0.3, 1.0)  # above the chest
+    distance_range_m: tuple[float, float] = (2.0, 5.0)
+    fov_range_deg: tuple[float, float] = (35.0, 75.0)
     aim_sd_m: float = 0.15  # the camera aims this far off the chest
 
 
@@ -155,12 +155,12 @@ class Sampler:
         else:
             azimuth = rng.uniform(-np.pi, np.pi)
         eye = chest + scale * (
-            rng.uniform(*cams.distance_m) * (np.cos(azimuth) * front + np.sin(azimuth) * left)
-            + rng.uniform(*cams.height_m) * up
+            rng.uniform(*cams.distance_range_m) * (np.cos(azimuth) * front + np.sin(azimuth) * left)
+            + rng.uniform(*cams.height_range_m) * up
         )
         target = chest + scale * rng.normal(0.0, cams.aim_sd_m, 3)
         return look_at(eye=eye, target=target, up=up, size=(1280, 720),
-                       fov_deg=rng.uniform(*cams.fov_deg))  # fmt: skip
+                       fov_deg=rng.uniform(*cams.fov_range_deg))  # fmt: skip
 
     def _noise(self, rng: np.random.Generator) -> np.ndarray:
         """(frames, 13, 2) detector-like error in neck → mid-hip lengths."""
@@ -189,10 +189,10 @@ class Schedule:
     steps: int = 600
     batch: int = 16
     outputs: int = 96  # output frames per sample (inputs: outputs + receptive − 1)
-    learning_rate: float = 1e-3
-    final_learning_rate: float = 1e-5
-    seed: int = 0
-    threads: int = 2
+    lr_start: float = 1e-3
+    lr_end: float = 1e-5
+    rng_seed: int = 0
+    torch_threads: int = 2
 
 
 def train(
@@ -204,13 +204,13 @@ def train(
 ) -> TemporalLifterNet:
     """Adam with a cosine decay; `sampler_for(input_frames)` makes the data; `log(step, loss,
     seconds)` is called every 100 steps."""
-    torch.manual_seed(schedule.seed)
-    torch.set_num_threads(schedule.threads)
-    rng = np.random.default_rng(schedule.seed)
+    torch.manual_seed(schedule.rng_seed)
+    torch.set_num_threads(schedule.torch_threads)
+    rng = np.random.default_rng(schedule.rng_seed)
     sampler = sampler_for(schedule.outputs + arch.receptive - 1)
     net = TemporalLifterNet(arch)
-    opt = torch.optim.Adam(net.parameters(), lr=schedule.learning_rate)
-    ratio = schedule.final_learning_rate / schedule.learning_rate
+    opt = torch.optim.Adam(net.parameters(), lr=schedule.lr_start)
+    ratio = schedule.lr_end / schedule.lr_start
     sched = torch.optim.lr_scheduler.LambdaLR(
         opt, lambda s: ratio + (1 - ratio) * 0.5 * (1 + np.cos(np.pi * s / schedule.steps))
     )

@@ -120,4 +120,4 @@ def test_a_model_without_its_sidecar_is_a_one_line_error(tmp_path: Path) -> None
     view = Pose2D(np.concatenate([joints[..., :2] * 50 + 300, np.ones((5, 17, 1))], -1),
                   np.arange(5) / 30, "coco17", (640, 480))  # fmt: skip
     with pytest.raises(InputError, match="sidecar"):
-        LearnedLifter(learned=LearnedConfig(model=str(model))).lift(TakeViews.of(view))
+        LearnedLifter(learned=LearnedConfig(onnx_file=str(model))).lift(TakeViews.of(view))

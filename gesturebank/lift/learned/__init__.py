@@ -38,8 +38,8 @@ PACKAGED = Path(__file__).resolve().parents[2] / "data" / "learned-lifter.onnx"
 
 
 def model_path(options: LearnedConfig) -> Path:
-    """The ONNX file of `options` (the packaged one for an empty `model`)."""
-    return Path(options.model) if options.model else PACKAGED
+    """The ONNX file of `options` (the packaged one for an empty `onnx_file`)."""
+    return Path(options.onnx_file) if options.onnx_file else PACKAGED
 
 
 @cache

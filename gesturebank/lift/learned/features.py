@@ -51,7 +51,7 @@ def fill_gaps(uv: np.ndarray) -> np.ndarray:
     return out
 
 
-def image_scale(uv: np.ndarray, *, rate_hz: float = RATE_HZ) -> np.ndarray:
+def image_scale(uv: np.ndarray) -> np.ndarray:
     """(T,) the torso's size in ray units per frame of gap-free keypoints uv (T, 13, 2)."""
     neck = uv[:, [_LS, _RS]].mean(axis=1)
     lengths = {
@@ -60,7 +60,7 @@ def image_scale(uv: np.ndarray, *, rate_hz: float = RATE_HZ) -> np.ndarray:
         "hips": np.linalg.norm(uv[:, _LH] - uv[:, _RH], axis=-1) / 2,
     }
     ok = np.isfinite(lengths["spine"]) & (lengths["spine"] > 0)
-    window = max(1, round(SCALE_WINDOW_S * rate_hz) | 1)
+    window = max(1, round(SCALE_WINDOW_S * RATE_HZ) | 1)
     return torso_scale(lengths, ok, window=window, percentile=95.0)
 
 
