@@ -17,8 +17,9 @@ class LifterConfig(Section):
         description="3D lifter of single-view takes: 'blazepose-world' (learned), 'fitted' (a "
         "skeleton fitted to the 2D with BlazePose's 3D as prior), 'resolved' (each arm bone's "
         "depth sign decoded over the take; best from true 2D, not yet at 60° from BlazePose's), "
-        "'learned' (a temporal convolution net trained on projected motion capture), "
-        "'geometric' (assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
+        "'learned' (a temporal convolution net trained on projected motion capture; "
+        "under-trained so far, 15 cm hand error from true 2D), 'geometric' (assumptions) "
+        "or a plug-in name; multi-camera takes always use 'multiview'.",
     )
 
 
