@@ -9,7 +9,9 @@ Pepper-FK elbow and hand error, head direction error, and mirror consistency (th
 left-right, its angles mirrored back, against the unflipped lift; with `--detected`, also the
 video itself flipped and detected again, "video flip °"). `blazepose-world` needs the
 detector's own 3D and has no perfect-2D row. Stretches: `test.bvh` 31–51 s is the acceptance
-set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3.
+set (issue 30); tune only on `--truth-set tune` (test.bvh elsewhere); `holdout` is test2/test3
+(with `--detected`, test2.bvh from 0 s is rendered and detected). The `learned` lifter was
+trained on test.bvh outside 31–51 s only (benchmarks/train_lifter.py).
 
 The multi-view rig (issue 30; with `--detected SECONDS`, and a 2 s, 320×180, 3-camera true-2D
 row in `--quick`): the same stretch rendered by 3 and 4 cameras spread over `[synth]
@@ -98,7 +100,7 @@ from gesturebank.synth.truth import CALIBRATION, Truth
 from gesturebank.testing.rigs import perturb_cameras
 
 MONOCULAR = ("blazepose-world", "geometric", "fitted")
-TRUTH_LIFTERS = ("geometric", "fitted", "resolved")  # blazepose-world: no perfect-2D row
+TRUTH_LIFTERS = ("geometric", "fitted", "resolved", "learned")  # blazepose-world: no perfect-2D row
 TRUTH_BVH = "bvhtools/testBvhFiles/{}.bvh"
 # (file, start s, end s): tune only on `tune`; `acceptance` is issue 30's; `holdout` evaluates.
 TRUTH_SETS = {  # stretches where the person stays within about a metre (a fixed camera)
@@ -107,8 +109,10 @@ TRUTH_SETS = {  # stretches where the person stays within about a metre (a fixed
     "holdout": (("test2", 0.0, 20.0), ("test3", 20.0, 40.0)),
 }
 QUICK_TRUTH = ("test", 31.0, 33.0)
-DETECTED_LIFTERS = ("blazepose-world", "geometric", "fitted", "resolved")
+DETECTED_LIFTERS = ("blazepose-world", "geometric", "fitted", "resolved", "learned")
 DETECTED_START_S = 31.0
+# --truth-set → the motion and start (s) of the detected renders: test.bvh from 31 s, test2's first
+DETECTED_MOTIONS = {"acceptance": ("test", 31.0), "tune": ("test", 21.0), "holdout": ("test2", 0.0)}
 # view name → (azimuth from the take's front, degrees; camera above the head)
 TRUTH_VIEWS = {
     "0°": (0.0, False),
@@ -324,11 +328,11 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
             )  # fmt: skip
 
 
-def render_truth(config: Config, synth: SynthConfig) -> Truth:
-    """The cached render of test.bvh under `synth` (gesturebank.synth)."""
+def render_truth(config: Config, synth: SynthConfig, motion: str = "test") -> Truth:
+    """The cached render of `motion`.bvh under `synth` (gesturebank.synth)."""
     samples = default_samples_dir()
     speech = [samples / rel for rel in SPEECH]
-    performer = Performer(samples / TRUTH_BVH.format("test"))
+    performer = Performer(samples / TRUTH_BVH.format(motion))
     return cached_render([performer], config=synth, mocap=config.mocap, speech=speech,
                          cache=render_cache(samples))  # fmt: skip
 
@@ -348,27 +352,29 @@ def detect_cached(config: Config, video: Path, *, flipped: bool = False) -> Pose
     return pose
 
 
-def detected_table(config: Config, seconds: float, azimuths: list[float]) -> Table:
-    """Renders of test.bvh from `DETECTED_START_S` (gesturebank.synth, cached by checksum), the
+def detected_table(config: Config, seconds: float, azimuths: list[float],
+                   motion: tuple[str, float] = ("test", DETECTED_START_S),
+                   lifters: tuple[str, ...] = DETECTED_LIFTERS) -> Table:  # fmt: skip
+    """Renders of `motion` (bvh name, start s; gesturebank.synth, cached by checksum), the
     real BlazePose detector on each (its Pose2D cached beside the render by the video's
     checksum), every monocular lifter scored against the render's truth."""
+    name, start = motion
     seen: dict[str, list[tuple[Pose2D, Camera, np.ndarray]]] = {}
     flipped: dict[str, list[Pose2D]] = {}
     for azimuth in azimuths:
-        synth = SynthConfig(azimuths_deg=[azimuth], start_s=DETECTED_START_S, length_s=seconds)
-        truth = render_truth(config, synth)
+        synth = SynthConfig(azimuths_deg=[azimuth], start_s=start, length_s=seconds)
+        truth = render_truth(config, synth, name)
         pose = detect_cached(config, truth.videos[0])
         seen[f"{azimuth:g}°"] = [(pose, truth.cameras[0], truth.joints3d.astype(np.float64))]
         flipped[f"{azimuth:g}°"] = [detect_cached(config, truth.videos[0], flipped=True)]
-    end = DETECTED_START_S + seconds
-    table = Table(title=f"Detected 2D: BlazePose on renders of test.bvh {DETECTED_START_S:g}–"
-                  f"{end:g} s (mirror: the detections flipped; video flip: BlazePose on the "
-                  "flipped video, the angles mirrored back)")  # fmt: skip
+    table = Table(title=f"Detected 2D: BlazePose on renders of {name}.bvh {start:g}–"
+                  f"{start + seconds:g} s (mirror: the detections flipped; video flip: BlazePose "
+                  "on the flipped video, the angles mirrored back)")  # fmt: skip
     for col in ("lifter", "view", "arm MAE °", "wrong sign %", *(b for b in ARM_BONES),
                 "elbow cm", "hand cm", "head °", HEAD_SPLIT, "mirror °", "video flip °",
                 "frames/s"):  # fmt: skip
         table.add_column(col, justify="right")
-    add_rows(table, config, DETECTED_LIFTERS, seen, flipped)
+    add_rows(table, config, lifters, seen, flipped)
     return table
 
 
@@ -486,7 +492,9 @@ def main() -> None:
                         help="also render SECONDS of test.bvh at 0/30/60° and score every lifter "
                         "on BlazePose's 2D (minutes; cached)")  # fmt: skip
     parser.add_argument("--lifters", default=",".join(TRUTH_LIFTERS),
-                        help="comma-separated lifters of the truth tables")  # fmt: skip
+                        help="comma-separated lifters of the perfect-2D table")  # fmt: skip
+    parser.add_argument("--detected-lifters", default=",".join(DETECTED_LIFTERS),
+                        help="comma-separated lifters of the detected table")  # fmt: skip
     args = parser.parse_args()
     console = Console(width=max(Console().width, 160))  # 14+ columns: keep them readable
     if args.only != "demo":
@@ -499,11 +507,16 @@ def main() -> None:
         if args.only != "rig":
             console.print(truth_table(config, stretches, views, lifters, title))
         if args.detected:
+            motion = DETECTED_MOTIONS[args.truth_set]
             if args.only != "rig":
-                console.print(detected_table(config, args.detected, [0.0, 30.0, 60.0]))
-            console.print(rig_table(config, args.detected, (3, 4), detected=True))
-            console.print(calibration_table(config, args.detected, (3, 4), detected=True,
-                                            seeds=(0, 1, 2)))  # fmt: skip
+                lifters = tuple(args.detected_lifters.split(","))
+                console.print(
+                    detected_table(config, args.detected, [0.0, 30.0, 60.0], motion, lifters)
+                )
+            if args.truth_set == "acceptance":
+                console.print(rig_table(config, args.detected, (3, 4), detected=True))
+                console.print(calibration_table(config, args.detected, (3, 4), detected=True,
+                                                seeds=(0, 1, 2)))  # fmt: skip
         elif args.quick or args.only == "rig":  # true 2D, a small render (its calibration only)
             console.print(rig_table(config, QUICK_RIG_S, (3,), detected=False, size=QUICK_RIG))
             console.print(calibration_table(config, QUICK_RIG_S, (3,), detected=False,

@@ -40,6 +40,7 @@ from gesturebank.config.lift import (
     BoardConfig,
     FittedConfig,
     GeometricConfig,
+    LearnedConfig,
     LifterConfig,
     MultiviewConfig,
     ResolvedConfig,
@@ -87,6 +88,7 @@ __all__ = [
     "FittedConfig",
     "GeometricConfig",
     "LSTMConfig",
+    "LearnedConfig",
     "LifterConfig",
     "MLPConfig",
     "MetricName",
@@ -133,6 +135,7 @@ class Config(Section):
     geometric: GeometricConfig = Field(default_factory=GeometricConfig)
     fitted: FittedConfig = Field(default_factory=FittedConfig)
     resolved: ResolvedConfig = Field(default_factory=ResolvedConfig)
+    learned: LearnedConfig = Field(default_factory=LearnedConfig)
     multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
     board: BoardConfig = Field(default_factory=BoardConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)

@@ -1,5 +1,5 @@
 """Options of the 3D lifters: which one (`[lifter]`), each lifter's own section (`[geometric]`,
-`[fitted]`, `[resolved]`, `[multiview]`) and the calibration board (`[board]`).
+`[fitted]`, `[resolved]`, `[learned]`, `[multiview]`) and the calibration board (`[board]`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,9 @@ class LifterConfig(Section):
         description="3D lifter of single-view takes: 'blazepose-world' (learned), 'fitted' (a "
         "skeleton fitted to the 2D with BlazePose's 3D as prior), 'resolved' (each arm bone's "
         "depth sign decoded over the take; best from true 2D, not yet at 60° from BlazePose's), "
-        "'geometric' (assumptions) or a plug-in name; multi-camera takes always use 'multiview'.",
+        "'learned' (a temporal convolution net trained on projected motion capture; "
+        "under-trained so far, 15 cm hand error from true 2D), 'geometric' (assumptions) "
+        "or a plug-in name; multi-camera takes always use 'multiview'.",
     )
 
 
@@ -218,6 +220,23 @@ class ResolvedConfig(Section):
         gt=0,
         description="Running median (seconds) of the spine's 2D length that gives the neck's "
         "depth.",
+    )
+
+
+class LearnedConfig(Section):
+    """Options of the `learned` lifter: a temporal convolution net (ONNX) from 2D to 3D."""
+
+    onnx_file: str = Field(
+        "",
+        description="The lifter's ONNX file; empty = the one shipped in the package "
+        "(gesturebank/data/learned-lifter.onnx, trained by benchmarks/train_lifter.py). Its "
+        "sidecar (same name, .json) must sit beside it.",
+    )
+    threads: int = Field(
+        1,
+        ge=1,
+        description="onnxruntime threads of one lift (a build already lifts takes in parallel "
+        "workers).",
     )
 
 

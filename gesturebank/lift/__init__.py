@@ -78,4 +78,5 @@ LIFTERS.register_lazy(
 LIFTERS.register_lazy("geometric", "gesturebank.lift.geometric:GeometricLifter.from_config")
 LIFTERS.register_lazy("fitted", "gesturebank.lift.fitted:FittedLifter.from_config")
 LIFTERS.register_lazy("resolved", "gesturebank.lift.resolved:ResolvedLifter.from_config")
+LIFTERS.register_lazy("learned", "gesturebank.lift.learned:LearnedLifter.from_config")
 LIFTERS.register_lazy("multiview", "gesturebank.lift.multiview.lifter:MultiviewLifter.from_config")
