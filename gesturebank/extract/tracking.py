@@ -415,9 +415,10 @@ def _by_roles(
 
     A track speaks in the shot when its role is "speaking" for at least min_speaking_s; then
     the speaker at each frame is whoever of those speaks (ties: the best total score), held
-    through pauses (`turns`). Nobody speaks: alone, the one candidate is chosen as before;
-    among several, the one candidate seen facing the camera (FACING_SHARE of its frames), and
-    with none or several of them nobody (main_id -1, reason "nobody")."""
+    through pauses (`turns`). Nobody speaks: alone (no two candidates in one frame), the
+    candidates are chosen among as before; among several at once, the one candidate seen
+    facing the camera (FACING_SHARE of its frames), and with none or several of them nobody
+    (main_id -1, reason "nobody")."""
     min_s = (speech or SpeechConfig()).min_speaking_s
     ts = scene.ts[start:stop]
     step = frame_step(scene.ts)
@@ -448,7 +449,9 @@ def _by_roles(
             )
         return out, True
     cands = _candidates(scores)
-    if len(cands) <= 1:
+    together = [(scene.ids[start:stop] == k).any(axis=1) for k in cands]
+    # one person is alone even when the tracker broke them into several tracks one after another
+    if len(cands) <= 1 or int(np.sum(together, axis=0).max()) <= 1:
         return _choose(scene, start, stop, shot=shot, reason="shot", exclude=frozenset()), False
     facing = []
     for k in cands:
