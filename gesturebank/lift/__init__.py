@@ -20,7 +20,7 @@ from gesturebank.registry import Registry
 
 if TYPE_CHECKING:
     from gesturebank.extract.audio_io import Audio
-    from gesturebank.lift.multiview.cameras import CameraGroup
+    from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,6 +62,15 @@ class TakeViews:
                 "lifts several"
             )
         return self.poses[0]
+
+    def single_camera(self, lifter: str) -> Camera | None:
+        """The one view's camera (None: uncalibrated); InputError for several."""
+        if self.cameras is not None and len(self.cameras) != 1:
+            raise InputError(
+                f"lifter {lifter!r}: one view but {len(self.cameras)} cameras "
+                f"({self.cameras.names}); give the view's own camera"
+            )
+        return None if self.cameras is None else self.cameras[0]
 
 
 class Lifter(Protocol):

@@ -32,7 +32,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gesturebank.config import Config, FittedConfig, GeometricConfig
-from gesturebank.errors import InputError
 from gesturebank.geometry import Camera
 from gesturebank.lift import TakeViews
 from gesturebank.lift.geometric import GeometricLifter, chain_confidence
@@ -117,12 +116,7 @@ class FittedLifter:
 
     def lift_with_report(self, views: TakeViews) -> tuple[Pose3D, FittedReport]:
         pose2d = views.single(self.name)
-        if views.cameras is not None and len(views.cameras) != 1:
-            raise InputError(
-                f"lifter {self.name!r}: one view but {len(views.cameras)} cameras "
-                f"({views.cameras.names}); give the view's own camera"
-            )
-        calibrated = None if views.cameras is None else views.cameras[0]
+        calibrated = views.single_camera(self.name)
         cfg = self.options
         coco = pose2d.to_coco17()
         kp = coco.keypoints[:, :N_JOINTS].astype(np.float64)

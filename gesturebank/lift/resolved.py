@@ -39,7 +39,6 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 from gesturebank.config import Config, FittedConfig, GeometricConfig, ResolvedConfig
-from gesturebank.errors import InputError
 from gesturebank.lift import TakeViews
 from gesturebank.lift.depth_sign import (
     behind_cost,
@@ -137,16 +136,11 @@ class ResolvedLifter:
     def lift(self, views: TakeViews) -> Pose3D:
         """One view of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring)."""
         pose2d = views.single(self.name)
-        if views.cameras is not None and len(views.cameras) != 1:
-            raise InputError(
-                f"lifter {self.name!r}: one view but {len(views.cameras)} cameras "
-                f"({views.cameras.names}); give the view's own camera"
-            )
         coco = pose2d.to_coco17()
         kp = coco.keypoints.astype(np.float64)
         conf = np.nan_to_num(kp[..., 2], nan=1.0)
         seen = np.isfinite(kp[..., :2]).all(-1) & (conf >= self.fitted.min_confidence)
-        camera = None if views.cameras is None else views.cameras[0]
+        camera = views.single_camera(self.name)
         focal, center, pixels = pinhole(
             np.where(seen[..., None], kp[..., :2], np.nan),
             coco.image_size,

@@ -93,14 +93,9 @@ class LearnedLifter:
     def lift(self, views: TakeViews) -> Pose3D:
         """One view of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring)."""
         pose2d = views.single(self.name)
-        if views.cameras is not None and len(views.cameras) != 1:
-            raise InputError(
-                f"lifter {self.name!r}: one view but {len(views.cameras)} cameras "
-                f"({views.cameras.names}); give the view's own camera"
-            )
         coco = pose2d.to_coco17()
         kp = coco.keypoints[:, : F.N_JOINTS].astype(np.float64)
-        camera = None if views.cameras is None else views.cameras[0]
+        camera = views.single_camera(self.name)
         focal, center, pixels = pinhole(kp[..., :2], coco.image_size, camera,
                                         fov_deg=self.fitted.fov_deg)  # fmt: skip
         uv = (pixels - center) / focal
