@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gesturebank.clip import Clip, kept_parts, part_mask, parts_label, parts_of
+from gesturebank.clip import Clip, kept_parts, part_mask
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.partners import pair_clips
@@ -623,27 +623,8 @@ def build_take(
             reasons = absolute_reasons(metrics, config.qc)
             clips.append(clip)
             rows.append(
-                ClipRecord(
-                    clip_id=clip.clip_id,
-                    kind="clip",
-                    start_s=clip.start_s,
-                    end_s=clip.start_s + clip.duration_s,
-                    qc_status="rejected" if reasons else "accepted",
-                    qc_reasons=tuple(reasons),
-                    duration_s=clip.duration_s,
-                    n_frames=len(clip.times),
-                    metrics=metrics.to_dict(),
-                    repairs={
-                        "keypoints": int(clip.repaired.sum()),
-                        "frames": int(clip.repaired.any(axis=1).sum()),
-                    },
-                    masked={
-                        j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)
-                    },
-                    parts=parts_label(parts_of(clip.mask)),
-                    measured=measured,
-                    person=clip.person,
-                    speaking_fraction=clip.speaking_fraction,
+                ClipRecord.of_clip(
+                    clip, metrics=metrics.to_dict(), reasons=reasons, measured=measured
                 )
             )
         for span in cutting.dropped:

@@ -41,6 +41,7 @@ from gesturebank.config import Config
 from gesturebank.datasets.partners import check_partners
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
+from gesturebank.robot.pepper import JOINTS
 
 # 4: every clip holds `depth_confidence` (per video frame), its person and role track (who
 # speaks when), `head_roll`, its partner (`partner_clip_id`, `partner_speaking`), and is judged
@@ -145,6 +146,35 @@ class ClipRecord:
             raise ValueError(f"qc_status must be one of {STATUSES}, got {self.qc_status!r}")
         if self.kind not in ("clip", "span"):
             raise ValueError(f"kind must be 'clip' or 'span', got {self.kind!r}")
+
+    @classmethod
+    def of_clip(
+        cls, clip: Clip, *, metrics: Mapping[str, float], reasons: Sequence[str], measured: str
+    ) -> ClipRecord:
+        """The record of a clip the builder judged: its QC verdict from `reasons`, its
+        `metrics`, and what the clip itself says (span, repairs, masked shares, parts, person,
+        partner)."""
+        return cls(
+            clip_id=clip.clip_id,
+            kind="clip",
+            start_s=clip.start_s,
+            end_s=clip.start_s + clip.duration_s,
+            qc_status="rejected" if reasons else "accepted",
+            qc_reasons=tuple(reasons),
+            duration_s=clip.duration_s,
+            n_frames=len(clip.times),
+            metrics=dict(metrics),
+            repairs={
+                "keypoints": int(clip.repaired.sum()),
+                "frames": int(clip.repaired.any(axis=1).sum()),
+            },
+            masked={j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(JOINTS)},
+            parts=parts_label(parts_of(clip.mask)),
+            measured=measured,
+            person=clip.person,
+            speaking_fraction=clip.speaking_fraction,
+            partner_clip_id=clip.partner_clip_id,
+        )
 
     def to_json_dict(self) -> dict[str, Any]:
         return {

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.clip import Clip, part_columns, parts_label, parts_of
+from gesturebank.clip import Clip, part_columns
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
@@ -179,23 +179,8 @@ def write_dataset(
             metrics = clip_metrics(clip, profile=profile, qc=c.qc)
             reasons = absolute_reasons(metrics, c.qc)
             rows.append(
-                store.ClipRecord(
-                    clip_id=clip.clip_id,
-                    kind="clip",
-                    start_s=clip.start_s,
-                    end_s=clip.start_s + clip.duration_s,
-                    qc_status="rejected" if reasons else "accepted",
-                    qc_reasons=tuple(reasons),
-                    duration_s=clip.duration_s,
-                    n_frames=len(clip.times),
-                    metrics=metrics.to_dict(),
-                    repairs={"keypoints": int(clip.repaired.sum())},
-                    masked={
-                        j: float(np.mean(~clip.mask[:, i])) for i, j in enumerate(pepper.JOINTS)
-                    },
-                    measured=measured,
-                    parts=parts_label(parts_of(clip.mask)),
-                    partner_clip_id=clip.partner_clip_id,
+                store.ClipRecord.of_clip(
+                    clip, metrics=metrics.to_dict(), reasons=reasons, measured=measured
                 )
             )
             start = max(start, clip.start_s + clip.duration_s)  # the take's end so far
