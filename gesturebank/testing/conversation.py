@@ -155,7 +155,7 @@ def facing_turns(bvh: Path, *, config: SynthConfig, mocap: MocapConfig) -> list[
     _, joints = stretch(bvh, config=config, mocap=mocap)
     stage = stage_of(joints)
     sides = [place(joints, stage=stage, offset_m=_offset(side), turn_deg=0.0) for side in SIDES]
-    centre = Stage(stage_of(np.concatenate(sides, 1)).target, stage.forward, stage.up)
+    centre = Stage(stage_of(np.concatenate(sides, 0)).target, stage.forward, stage.up)
     camera = orbit_camera(
         centre,
         name="c",
