@@ -1,7 +1,8 @@
 """Two-person test takes rendered from motion capture: a conversation in turns, and people who
 do not speak with speech over them (issue 32's test media; rendered, never committed).
 
-Both figures play the bvhtools test take side by side, facing the camera. In the turn-taking
+Both figures play the bvhtools test take side by side, each turned so its head faces the camera
+on average (`facing_turns`), in a picture centred between them. In the turn-taking
 take each speaks real speech (CMU ARCTIC from the samples) in turn on one audio track, and
 its mouth opens with the envelope of its own speech, `MOUTH_LAG_S` late, with noise; the
 listener's mouth moves now and then without speech. In the dubbed take the same speech plays
