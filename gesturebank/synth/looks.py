@@ -16,6 +16,17 @@ PHOTO_EYE_DISTANCE_PX = 44.0
 PHOTO_MOUTH = (225.0, 147.0)
 PHOTO_FACE_BOX = (172, 42, 278, 192)  # x0, y0, x1, y1: forehead to chin, cheek to cheek
 PHOTO_SKIN = (0.86, 0.66, 0.56)  # mean colour of its cheeks
+# The drawn mouth (module docstring of `face_colours`), metres on the face: an adult's mouth is
+# about 50 mm wide, its lips 6-9 mm high, and it opens about 25 mm when speaking loudly.
+MOUTH_HALF_WIDTH_M = 0.025
+LIP_HEIGHTS_M = (0.006, 0.008)  # upper, lower, in the middle
+LIP_LINE_M = 0.0015  # the dark line where shut lips meet
+MOUTH_MAX_GAP_M = 0.024  # between the lips at opening 1
+MOUTH_GAP_UP = 0.3  # share of the opening the upper lip rises (the jaw drops the rest)
+SKIN_PATCH_M = (0.036, 0.017)  # half width, half height of the skin over the photo's smile
+LIP_COLOUR = (0.76, 0.5, 0.46)  # on the photo's skin; tinted with the look's skin
+LIP_LINE_COLOUR = (0.5, 0.3, 0.28)
+INNER_MOUTH = (0.12, 0.03, 0.03)
 
 
 @dataclass(frozen=True)
@@ -94,8 +105,8 @@ def face_photo() -> np.ndarray:
 def face_colours(left: np.ndarray, up: np.ndarray, *, look: Look, mouth: np.ndarray) -> np.ndarray:
     """(N, 3) colours of head points at `left`, `up` (N,) metres from the eyes' midpoint in the
     head's axes (seen from the front), the photo faded into the look's skin outside the face
-    (hair above the brows) and tinted to it; `mouth` (N,) in [0, 1] opens a dark mouth
-    (0: the photo's own, closed)."""
+    (hair above the brows) and tinted to it; `mouth` (N,) in [0, 1] opens the drawn mouth
+    (0: shut lips, `_paint_mouth`)."""
     photo = face_photo()
     px_per_m = PHOTO_EYE_DISTANCE_PX / 0.064  # the face model's eyes are 64 mm apart
     x = PHOTO_EYES_MID[0] + left * px_per_m
@@ -114,11 +125,44 @@ def face_colours(left: np.ndarray, up: np.ndarray, *, look: Look, mouth: np.ndar
         (up > 0.035)[:, None], np.asarray(look.hair, np.float32), np.asarray(look.skin, np.float32)
     )
     colour = weight * face + (1 - weight) * around
-    # The open mouth: an ellipse 40 mm wide, up to 30 mm high, centred on the photo's mouth.
     mx = (PHOTO_MOUTH[0] - PHOTO_EYES_MID[0]) / px_per_m
     my = (PHOTO_EYES_MID[1] - PHOTO_MOUTH[1]) / px_per_m
-    height = 0.015 * np.clip(mouth, 0, 1)
-    inside = ((left - mx) / 0.02) ** 2 + ((up - my) / np.maximum(height, 1e-6)) ** 2 < 1
-    inside &= mouth > 0
-    colour[inside] = (0.25, 0.05, 0.05)
+    return _paint_mouth(colour, left - mx, up - my, tint=tint, look=look, opening=mouth)
+
+
+def _paint_mouth(
+    colour: np.ndarray,
+    across: np.ndarray,
+    along_up: np.ndarray,
+    *,
+    tint: np.ndarray,
+    look: Look,
+    opening: np.ndarray,
+) -> np.ndarray:
+    """`colour (N, 3)` with the drawn mouth over the photo's: points at `across`, `along_up`
+    (N,) metres from the photo's mouth centre. The photo smiles with its teeth showing, which a
+    face landmark model reads as open (0.078 of the face's height, more than its drawn-open
+    ellipse); so its lips are covered with skin and closed lips are drawn, which part with
+    `opening (N,)` in [0, 1] around a dark inner mouth, the jaw taking most of it."""
+    gap = MOUTH_MAX_GAP_M * np.clip(opening, 0, 1)
+    u = across / MOUTH_HALF_WIDTH_M
+    shape = np.sqrt(np.clip(1 - u * u, 0, 1))  # lips part most in the middle, not at the corners
+    top = MOUTH_GAP_UP * gap * shape
+    bottom = -(1 - MOUTH_GAP_UP) * gap * shape
+    # skin over the photo's lips and teeth (an ellipse reaching below the dropped lower lip)
+    below = SKIN_PATCH_M[1] + (1 - MOUTH_GAP_UP) * gap
+    half_height = np.where(along_up >= 0, SKIN_PATCH_M[1], below)
+    r = np.hypot(across / SKIN_PATCH_M[0], along_up / half_height)
+    weight = np.clip((1.1 - r) / 0.2, 0, 1)[:, None]
+    colour = weight * np.asarray(look.skin, np.float32) + (1 - weight) * colour
+    taper = 0.4 + 0.6 * shape  # lips thinner towards the corners
+    inside = np.abs(u) < 1
+    upper = inside & (along_up >= top) & (along_up < top + LIP_HEIGHTS_M[0] * taper)
+    lower = inside & (along_up < bottom) & (along_up >= bottom - LIP_HEIGHTS_M[1] * taper)
+    colour[upper | lower] = np.clip(np.asarray(LIP_COLOUR, np.float32) * tint, 0, 1)
+    # between the lips: a line where they meet, the dark inner mouth where they part
+    meet = inside & (np.abs(along_up - (top + bottom) / 2) < LIP_LINE_M / 2)
+    parted = inside & (along_up < top) & (along_up >= bottom)
+    colour[meet] = np.clip(np.asarray(LIP_LINE_COLOUR, np.float32) * tint, 0, 1)
+    colour[parted] = INNER_MOUTH
     return colour.astype(np.float32)

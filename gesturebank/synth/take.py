@@ -228,7 +228,7 @@ def render_take(
     ]
     # Cameras around the figures' mean chest, facing the first one's front.
     stage = Stage(
-        target=stage_of(np.concatenate(placed, 1)).target, forward=stage.forward, up=stage.up
+        target=stage_of(np.concatenate(placed, 0)).target, forward=stage.forward, up=stage.up
     )
     size = (config.width_px, config.height_px)
     cameras = CameraGroup(
