@@ -38,7 +38,17 @@ from gesturebank.samples import default_samples_dir, fetch_samples
 REPO = Path(__file__).resolve().parents[1]
 # Fields that differ between two builds of the same takes without the motion differing.
 UNCOMPARED = {".lock"}  # the build's lock file: who held it
-VOLATILE = {"built_at", "created", "started", "finished", "seconds", "elapsed_s", "wall_s", "path"}
+VOLATILE = {
+    "built_at",
+    "created",
+    "started",
+    "finished",
+    "seconds",
+    "elapsed_s",
+    "wall_s",
+    "mouth_seconds",
+    "path",
+}
 
 
 def build_command(tree: Path) -> list[str]:
