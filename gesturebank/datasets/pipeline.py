@@ -711,6 +711,7 @@ CONTENT_SECTIONS = (
     "geometric",
     "fitted",
     "resolved",
+    "learned",
     "multiview",
     "robot",
     "retarget",
