@@ -193,6 +193,12 @@ class ResolvedConfig(Section):
         description="Cost of a bone pointing away from the detector's own 3D (BlazePose world "
         "landmarks), per squared unit-vector difference; 0 ignores them.",
     )
+    learned_weight: float = Field(
+        0.0,
+        ge=0,
+        description="Cost of a bone pointing away from the `learned` lifter's 3D (its network "
+        "run on the same 2D), per squared unit-vector difference; 0 does not run it.",
+    )
     depth_levels: int = Field(
         21,
         ge=2,

@@ -1,10 +1,11 @@
 """Training of the `learned` lifter (gesturebank.lift.learned): a dilated temporal convolution
 net (after VideoPose3D, Pavllo et al. CVPR 2019) from 2D keypoint windows to root-relative 3D.
 
-Training pairs are made on the fly from motion capture: each sample is a stretch of the take
-seen by a random pinhole camera (azimuth around the person's mean front over the stretch, height,
-distance, field of view, aim), optionally mirrored and played faster or slower, its true joints
-projected and disturbed by detector-like 2D noise (`DETECTOR_NOISE`), then turned into the
+Training pairs are made on the fly from motion capture: each sample is a stretch of the take,
+played faster or slower, optionally mirrored, given other proportions or a sampled arm motion
+(lifter_poses), seen by a random pinhole camera (azimuth around the person's mean front over the
+stretch, height, distance, field of view, aim) that keeps the person in its picture, its joints
+projected and disturbed by detector-like 2D noise (`NOISE_BIAS_Y`, `NOISE_SD`), then turned into the
 network's input by the very function the lifter uses (features.features). The loss is the
 mean joint distance in units of the neck → mid-hip length, arms weighted up.
 """
@@ -26,6 +27,7 @@ from gesturebank.geometry import Camera
 from gesturebank.lift.learned import features as F
 from gesturebank.lift.scoring import MIRROR, look_at
 from gesturebank.mocap.pose import body_axes
+from gesturebank.train.lifter_poses import Ranges, reproportion, sample_arm
 
 # BlazePose's 2D error against the projected truth on the project's renders of test.bvh 21–31 s
 # (a tuning stretch) at 0/30/60°, in neck → mid-hip lengths, per joint (nose … right_hip): the
@@ -108,6 +110,9 @@ class Sampler:
     cameras: Cameras = field(default_factory=Cameras)
     clean_share: float = 0.15  # samples without detector noise
     camera_tries: int = 10  # cameras tried for a stretch before another stretch is drawn
+    reproportion_share: float = 0.5  # stretches given other proportions (lifter_poses)
+    sampled_arm_share: float = 0.3  # arms given a sampled motion, each (lifter_poses)
+    ranges: Ranges = field(default_factory=Ranges)
     speed: tuple[float, float] = (0.8, 1.25)  # playback speed factors
 
     def batch(self, rng: np.random.Generator, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -139,6 +144,11 @@ class Sampler:
             left = body_axes(joints)[1]
             joints = joints - 2 * (joints @ left)[..., None] * left
             joints = joints[:, MIRROR]
+        if rng.random() < self.reproportion_share:
+            joints = reproportion(joints, rng=rng, ranges=self.ranges)
+        for side in ("left", "right"):
+            if rng.random() < self.sampled_arm_share:
+                joints = sample_arm(joints, side, rng=rng, ranges=self.ranges)
         for _ in range(self.camera_tries):
             cam = self._camera(rng, joints)
             local = cam.to_camera(joints)[:, : F.N_JOINTS]
