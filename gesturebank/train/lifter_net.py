@@ -225,7 +225,7 @@ def loss_fn(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 
 @dataclass(frozen=True)
 class Schedule:
-    steps: int = 600
+    steps: int = 8000
     batch: int = 16
     outputs: int = 96  # output frames per sample (inputs: outputs + receptive − 1)
     lr_start: float = 1e-3

@@ -34,12 +34,14 @@ from gesturebank.errors import InputError
 from gesturebank.lift import TakeViews
 from gesturebank.lift.fitted import pinhole
 from gesturebank.lift.learned import features as F
+from gesturebank.lift.scoring import MIRROR
 from gesturebank.poses import Pose3D
 from gesturebank.skeletons import COCO17
 
 if TYPE_CHECKING:
     import onnxruntime as ort
 
+_MIRROR13 = MIRROR[: F.N_JOINTS]  # each joint's mirror image (left ↔ right)
 PACKAGED = Path(__file__).resolve().parents[2] / "data" / "learned-lifter.onnx"
 
 
@@ -122,10 +124,19 @@ class LearnedLifter:
         seen = np.flatnonzero(ok)
         grid = np.arange(times[seen[0]], times[seen[-1]] + 0.5 / F.RATE_HZ, 1 / F.RATE_HZ)
         filled = F.fill_gaps(np.where(ok[:, None, None], uv, np.nan))
-        x, neck, scale = F.features(F.resample(filled[seen], times[seen], grid))
+        resampled = F.resample(filled[seen], times[seen], grid)
         half = (int(meta["architecture"]["receptive"]) - 1) // 2
-        padded = np.pad(x, ((half, half), (0, 0)), mode="edge")
-        out = session.run(["joints"], {"keypoints": padded.T[None]})[0][0].T
-        joints = F.camera_joints(out, neck, scale,
-                                 shoulder_width_m=self.geometric.shoulder_width_m)  # fmt: skip
+
+        def net(rays: np.ndarray) -> np.ndarray:
+            x, neck, scale = F.features(rays)
+            padded = np.pad(x, ((half, half), (0, 0)), mode="edge")
+            out = session.run(["joints"], {"keypoints": padded.T[None]})[0][0].T
+            return F.camera_joints(out, neck, scale,
+                                   shoulder_width_m=self.geometric.shoulder_width_m)  # fmt: skip
+
+        joints = net(resampled)
+        if self.options.mirror_average:  # the mirror image (ray x → −x, sides exchanged), back
+            flip = np.array([-1.0, 1.0, 1.0])
+            mirrored = net(resampled[:, _MIRROR13] * flip[:2])[:, _MIRROR13] * flip
+            joints = (joints + mirrored) / 2
         return F.resample(joints, grid, times)
