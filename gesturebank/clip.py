@@ -135,7 +135,7 @@ class Clip:
         raw_angles (T, 11) float32 rad, straight from the 3D pose (NaN where unsupported)
         timestamps (T,) float64 seconds on the clip's clock
         pose2d, pose3d   the repaired main speaker (Pose2D, Pose3D on the clip's clock)
-        valid     (T, 17) bool: COCO-17 keypoint seen (confident) after repair
+        valid     (T, 17) bool: COCO-17 keypoint seen (inside the image, confident) after repair
         repaired  (T, 17) bool: COCO-17 keypoint changed by the repair
         n_people  (T,) int16: people the detector saw in the frame
         change    (T,) float32: image change vs the previous frame (shot detector), NaN unknown

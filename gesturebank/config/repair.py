@@ -48,8 +48,9 @@ class RepairConfig(Section):
         0.5,
         ge=0,
         le=1,
-        description="Keypoints less confident than this (BlazePose visibility) count as unseen: "
-        "the angles that need them are masked (NaN) there.",
+        description="Keypoints less confident than this (BlazePose visibility) count as unseen, "
+        "as do keypoints outside the image however confident: the angles that need them are "
+        "masked (NaN) there.",
     )
     max_spike: float = Field(
         0.75,

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, parts_of
+from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, part_mask, parts_of
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import torso_vectors
@@ -471,9 +471,9 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure;
     `ClipMetrics` says what each is). trimmed_fraction, of the whole take, is left to the build.
 
-    Keypoints of a body part the clip does not have (masked whole, `clip.parts_of`) are left
-    out, as if unseen. A multi-camera take (its 3D pose's `cameras`, `take_cameras`) is judged
-    by its 3D:
+    Keypoints and raw angles of a body part the clip does not have (masked whole,
+    `clip.parts_of`) are left out, as if unseen. A multi-camera take (its 3D pose's `cameras`,
+    `take_cameras`) is judged by its 3D:
     spikes, swaps and freezes of the triangulated joints only, facing away and sideways as every
     camera sees them (`facing_away_from_all`), the person's size in the camera that sees them
     largest. The stored 2D (the reference camera's) is then only drawn, not judged.
@@ -481,16 +481,19 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     nan = float("nan")
     rate = 1.0 / float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 100.0
     hz = qc.analysis_rate_hz
+    known = np.asarray(clip.mask, dtype=bool)
+    # the raw angles of a part masked whole (issue 32) are glimpses the clip does not keep (a
+    # hand rising into a head-and-shoulders frame now and then): not its motion, not judged
+    raw = np.where(part_mask(parts_of(known)), clip.raw_angles, np.nan)
     raw_u = np.empty((0, len(JOINTS)))
-    if len(clip.raw_angles) >= 2:
+    if len(raw) >= 2:
         # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
-        raw_u = uniform(unwrap_angles(clip.raw_angles), clip.timestamps, hz, max_gap_s=_MAX_GAP_S)
+        raw_u = uniform(unwrap_angles(raw), clip.timestamps, hz, max_gap_s=_MAX_GAP_S)
     j_raw = jerkiness_per_joint(raw_u, hz) if len(raw_u) else np.full(len(JOINTS), nan)
     j_proc = jerkiness_per_joint(clip.angles, rate)
     jerk_raw = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
     jerk = float(np.nansum(j_proc)) if np.isfinite(j_proc).any() else nan
 
-    known = np.asarray(clip.mask, dtype=bool)
     head = known[:, [INDEX["HeadPitch"], INDEX["HeadYaw"]]].any(axis=1)
     arms = known[:, [INDEX["LShoulderPitch"], INDEX["RShoulderPitch"]]].any(axis=1)
 

@@ -46,9 +46,17 @@ class RepairReport:
 
 
 def validity(pose: Pose2D, *, visible_confidence: float) -> Bools:
-    """(T, K) bool: the keypoint has a position and confidence >= `visible_confidence`."""
+    """(T, K) bool: the keypoint was seen: it has a position inside the image and confidence
+    >= `visible_confidence`.
+
+    A keypoint outside the image is the detector's extrapolation, however confident (BlazePose
+    places the hips and elbows of a head-and-shoulders shot below the frame with visibility
+    near 1): the angles and bones that need it are not measured from a guess."""
+    w, h = pose.image_size
+    x, y = pose.xy[..., 0], pose.xy[..., 1]
     with np.errstate(invalid="ignore"):
-        return np.isfinite(pose.xy).all(axis=-1) & (pose.confidence >= visible_confidence)
+        inside = (x >= 0) & (x <= w) & (y >= 0) & (y <= h)
+        return inside & (pose.confidence >= visible_confidence)
 
 
 def _runs_of(mask: Bools) -> int:

@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from gesturebank.clip import part_columns
 from gesturebank.config import QCConfig
 from gesturebank.filters import unwrap_angles
 from gesturebank.qc import metrics as M
@@ -193,6 +194,30 @@ def test_an_unseen_arm_is_masked_not_measured(clip) -> None:
     assert not hidden.mask[:, left].any() and hidden.mask[:, pepper.INDEX["RElbowRoll"]].all()
     assert m.arms_unknown_fraction == 0  # the other arm is known
     assert m.spike_max < 0.1 and m.bone_cv_max < 0.05  # the noisy wrist is not judged
+
+
+def test_the_raw_angles_of_a_part_masked_whole_are_not_judged(clip) -> None:
+    """Issue 32: a head-and-shoulders clip glimpses an arm now and then (a hand rising into the
+    frame); its arms are masked whole, and those glimpses of raw angles are no jitter or jerk of
+    the clip. The same glimpses in a clip that keeps its arms are judged."""
+    arms = part_columns("left_arm") + part_columns("right_arm")
+    rng = np.random.default_rng(0)
+    raw = clip.raw_angles.copy()
+    glimpses = (np.arange(len(raw)) // 10) % 6 == 0  # runs of 10 frames, 1/6 of the clip
+    raw[:, arms] = np.where(glimpses[:, None], rng.normal(0, 0.5, (len(raw), len(arms))), np.nan)
+    mask = clip.mask.copy()
+    mask[:, arms] = False
+    angles, angles01 = clip.angles.copy(), clip.angles01.copy()
+    angles[:, arms] = angles01[:, arms] = np.nan
+    head_only = replace(clip, raw_angles=raw, mask=mask, angles=angles, angles01=angles01)
+    qc, profile = QCConfig(), pepper.load_profile()
+    m = M.clip_metrics(head_only, profile=profile, qc=qc)
+    assert m.left_arm_unknown_fraction == m.right_arm_unknown_fraction == 1.0
+    assert m.jitter_fraction < 0.01
+    assert all(np.isnan(m.jerk_raw_per_joint[j]) for j in arms)
+    kept = M.clip_metrics(replace(clip, raw_angles=raw), profile=profile, qc=qc)
+    assert kept.jitter_fraction > 0.05 and kept.jerk_raw > 100 * m.jerk_raw
+    assert all(np.isfinite(kept.jerk_raw_per_joint[j]) for j in arms)
 
 
 def test_facing_away_and_sideways(clip) -> None:

@@ -628,7 +628,24 @@ def test_validity() -> None:
     valid = validity(pose, visible_confidence=0.5)
     assert valid.shape == kp.shape[:2] and valid.dtype == bool
     assert not valid[3, 5] and valid[4, 6] and not valid[5, 7] and not valid[6, 8]
-    assert valid.sum() == valid.size - 3
+    feet = [29, 30, 31, 32]  # heels and toes: below this waist-up frame, so never seen
+    assert not valid[:, feet].any()
+    assert valid.sum() == valid.size - 3 - valid[:, feet].size
+
+
+def test_a_keypoint_outside_the_image_is_not_seen_however_confident() -> None:
+    pose = speaker(clock(30))
+    w, h = pose.image_size
+    kp = pose.keypoints.copy()
+    kp[:, :, 2] = 1.0
+    before = validity(with_keypoints(pose, kp), visible_confidence=0.5)
+    kp[2, 3, :2] = (w / 2, h + 40)  # below the frame (a head-and-shoulders shot's elbow)
+    kp[3, 4, :2] = (-1.0, h / 2)  # left of it
+    kp[4, 5, :2] = (w, h)  # on the edge: in
+    valid = validity(with_keypoints(pose, kp), visible_confidence=0.5)
+    assert before[2, 3] and before[3, 4] and before[4, 5]
+    assert not valid[2, 3] and not valid[3, 4] and valid[4, 5]
+    assert (before & ~valid).sum() == 2 and not (valid & ~before).any()
 
 
 def test_report_counts() -> None:
