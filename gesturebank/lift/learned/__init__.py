@@ -13,11 +13,13 @@ metres as far as `geometric.shoulder_width_m` (a neck → mid-hip length of
 features.SHOULDERS_PER_SPINE times it); knees and
 ankles NaN; frames without both shoulders and both hips NaN. Confidence: the 2D keypoint's.
 
-Measured (benchmarks/fidelity.py, the packaged model: 600 steps of 16 windows, 35 min on two
-busy cores): from true 2D of test.bvh 31–51 s, Pepper hand error 15.4–15.6 cm and 23–37 % wrong
-depth signs at 0/30/60°, against `resolved`'s 5.3–8.0 cm; it is a named lifter, not the default.
-Its training loss was still falling (0.28 → 0.22 with more steps): the network and pipeline are
-in place, the model is under-trained.
+With `mirror_average` the 2D is also lifted flipped left-right (ray x → −x, sides exchanged) and
+the mirrored-back result averaged with the direct one, so the lift is symmetric by construction.
+
+Measured (benchmarks/fidelity.py, the packaged model: 8,000 steps, 18 min on two cores): from
+BlazePose on the renders of test.bvh 31–41 s at 0/30/60°, Pepper hand error 5.0/4.5/4.5 cm and
+2/3/6 % wrong depth signs (`blazepose-world` 11.9/10.3/8.3 cm, 16–26 %); from true 2D of test.bvh
+31–51 s 1.9–3.0 cm; on held-out motion (test2/test3) 5.3–7.0 cm from true 2D. It is the default.
 """
 
 from __future__ import annotations
