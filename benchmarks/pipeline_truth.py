@@ -44,6 +44,7 @@ from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
+from gesturebank.lift import LIFTERS
 from gesturebank.lift.scoring import (
     ARM_JOINTS,
     camera_axes,
@@ -150,12 +151,20 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description="The whole pipeline against motion-capture truth: build-dataset on rendered "
+        "takes, the kept clips against what the person did."
+    )
     parser.add_argument("--azimuths", type=float, nargs="+", default=[0.0, 30.0, 60.0])
     parser.add_argument("--looks", nargs="+", default=["tshirt", "sleeves"])
+    parser.add_argument("--lifter", choices=[n for n in LIFTERS.names() if n != "multiview"],
+                        help="the build's lifter (default: the configuration's)")  # fmt: skip
+    parser.add_argument("--defaults-only", action="store_true",
+                        help="skip the second build with QC's view limits off")  # fmt: skip
     parser.add_argument("--quick", action="store_true", help="3 s at 0°, small, one look")
     args = parser.parse_args()
-    defaults = Config()
+    lifter = {"lifter": {"name": args.lifter}} if args.lifter else {}
+    defaults = Config.model_validate(lifter)
     azimuths, looks = ([0.0], ["tshirt"]) if args.quick else (args.azimuths, args.looks)
     length = QUICK_LENGTH_S if args.quick else LENGTH_S
     size = QUICK_SIZE if args.quick else (defaults.synth.width_px, defaults.synth.height_px)
@@ -168,8 +177,8 @@ def main() -> None:
                 "arm MAE ° (unl.)", "hand cm (unl.)", "QC reasons"):  # fmt: skip
         table.add_column(col, justify="right")
     configs = {"defaults": defaults}
-    if not args.quick:
-        configs["views off"] = Config.model_validate(VIEWS_OFF)
+    if not (args.quick or args.defaults_only):
+        configs["views off"] = Config.model_validate({**VIEWS_OFF, **lifter})
     with tempfile.TemporaryDirectory(prefix="pipeline-truth-") as tmp:
         for look in looks:
             for azimuth in azimuths:

@@ -101,7 +101,8 @@ def main() -> None:
         export(net, out, sidecar={
             "trained_on": f"bvhtools {BVH.split('/')[-1]} outside {HELD_OUT_S[0]:g}–"
             f"{HELD_OUT_S[1]:g} s, {sum(len(t) for t in takes)} frames at {F.RATE_HZ:g} Hz, "
-            "random cameras, detector-like noise, mirrored",
+            "random cameras keeping the person in the picture, detector-like noise, mirrored, "
+            "other proportions and sampled arm motion",
             "command": command,
             "schedule": {k: getattr(schedule, k) for k in ("steps", "batch", "outputs",
                          "lr_start", "lr_end", "rng_seed", "torch_threads")},

@@ -13,13 +13,13 @@ from gesturebank.config.section import Section
 
 class LifterConfig(Section):
     name: str = Field(
-        "blazepose-world",
-        description="3D lifter of single-view takes: 'blazepose-world' (learned), 'fitted' (a "
-        "skeleton fitted to the 2D with BlazePose's 3D as prior), 'resolved' (each arm bone's "
-        "depth sign decoded over the take; best from true 2D, not yet at 60° from BlazePose's), "
-        "'learned' (a temporal convolution net trained on projected motion capture; "
-        "under-trained so far, 15 cm hand error from true 2D), 'geometric' (assumptions) "
-        "or a plug-in name; multi-camera takes always use 'multiview'.",
+        "learned",
+        description="3D lifter of single-view takes: 'learned' (a temporal convolution net "
+        "trained on projected motion capture; the most accurate on the truth benchmark), "
+        "'blazepose-world' (BlazePose's own 3D landmarks), 'fitted' (a skeleton fitted to the 2D "
+        "with BlazePose's 3D as prior), 'resolved' (each arm bone's depth sign decoded over the "
+        "take), 'geometric' (assumptions) or a plug-in name; multi-camera takes always use "
+        "'multiview'.",
     )
 
 
@@ -193,6 +193,12 @@ class ResolvedConfig(Section):
         description="Cost of a bone pointing away from the detector's own 3D (BlazePose world "
         "landmarks), per squared unit-vector difference; 0 ignores them.",
     )
+    learned_weight: float = Field(
+        0.0,
+        ge=0,
+        description="Cost of a bone pointing away from the `learned` lifter's 3D (its network "
+        "run on the same 2D), per squared unit-vector difference; 0 does not run it.",
+    )
     depth_levels: int = Field(
         21,
         ge=2,
@@ -237,6 +243,12 @@ class LearnedConfig(Section):
         ge=1,
         description="onnxruntime threads of one lift (a build already lifts takes in parallel "
         "workers).",
+    )
+    mirror_average: bool = Field(
+        True,
+        description="Also lift the 2D flipped left-right and average it, mirrored back, with the "
+        "direct lift: a left-right flip of the video then changes only what the detector sees "
+        "(twice the net's time, which is tiny beside the detector's).",
     )
 
 

@@ -30,7 +30,7 @@ largest share −0.51, their mean −0.39; weighting each bone's share by the de
 of its end, s·(1 − e·v), gained nothing (−0.515 at e = 0.5, −0.46 at e = 0.9), so the
 visibility is left out.
 
-The detector's own relative depth is no evidence for the default lifter (`blazepose-world`'s
+The detector's own relative depth is no evidence for `blazepose-world` (its
 depth *is* BlazePose's), so it is not used either.
 
 `CALIBRATION` maps the confidence to what it meant on the project's own renders
@@ -104,6 +104,14 @@ CALIBRATION: dict[str, tuple[tuple[float, ...], tuple[float, ...], tuple[float, 
         (0.052, 0.144, 0.245, 0.347, 0.452, 0.557, 0.700, 0.951),
         (0.221, 0.104, 0.115, 0.093, 0.122, 0.128, 0.102, 0.099),
         (13.93, 11.80, 11.34, 10.54, 10.80, 8.46, 7.51, 6.88),
+    ),
+    # --lifter learned, same renders and detections: stretches its net was trained on (from the
+    # mocap, not these renders), so optimistic; its error hardly follows the confidence (the net
+    # reads depth from motion, not from a bone's 2D length)
+    "learned": (
+        (0.049, 0.139, 0.247, 0.357, 0.446, 0.551, 0.647),
+        (0.01, 0.05, 0.07, 0.02, 0.02, 0.0, 0.0),
+        (3.5, 5.0, 5.8, 4.5, 4.3, 3.3, 4.2),
     ),
     # --lifter resolved, same renders and detections (its last bin holds 5 frames)
     "resolved": (

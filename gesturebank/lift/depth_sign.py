@@ -18,6 +18,7 @@ costs (`elbow_fold_cost`, `behind_cost`, `inside_torso_cost`) are the readings' 
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import median_filter
 
 
 def rays(pixels: np.ndarray, focal: np.ndarray, center: np.ndarray) -> np.ndarray:
@@ -153,3 +154,28 @@ def decode_path(
     for t in range(n_frames - 1, 1, -1):
         path[t - 2] = back[t, path[t - 1], path[t]]
     return path
+
+
+def torso_scale(
+    lengths_px: dict[str, np.ndarray], ok: np.ndarray, *, window: int, percentile: float
+) -> np.ndarray:
+    """(T,) pixels per unit length at the neck's depth, up to one factor for the take, from the
+    2D lengths (T,) of torso bones (`ok`: frames with a torso).
+
+    A bone foreshortens, never lengthens, so each frame's scale is bounded by each bone's 2D
+    length over its true one, and the least foreshortened bone (the largest ratio) comes nearest:
+    the scale and the take's bone lengths (a high `percentile` of length / scale) are refined in
+    turn from the spine's alone, the scale smoothed by a running median over `window` frames.
+    """
+    frames = np.arange(len(ok))
+
+    def smooth(values: np.ndarray) -> np.ndarray:
+        good = ok & np.isfinite(values) & (values > 0)
+        filled = np.interp(frames, np.flatnonzero(good), values[good])
+        return np.asarray(median_filter(filled, size=window, mode="nearest"))
+
+    scale = smooth(lengths_px["spine"])
+    for _ in range(3):
+        true = {k: np.nanpercentile(v[ok] / scale[ok], percentile) for k, v in lengths_px.items()}
+        scale = smooth(np.nanmax([v / true[k] for k, v in lengths_px.items()], axis=0))
+    return scale

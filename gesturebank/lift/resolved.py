@@ -20,7 +20,8 @@ frame by a fixed assumption:
    the upper arm reaches behind the torso no further than `max_behind` (a unit vector's backward
    component), neither elbow nor hand inside the torso; the hand slightly prefers the front
    (`front_weight`). With BlazePose world landmarks, each bone's direction is held near theirs
-   (`detector_weight`).
+   (`detector_weight`); with `learned_weight`, near the `learned` lifter's lift of the same 2D
+   (its network reads the depth from how the 2D moves).
 5. Eyes and ears: whichever reading lies further behind the nose along the torso's forward.
 
 Each decoding is a second-order Viterbi path (depth_sign.decode_path) costing the joints' speed
@@ -36,9 +37,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
 
-from gesturebank.config import Config, FittedConfig, GeometricConfig, ResolvedConfig
+from gesturebank.config import Config, FittedConfig, GeometricConfig, LearnedConfig, ResolvedConfig
 from gesturebank.lift import TakeViews
 from gesturebank.lift.depth_sign import (
     behind_cost,
@@ -49,9 +49,11 @@ from gesturebank.lift.depth_sign import (
     ray_candidates,
     rays,
     torso_frame,
+    torso_scale,
 )
 from gesturebank.lift.fitted import pinhole
 from gesturebank.lift.geometric import chain_confidence
+from gesturebank.lift.learned import LearnedLifter
 from gesturebank.poses import Pose3D
 from gesturebank.skeletons import COCO17
 
@@ -61,31 +63,6 @@ _LS, _RS, _LH, _RH, _NOSE = (
 )
 _FACE_BONES = (("nose", "left_eye"), ("nose", "right_eye"), ("left_eye", "left_ear"),
                ("right_eye", "right_ear"))  # fmt: skip
-
-
-def torso_scale(
-    lengths_px: dict[str, np.ndarray], ok: np.ndarray, *, window: int, percentile: float
-) -> np.ndarray:
-    """(T,) pixels per unit length at the neck's depth, up to one factor for the take, from the
-    2D lengths (T,) of torso bones (`ok`: frames with a torso).
-
-    A bone foreshortens, never lengthens, so each frame's scale is bounded by each bone's 2D
-    length over its true one, and the least foreshortened bone (the largest ratio) comes nearest:
-    the scale and the take's bone lengths (a high `percentile` of length / scale) are refined in
-    turn from the spine's alone, the scale smoothed by a running median over `window` frames.
-    """
-    frames = np.arange(len(ok))
-
-    def smooth(values: np.ndarray) -> np.ndarray:
-        good = ok & np.isfinite(values) & (values > 0)
-        filled = np.interp(frames, np.flatnonzero(good), values[good])
-        return np.asarray(median_filter(filled, size=window, mode="nearest"))
-
-    scale = smooth(lengths_px["spine"])
-    for _ in range(3):
-        true = {k: np.nanpercentile(v[ok] / scale[ok], percentile) for k, v in lengths_px.items()}
-        scale = smooth(np.nanmax([v / true[k] for k, v in lengths_px.items()], axis=0))
-    return scale
 
 
 def ray_pair(parent: np.ndarray, ray: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
@@ -108,7 +85,7 @@ class _Scene:
     neck: np.ndarray  # (T, 3)
     lengths: dict[str, float]  # bone name → metres
     times: np.ndarray  # (T,)
-    world: np.ndarray | None  # (T, 17, 3) the detector's 3D landmarks in camera axes, or None
+    references: tuple[tuple[np.ndarray, float], ...]  # (T, 17, 3) 3D in camera axes, weight
     pixels: np.ndarray  # (T, 17, 2, 2) ideal pixels and the focal length (x, y)
 
 
@@ -121,17 +98,22 @@ class ResolvedLifter:
         resolved: ResolvedConfig | None = None,
         fitted: FittedConfig | None = None,
         geometric: GeometricConfig | None = None,
+        learned: LearnedConfig | None = None,
     ) -> None:
         """resolved: the lifter's section; fitted: its camera (`fov_deg`) and `min_confidence`;
-        geometric: `shoulder_width_m`, the scale (None: their defaults)."""
+        geometric: `shoulder_width_m`, the scale; learned: the network whose 3D guides the signs
+        (`learned_weight`) (None: their defaults)."""
         self.options = resolved or ResolvedConfig()
         self.fitted = fitted or FittedConfig()
         self.geometric = geometric or GeometricConfig()
+        self.learned = learned or LearnedConfig()
 
     @classmethod
     def from_config(cls, config: Config) -> ResolvedLifter:
-        """The registry's factory (gesturebank.lift): `resolved`, `fitted`, `geometric`."""
-        return cls(resolved=config.resolved, fitted=config.fitted, geometric=config.geometric)
+        """The registry's factory (gesturebank.lift): `resolved`, `fitted`, `geometric`,
+        `learned`."""
+        return cls(resolved=config.resolved, fitted=config.fitted, geometric=config.geometric,
+                   learned=config.learned)  # fmt: skip
 
     def lift(self, views: TakeViews) -> Pose3D:
         """One view of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring)."""
@@ -147,7 +129,14 @@ class ResolvedLifter:
             camera,
             fov_deg=self.fitted.fov_deg,
         )
-        scene = self._scene(pixels, focal, center, coco.timestamps, coco.world)
+        references = []
+        if coco.world is not None:  # BlazePose: camera axes about the hips
+            references.append((np.asarray(coco.world, np.float64), self.options.detector_weight))
+        if self.options.learned_weight > 0:
+            net = LearnedLifter(learned=self.learned, fitted=self.fitted, geometric=self.geometric)
+            learned = net.lift(views).joints.astype(np.float64)
+            references.append((learned, self.options.learned_weight))
+        scene = self._scene(pixels, focal, center, coco.timestamps, tuple(references))
         joints = np.full((len(kp), len(COCO17), 3), np.nan)
         if scene is not None:
             self._torso(scene, joints)
@@ -178,7 +167,7 @@ class ResolvedLifter:
         focal: np.ndarray,
         center: np.ndarray,
         times: np.ndarray,
-        world: np.ndarray | None,
+        references: tuple[tuple[np.ndarray, float], ...],
     ) -> _Scene | None:
         """Rays, the neck's position and the bone lengths; None when no frame has a torso."""
         cfg = self.options
@@ -213,11 +202,8 @@ class ResolvedLifter:
         ray = rays(pixels, focal, center)
         neck_ray = rays(neck_px, focal, center)
         neck = neck_ray * (depth / neck_ray[:, 2])[:, None]
-        cam_world = None
-        if world is not None:
-            cam_world = np.asarray(world, np.float64)  # BlazePose: camera axes about the hips
         pixel_m = np.stack([pixels, np.broadcast_to(focal, pixels.shape)], axis=-1)
-        return _Scene(ray, neck, lengths, times, cam_world, pixel_m)
+        return _Scene(ray, neck, lengths, times, references, pixel_m)
 
     def _torso(self, scene: _Scene, joints: np.ndarray) -> None:
         """Shoulders, hips and nose: states (shoulder line, nose) decoded together."""
@@ -307,14 +293,16 @@ class ResolvedLifter:
         joints[:, w] = wrists[np.arange(len(path)), path]
 
     def _detector_cost(self, scene: _Scene, bones: np.ndarray, a: int, b: int) -> np.ndarray:
-        """(T, S) cost of each reading's bone (T, S, 3) pointing away from the detector's own
-        3D bone a → b; 0 without world landmarks."""
-        if scene.world is None:
-            return np.zeros(bones.shape[:2])
-        seen = scene.world[:, b] - scene.world[:, a]
-        ref = seen / np.linalg.norm(seen, axis=-1, keepdims=True)
+        """(T, S) cost of each reading's bone (T, S, 3) pointing away from the references' own
+        3D bone a → b (the detector's world landmarks, the learned net's lift), each weighted;
+        0 without references."""
+        cost = np.zeros(bones.shape[:2])
         unit = bones / np.linalg.norm(bones, axis=-1, keepdims=True)
-        return self.options.detector_weight * np.nan_to_num(np.sum((unit - ref[:, None]) ** 2, -1))
+        for joints, weight in scene.references:
+            seen = joints[:, b] - joints[:, a]
+            ref = seen / np.linalg.norm(seen, axis=-1, keepdims=True)
+            cost += weight * np.nan_to_num(np.sum((unit - ref[:, None]) ** 2, -1))
+        return cost
 
     def _face(self, scene: _Scene, joints: np.ndarray) -> None:
         """Eyes and ears: the reading further behind its parent along the torso's forward."""

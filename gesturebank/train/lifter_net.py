@@ -1,10 +1,11 @@
 """Training of the `learned` lifter (gesturebank.lift.learned): a dilated temporal convolution
 net (after VideoPose3D, Pavllo et al. CVPR 2019) from 2D keypoint windows to root-relative 3D.
 
-Training pairs are made on the fly from motion capture: each sample is a stretch of the take
-seen by a random pinhole camera (azimuth around the person's mean front over the stretch, height,
-distance, field of view, aim), optionally mirrored and played faster or slower, its true joints
-projected and disturbed by detector-like 2D noise (`DETECTOR_NOISE`), then turned into the
+Training pairs are made on the fly from motion capture: each sample is a stretch of the take,
+played faster or slower, optionally mirrored, given other proportions or a sampled arm motion
+(lifter_poses), seen by a random pinhole camera (azimuth around the person's mean front over the
+stretch, height, distance, field of view, aim) that keeps the person in its picture, its joints
+projected and disturbed by detector-like 2D noise (`NOISE_BIAS_Y`, `NOISE_SD`), then turned into the
 network's input by the very function the lifter uses (features.features). The loss is the
 mean joint distance in units of the neck → mid-hip length, arms weighted up.
 """
@@ -26,6 +27,7 @@ from gesturebank.geometry import Camera
 from gesturebank.lift.learned import features as F
 from gesturebank.lift.scoring import MIRROR, look_at
 from gesturebank.mocap.pose import body_axes
+from gesturebank.train.lifter_poses import Ranges, reproportion, sample_arm
 
 # BlazePose's 2D error against the projected truth on the project's renders of test.bvh 21–31 s
 # (a tuning stretch) at 0/30/60°, in neck → mid-hip lengths, per joint (nose … right_hip): the
@@ -36,6 +38,7 @@ NOISE_BIAS_Y = (-0.010, -0.004, -0.027, 0.047, -0.011, -0.073, -0.037, -0.041, 0
 NOISE_SD = (0.048, 0.040, 0.050, 0.038, 0.034, 0.057, 0.059, 0.060, 0.083, 0.040, 0.063, 0.042,
             0.038)  # fmt: skip
 NOISE_SMOOTH_FRAMES = 4.0  # σ of the Gaussian that makes the white noise drift
+MIN_DEPTH_M = 0.5  # nearer than this to a camera, a person is not seen whole
 ARM_WEIGHT = 2.0  # loss weight of elbows and wrists
 _ARMS = [F.JOINTS.index(j) for j in F.JOINTS if "elbow" in j or "wrist" in j]
 _MIRROR13 = MIRROR[: F.N_JOINTS]
@@ -106,6 +109,10 @@ class Sampler:
     frames: int  # input frames per sample
     cameras: Cameras = field(default_factory=Cameras)
     clean_share: float = 0.15  # samples without detector noise
+    camera_tries: int = 10  # cameras tried for a stretch before another stretch is drawn
+    reproportion_share: float = 0.5  # stretches given other proportions (lifter_poses)
+    sampled_arm_share: float = 0.3  # arms given a sampled motion, each (lifter_poses)
+    ranges: Ranges = field(default_factory=Ranges)
     speed: tuple[float, float] = (0.8, 1.25)  # playback speed factors
 
     def batch(self, rng: np.random.Generator, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -116,6 +123,14 @@ class Sampler:
 
     def sample(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """One stretch: input (N_FEATURES, frames), target (N_OUTPUTS, frames) float32."""
+        while True:
+            made = self._try(rng)
+            if made is not None:
+                return made
+
+    def _try(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
+        """A random stretch seen by a random camera; None if the person leaves every camera's
+        picture tried (in_picture)."""
         lengths = np.array([len(t) for t in self.takes], float)
         speed = rng.uniform(*self.speed)
         need = int(np.ceil(self.frames * speed)) + 1
@@ -129,9 +144,19 @@ class Sampler:
             left = body_axes(joints)[1]
             joints = joints - 2 * (joints @ left)[..., None] * left
             joints = joints[:, MIRROR]
-        cam = self._camera(rng, joints)
-        local = cam.to_camera(joints)[:, : F.N_JOINTS]
-        uv = local[..., :2] / local[..., 2:3]
+        if rng.random() < self.reproportion_share:
+            joints = reproportion(joints, rng=rng, ranges=self.ranges)
+        for side in ("left", "right"):
+            if rng.random() < self.sampled_arm_share:
+                joints = sample_arm(joints, side, rng=rng, ranges=self.ranges)
+        for _ in range(self.camera_tries):
+            cam = self._camera(rng, joints)
+            local = cam.to_camera(joints)[:, : F.N_JOINTS]
+            uv = local[..., :2] / local[..., 2:3]
+            if in_picture(local, cam):
+                break
+        else:
+            return None
         spine_px = np.linalg.norm(
             uv[:, [5, 6]].mean(1) - uv[:, [11, 12]].mean(1), axis=-1
         )  # the truth's neck → mid-hip in ray units, per frame
@@ -175,6 +200,20 @@ class Sampler:
         return noise + bias[None]
 
 
+def in_picture(local: np.ndarray, cam: Camera, *, margin: float = 0.1) -> bool:
+    """Whether camera-frame joints (T, J, 3) stay in front of the camera and inside its image
+    (widened by `margin` of its size) in every frame, as a person a detector finds does. The
+    mocap's person walks about: a camera placed for a stretch's mean may see them leave the
+    picture or come within centimetres, where the network's inputs explode (the neck's ray
+    coordinates reached 700; rel. keypoints 4,000 torso sizes)."""
+    if not (local[..., 2] > MIN_DEPTH_M).all():
+        return False
+    px = cam.K[:2, :2] @ (local[..., :2] / local[..., 2:3])[..., None]
+    px = px[..., 0] + cam.K[:2, 2]
+    size = np.asarray(cam.size, float)
+    return bool(((px > -margin * size) & (px < (1 + margin) * size)).all())
+
+
 def loss_fn(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     """Weighted mean joint distance of (B, N_OUTPUTS, T) predictions."""
     b, _, t = pred.shape
@@ -186,7 +225,7 @@ def loss_fn(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 
 @dataclass(frozen=True)
 class Schedule:
-    steps: int = 600
+    steps: int = 8000
     batch: int = 16
     outputs: int = 96  # output frames per sample (inputs: outputs + receptive − 1)
     lr_start: float = 1e-3

@@ -4,12 +4,15 @@ through `build_dataset` with its defaults, the kept clip's stored angles against
 angles through the build's own processing, and its lifted arm bones against the true depth
 signs. A regression in any stage (detection, lifting, retargeting, filtering, QC) shows here.
 
-Measured when written (`benchmarks/pipeline_truth.py --quick` for the angles): the clip kept
-whole (3.0 of 3 s); arm-angle MAE 12.8°, Pepper hand error 8.9 cm; arm bones with the wrong
-depth sign 2.9 % (8 of the 280 bone-frames that point clearly towards or away from the camera).
-Bounds: 1.5× these. The clip's depth confidence (0.14 on average: forearms towards the camera)
-expects a hand error of 12.4 cm (`lift.depth_confidence.CALIBRATION`, from other stretches of
-test.bvh); its raw angles measure 10.4 cm. Bound: within 50 % of the measurement.
+Measured with the default lifter (`learned`; `benchmarks/pipeline_truth.py --quick` for the
+angles): the clip kept whole (3.0 of 3 s); arm-angle MAE 2.8°, Pepper hand error 2.1 cm; no arm
+bone with the wrong depth sign (of the 280 bone-frames that point clearly towards or away from
+the camera; 8 with `blazepose-world`, whose clip measured 12.8° and 8.9 cm). Bounds: 1.5× these,
+and at most 1 % of them wrong. The clip's depth confidence (0.14 on average: forearms
+towards the camera) expects a hand error of 4.0 cm (`lift.depth_confidence.CALIBRATION`, from
+other stretches of test.bvh); its raw angles measure 2.1 cm. The learned lifter's error hardly
+follows the confidence (its calibration spans 3.3–5.8 cm), so the bound is within 50 % of the
+measurement or 2.5 cm, whichever is larger.
 """
 
 from __future__ import annotations
@@ -33,8 +36,9 @@ from gesturebank.testing.mocap import BVH
 pytestmark = pytest.mark.media
 
 START_S, LENGTH_S = 31.0, 3.0
-ARM_MAE_DEG, HAND_CM, WRONG_SIGN_PCT = 12.8, 8.9, 2.9  # measured (module docstring)
-CALIBRATION_TOLERANCE = 0.5  # of the measured hand error (module docstring)
+ARM_MAE_DEG, HAND_CM, WRONG_SIGN_PCT = 2.8, 2.1, 0.0  # measured (module docstring)
+MAX_WRONG_SIGN_PCT = 1.0  # none measured: a bound of 1.5 × 0 could not tell noise from regression
+CALIBRATION_TOLERANCE, CALIBRATION_FLOOR_CM = 0.5, 2.5  # (module docstring)
 
 
 def test_a_rendered_take_through_the_build_stays_near_the_truth(
@@ -82,7 +86,7 @@ def test_a_rendered_take_through_the_build_stays_near_the_truth(
 
     assert arm_mae <= 1.5 * ARM_MAE_DEG
     assert hand_cm <= 1.5 * HAND_CM
-    assert wrong_pct <= 1.5 * WRONG_SIGN_PCT
+    assert wrong_pct <= max(1.5 * WRONG_SIGN_PCT, MAX_WRONG_SIGN_PCT)
 
     # the clip's depth confidence, and the hand error its calibration expects, against the
     # hand error measured on its own lift (raw angles of the video frames against the truth's)
@@ -91,4 +95,6 @@ def test_a_rendered_take_through_the_build_stays_near_the_truth(
     _, _, raw_hand_cm, _ = score_angles(clip.raw_angles, truth.angles[frames])
     print(f"depth confidence {clip.depth_confidence.mean():.2f}: expected hand error "
           f"{expected:.1f} cm, measured {raw_hand_cm:.1f} cm")  # fmt: skip
-    assert abs(expected - raw_hand_cm) <= CALIBRATION_TOLERANCE * raw_hand_cm
+    assert abs(expected - raw_hand_cm) <= max(
+        CALIBRATION_TOLERANCE * raw_hand_cm, CALIBRATION_FLOOR_CM
+    )

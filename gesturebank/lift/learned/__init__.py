@@ -13,11 +13,13 @@ metres as far as `geometric.shoulder_width_m` (a neck → mid-hip length of
 features.SHOULDERS_PER_SPINE times it); knees and
 ankles NaN; frames without both shoulders and both hips NaN. Confidence: the 2D keypoint's.
 
-Measured (benchmarks/fidelity.py, the packaged model: 600 steps of 16 windows, 35 min on two
-busy cores): from true 2D of test.bvh 31–51 s, Pepper hand error 15.4–15.6 cm and 23–37 % wrong
-depth signs at 0/30/60°, against `resolved`'s 5.3–8.0 cm; it is a named lifter, not the default.
-Its training loss was still falling (0.28 → 0.22 with more steps): the network and pipeline are
-in place, the model is under-trained.
+With `mirror_average` the 2D is also lifted flipped left-right (ray x → −x, sides exchanged) and
+the mirrored-back result averaged with the direct one, so the lift is symmetric by construction.
+
+Measured (benchmarks/fidelity.py, the packaged model: 8,000 steps, 18 min on two cores): from
+BlazePose on the renders of test.bvh 31–41 s at 0/30/60°, Pepper hand error 5.0/4.5/4.5 cm and
+2/3/6 % wrong depth signs (`blazepose-world` 11.9/10.3/8.3 cm, 16–26 %); from true 2D of test.bvh
+31–51 s 1.9–3.0 cm; on held-out motion (test2/test3) 5.3–7.0 cm from true 2D. It is the default.
 """
 
 from __future__ import annotations
@@ -34,12 +36,14 @@ from gesturebank.errors import InputError
 from gesturebank.lift import TakeViews
 from gesturebank.lift.fitted import pinhole
 from gesturebank.lift.learned import features as F
+from gesturebank.lift.scoring import MIRROR
 from gesturebank.poses import Pose3D
 from gesturebank.skeletons import COCO17
 
 if TYPE_CHECKING:
     import onnxruntime as ort
 
+_MIRROR13 = MIRROR[: F.N_JOINTS]  # each joint's mirror image (left ↔ right)
 PACKAGED = Path(__file__).resolve().parents[2] / "data" / "learned-lifter.onnx"
 
 
@@ -122,10 +126,19 @@ class LearnedLifter:
         seen = np.flatnonzero(ok)
         grid = np.arange(times[seen[0]], times[seen[-1]] + 0.5 / F.RATE_HZ, 1 / F.RATE_HZ)
         filled = F.fill_gaps(np.where(ok[:, None, None], uv, np.nan))
-        x, neck, scale = F.features(F.resample(filled[seen], times[seen], grid))
+        resampled = F.resample(filled[seen], times[seen], grid)
         half = (int(meta["architecture"]["receptive"]) - 1) // 2
-        padded = np.pad(x, ((half, half), (0, 0)), mode="edge")
-        out = session.run(["joints"], {"keypoints": padded.T[None]})[0][0].T
-        joints = F.camera_joints(out, neck, scale,
-                                 shoulder_width_m=self.geometric.shoulder_width_m)  # fmt: skip
+
+        def net(rays: np.ndarray) -> np.ndarray:
+            x, neck, scale = F.features(rays)
+            padded = np.pad(x, ((half, half), (0, 0)), mode="edge")
+            out = session.run(["joints"], {"keypoints": padded.T[None]})[0][0].T
+            return F.camera_joints(out, neck, scale,
+                                   shoulder_width_m=self.geometric.shoulder_width_m)  # fmt: skip
+
+        joints = net(resampled)
+        if self.options.mirror_average:  # the mirror image (ray x → −x, sides exchanged), back
+            flip = np.array([-1.0, 1.0, 1.0])
+            mirrored = net(resampled[:, _MIRROR13] * flip[:2])[:, _MIRROR13] * flip
+            joints = (joints + mirrored) / 2
         return F.resample(joints, grid, times)

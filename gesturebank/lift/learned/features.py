@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gesturebank.lift.resolved import torso_scale
+from gesturebank.lift.depth_sign import torso_scale
 from gesturebank.skeletons import COCO17
 
 JOINTS = COCO17.joints[:13]  # nose … right_hip
