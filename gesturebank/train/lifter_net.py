@@ -208,8 +208,7 @@ def in_picture(local: np.ndarray, cam: Camera, *, margin: float = 0.1) -> bool:
     coordinates reached 700; rel. keypoints 4,000 torso sizes)."""
     if not (local[..., 2] > MIN_DEPTH_M).all():
         return False
-    px = cam.K[:2, :2] @ (local[..., :2] / local[..., 2:3])[..., None]
-    px = px[..., 0] + cam.K[:2, 2]
+    px = cam.distort(local[..., :2] / local[..., 2:3])
     size = np.asarray(cam.size, float)
     return bool(((px > -margin * size) & (px < (1 + margin) * size)).all())
 
