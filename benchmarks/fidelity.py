@@ -99,7 +99,7 @@ from gesturebank.synth.take import Performer, cached_render, render_cache, rig_a
 from gesturebank.synth.truth import CALIBRATION, Truth
 from gesturebank.testing.rigs import perturb_cameras
 
-MONOCULAR = ("blazepose-world", "geometric", "fitted")
+MONOCULAR = ("blazepose-world", "learned", "geometric", "fitted")
 TRUTH_LIFTERS = ("geometric", "fitted", "resolved", "learned")  # blazepose-world: no perfect-2D row
 TRUTH_BVH = "bvhtools/testBvhFiles/{}.bvh"
 # (file, start s, end s): tune only on `tune`; `acceptance` is issue 30's; `holdout` evaluates.
