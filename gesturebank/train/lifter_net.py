@@ -13,35 +13,30 @@ mean joint distance in units of the neck → mid-hip length, arms weighted up.
 from __future__ import annotations
 
 import json
+import multiprocessing
 import time
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
-from scipy.ndimage import gaussian_filter1d
 from torch import nn
 
-from gesturebank.geometry import Camera
 from gesturebank.lift.learned import features as F
-from gesturebank.lift.scoring import MIRROR, look_at
+from gesturebank.lift.scoring import MIRROR
 from gesturebank.mocap.pose import body_axes
+from gesturebank.train.lifter_motion import gesture_take
 from gesturebank.train.lifter_poses import Ranges, reproportion, sample_arm
+from gesturebank.train.lifter_views import CameraRanges, detector_noise, view_batch
 
-# BlazePose's 2D error against the projected truth on the project's renders of test.bvh 21–31 s
-# (a tuning stretch) at 0/30/60°, in neck → mid-hip lengths, per joint (nose … right_hip): the
-# mean offset along the image's y (down; the shoulders sit high) and the standard deviation about
-# it (x and y averaged). The error drifts slowly (lag-1 autocorrelation 0.98 at 30 fps).
-NOISE_BIAS_Y = (-0.010, -0.004, -0.027, 0.047, -0.011, -0.073, -0.037, -0.041, 0.029, -0.005,
-                0.016, 0.041, 0.032)  # fmt: skip
-NOISE_SD = (0.048, 0.040, 0.050, 0.038, 0.034, 0.057, 0.059, 0.060, 0.083, 0.040, 0.063, 0.042,
-            0.038)  # fmt: skip
-NOISE_SMOOTH_FRAMES = 4.0  # σ of the Gaussian that makes the white noise drift
-MIN_DEPTH_M = 0.5  # nearer than this to a camera, a person is not seen whole
+SNAPSHOT_STEPS = 1000
+LOOKAHEAD = 4  # batches made ahead of the training step
 ARM_WEIGHT = 2.0  # loss weight of elbows and wrists
+UP = np.array([0.0, 0.0, 1.0])  # lifter_motion's world up
 _ARMS = [F.JOINTS.index(j) for j in F.JOINTS if "elbow" in j or "wrist" in j]
-_MIRROR13 = MIRROR[: F.N_JOINTS]
 
 
 @dataclass(frozen=True)
@@ -89,48 +84,48 @@ class TemporalLifterNet(nn.Module):
 
 
 @dataclass(frozen=True)
-class Cameras:
-    """Ranges of the random training cameras."""
-
-    front_share: float = 0.75  # the rest anywhere around the person
-    front_deg: float = 90.0  # azimuth ± this many degrees from the person's front
-    height_range_m: tuple[float, float] = (-0.3, 1.0)  # above the chest
-    distance_range_m: tuple[float, float] = (2.0, 5.0)
-    fov_range_deg: tuple[float, float] = (35.0, 75.0)
-    aim_sd_m: float = 0.15  # the camera aims this far off the chest
-
-
-@dataclass(frozen=True)
 class Sampler:
-    """Training stretches from motion capture: `takes` are (joints (T, 17, 3) m, any y/z-up
-    world, at RATE_HZ) arrays the stretches lie within."""
+    """Training stretches: `gesture_share` of them made up (lifter_motion), the rest from motion
+    capture `takes` (joints (T, 17, 3) m, any y/z-up world, at RATE_HZ), each seen by a random
+    camera with detector-like 2D error (lifter_views)."""
 
     takes: list[np.ndarray]
     frames: int  # input frames per sample
-    cameras: Cameras = field(default_factory=Cameras)
-    clean_share: float = 0.15  # samples without detector noise
-    camera_tries: int = 10  # cameras tried for a stretch before another stretch is drawn
-    reproportion_share: float = 0.5  # stretches given other proportions (lifter_poses)
-    sampled_arm_share: float = 0.3  # arms given a sampled motion, each (lifter_poses)
+    cameras: CameraRanges = field(default_factory=CameraRanges)
+    gesture_share: float = 0.6  # stretches made up by lifter_motion
+    clean_share: float = 0.2  # samples without detector noise
+    reproportion_share: float = 0.5  # mocap stretches given other proportions (lifter_poses)
+    sampled_arm_share: float = 0.3  # mocap arms given a sampled motion, each (lifter_poses)
     ranges: Ranges = field(default_factory=Ranges)
-    speed: tuple[float, float] = (0.8, 1.25)  # playback speed factors
+    speed: tuple[float, float] = (0.7, 1.6)  # playback speed factors of the mocap
 
     def batch(self, rng: np.random.Generator, size: int) -> tuple[np.ndarray, np.ndarray]:
-        """(size, N_FEATURES, frames) input and (size, N_OUTPUTS, frames − receptive + 1)
-        targets are made by `sample`; the trimmed ends are the caller's."""
-        xs, ys = zip(*(self.sample(rng) for _ in range(size)), strict=True)
-        return np.stack(xs), np.stack(ys)
+        """(size, N_FEATURES, frames) input and (size, N_OUTPUTS, frames) targets (the
+        trimmed ends are the caller's)."""
+        xs: list[np.ndarray] = []
+        ys: list[np.ndarray] = []
+        while len(xs) < size:  # a stretch no camera saw is replaced by another
+            stretches, ups = zip(*(self.stretch(rng) for _ in range(size - len(xs))), strict=True)
+            uv, local, outside, seen = view_batch(list(stretches), list(ups), rng, self.cameras)
+            for k in np.flatnonzero(seen):
+                made = uv[k]
+                if rng.random() >= self.clean_share:
+                    made = detector_noise(made, local[k], outside[k], rng)
+                x = F.features(F.fill_gaps(made))[0].T
+                neck = local[k][:, [5, 6]].mean(1)
+                spine = np.median(np.linalg.norm(neck - local[k][:, [11, 12]].mean(1), axis=-1))
+                y = ((local[k] - neck[:, None]) / spine).reshape(self.frames, -1).T
+                if np.isfinite(x).all() and np.isfinite(y).all():
+                    xs.append(x)
+                    ys.append(y)
+        return np.stack(xs).astype(np.float32), np.stack(ys).astype(np.float32)
 
-    def sample(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """One stretch: input (N_FEATURES, frames), target (N_OUTPUTS, frames) float32."""
-        while True:
-            made = self._try(rng)
-            if made is not None:
-                return made
-
-    def _try(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
-        """A random stretch seen by a random camera; None if the person leaves every camera's
-        picture tried (in_picture)."""
+    def stretch(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray | None]:
+        """(frames, 17, 3) world joints and the world's up (None: the torso's): made up, or a
+        mocap stretch played faster or slower, maybe mirrored, given other proportions or
+        sampled arm motion (lifter_poses)."""
+        if not self.takes or rng.random() < self.gesture_share:
+            return gesture_take(rng, self.frames), UP
         lengths = np.array([len(t) for t in self.takes], float)
         speed = rng.uniform(*self.speed)
         need = int(np.ceil(self.frames * speed)) + 1
@@ -138,8 +133,7 @@ class Sampler:
         take = self.takes[rng.choice(len(self.takes), p=usable / usable.sum())]
         start = rng.uniform(0, len(take) - need)
         at = start + np.arange(self.frames) * speed
-        idx = np.arange(len(take), dtype=float)
-        joints = F.resample(take, idx, at)
+        joints = F.resample(take, np.arange(len(take), dtype=float), at)
         if rng.random() < 0.5:  # mirrored across the person's sagittal plane, sides exchanged
             left = body_axes(joints)[1]
             joints = joints - 2 * (joints @ left)[..., None] * left
@@ -149,68 +143,7 @@ class Sampler:
         for side in ("left", "right"):
             if rng.random() < self.sampled_arm_share:
                 joints = sample_arm(joints, side, rng=rng, ranges=self.ranges)
-        for _ in range(self.camera_tries):
-            cam = self._camera(rng, joints)
-            local = cam.to_camera(joints)[:, : F.N_JOINTS]
-            uv = local[..., :2] / local[..., 2:3]
-            if in_picture(local, cam):
-                break
-        else:
-            return None
-        spine_px = np.linalg.norm(
-            uv[:, [5, 6]].mean(1) - uv[:, [11, 12]].mean(1), axis=-1
-        )  # the truth's neck → mid-hip in ray units, per frame
-        if rng.random() >= self.clean_share:
-            uv = uv + spine_px[:, None, None] * self._noise(rng)
-        x = F.features(F.fill_gaps(uv))[0]
-        neck = local[:, [5, 6]].mean(1)
-        spine = np.median(np.linalg.norm(neck - local[:, [11, 12]].mean(1), axis=-1))
-        y = (local - neck[:, None]) / spine
-        return x.T, y.reshape(self.frames, -1).T.astype(np.float32)
-
-    def _camera(self, rng: np.random.Generator, joints: np.ndarray) -> Camera:
-        cams = self.cameras
-        front, left, up = body_axes(joints)
-        neck = joints[:, [5, 6]].mean(1)
-        hips = joints[:, [11, 12]].mean(1)
-        chest = (0.75 * neck + 0.25 * hips).mean(0)
-        scale = float(np.median(np.linalg.norm(neck - hips, axis=1))) / 0.5
-        if rng.random() < cams.front_share:
-            azimuth = np.deg2rad(rng.uniform(-cams.front_deg, cams.front_deg))
-        else:
-            azimuth = rng.uniform(-np.pi, np.pi)
-        eye = chest + scale * (
-            rng.uniform(*cams.distance_range_m) * (np.cos(azimuth) * front + np.sin(azimuth) * left)
-            + rng.uniform(*cams.height_range_m) * up
-        )
-        target = chest + scale * rng.normal(0.0, cams.aim_sd_m, 3)
-        return look_at(eye=eye, target=target, up=up, size=(1280, 720),
-                       fov_deg=rng.uniform(*cams.fov_range_deg))  # fmt: skip
-
-    def _noise(self, rng: np.random.Generator) -> np.ndarray:
-        """(frames, 13, 2) detector-like error in neck → mid-hip lengths."""
-        shape = (self.frames, F.N_JOINTS, 2)
-        drift = gaussian_filter1d(rng.normal(size=shape), NOISE_SMOOTH_FRAMES, axis=0)
-        drift /= drift.std(axis=0, keepdims=True) + 1e-9
-        level = rng.uniform(0.5, 1.5)
-        noise = drift * np.asarray(NOISE_SD)[None, :, None] * level
-        noise += rng.normal(0.0, 0.01, shape)
-        bias = np.stack([rng.normal(0.0, 0.03, F.N_JOINTS),
-                         np.asarray(NOISE_BIAS_Y) * rng.uniform(0.0, 1.5)], -1)  # fmt: skip
-        return noise + bias[None]
-
-
-def in_picture(local: np.ndarray, cam: Camera, *, margin: float = 0.1) -> bool:
-    """Whether camera-frame joints (T, J, 3) stay in front of the camera and inside its image
-    (widened by `margin` of its size) in every frame, as a person a detector finds does. The
-    mocap's person walks about: a camera placed for a stretch's mean may see them leave the
-    picture or come within centimetres, where the network's inputs explode (the neck's ray
-    coordinates reached 700; rel. keypoints 4,000 torso sizes)."""
-    if not (local[..., 2] > MIN_DEPTH_M).all():
-        return False
-    px = cam.distort(local[..., :2] / local[..., 2:3])
-    size = np.asarray(cam.size, float)
-    return bool(((px > -margin * size) & (px < (1 + margin) * size)).all())
+        return joints, None
 
 
 def loss_fn(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
@@ -224,13 +157,44 @@ def loss_fn(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 
 @dataclass(frozen=True)
 class Schedule:
-    steps: int = 8000
+    steps: int = 4000
     batch: int = 16
     outputs: int = 96  # output frames per sample (inputs: outputs + receptive − 1)
     lr_start: float = 1e-3
     lr_end: float = 1e-5
     rng_seed: int = 0
-    torch_threads: int = 2
+    torch_threads: int = 1  # two threads on two busy cores ran 8× slower than one
+    workers: int = 1  # processes making the batches beside the training (0: in line)
+
+
+_WORKER: dict[str, Sampler] = {}
+
+
+def _start_worker(sampler: Sampler) -> None:
+    torch.set_num_threads(1)
+    _WORKER["sampler"] = sampler
+
+
+def _worker_batch(seed: int, step: int, size: int) -> tuple[np.ndarray, np.ndarray]:
+    return _WORKER["sampler"].batch(np.random.default_rng([seed, step]), size)
+
+
+def _batches(sampler: Sampler, schedule: Schedule) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Step 1…steps's training batches, each from its own seed, made `schedule.workers`
+    processes ahead of the training (the data costs as much as the network's step)."""
+    if schedule.workers == 0:
+        for step in range(1, schedule.steps + 1):
+            yield sampler.batch(np.random.default_rng([schedule.rng_seed, step]), schedule.batch)
+        return
+    ctx = multiprocessing.get_context("spawn")  # no forked torch thread pools
+    with ctx.Pool(schedule.workers, initializer=_start_worker, initargs=(sampler,)) as pool:
+        ahead: deque[Any] = deque()
+        for step in range(1, schedule.steps + 1 + LOOKAHEAD):
+            if step <= schedule.steps:
+                args = (schedule.rng_seed, step, schedule.batch)
+                ahead.append(pool.apply_async(_worker_batch, args))
+            if step > LOOKAHEAD:
+                yield ahead.popleft().get()
 
 
 def train(
@@ -239,12 +203,13 @@ def train(
     arch: Architecture,
     schedule: Schedule,
     log: Callable[[int, float, float], None] | None = None,
+    snapshot: Callable[[int, TemporalLifterNet], None] | None = None,
 ) -> TemporalLifterNet:
     """Adam with a cosine decay; `sampler_for(input_frames)` makes the data; `log(step, loss,
-    seconds)` is called every 100 steps."""
+    seconds)` is called every 100 steps, `snapshot(step, net)` (the net in eval mode) every
+    SNAPSHOT_STEPS."""
     torch.manual_seed(schedule.rng_seed)
     torch.set_num_threads(schedule.torch_threads)
-    rng = np.random.default_rng(schedule.rng_seed)
     sampler = sampler_for(schedule.outputs + arch.receptive - 1)
     net = TemporalLifterNet(arch)
     opt = torch.optim.Adam(net.parameters(), lr=schedule.lr_start)
@@ -255,8 +220,7 @@ def train(
     half = (arch.receptive - 1) // 2
     start, running = time.perf_counter(), 0.0
     net.train()
-    for step in range(1, schedule.steps + 1):
-        x, y = sampler.batch(rng, schedule.batch)
+    for step, (x, y) in enumerate(_batches(sampler, schedule), start=1):
         pred = net(torch.from_numpy(x))
         loss = loss_fn(pred, torch.from_numpy(y[:, :, half : half + pred.shape[2]]))
         opt.zero_grad()
@@ -267,6 +231,10 @@ def train(
         running = 0.98 * running + 0.02 * value if step > 1 else value
         if log is not None and (step % 100 == 0 or step == schedule.steps):
             log(step, running, time.perf_counter() - start)
+        if snapshot is not None and step % SNAPSHOT_STEPS == 0 and step < schedule.steps:
+            net.eval()
+            snapshot(step, net)
+            net.train()
     net.eval()
     return net
 

@@ -1,7 +1,7 @@
-"""The learned lifter's training pairs: the person stays in the picture of the camera that sees
-them, so the network's inputs stay bounded (a camera the mocap's person walked up to gave inputs
-of thousands of torso sizes, and the batch norms learned from them made the exported model lift
-an average pose)."""
+"""The learned lifter's training pairs: the camera that sees a person keeps their shoulders in its
+picture and stays away from them, so the network's inputs stay bounded (a camera the mocap's
+person walked up to gave inputs of thousands of torso sizes, and the batch norms learned from
+them made the exported model lift an average pose); the 2D error is a detector's."""
 
 from __future__ import annotations
 
@@ -9,42 +9,46 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from gesturebank.lift.learned import features as F
-from gesturebank.lift.scoring import look_at
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import motion_pose
 
 pytest.importorskip("torch")
-from gesturebank.train.lifter_net import MIN_DEPTH_M, Sampler, in_picture
-
-SIZE = (640, 480)
-
-
-def _camera(distance: float):  # type: ignore[no-untyped-def]
-    return look_at(eye=np.array([0.0, -distance, 1.3]), target=np.array([0.0, 0.0, 1.3]),
-                   up=np.array([0.0, 0.0, 1.0]), size=SIZE, fov_deg=60.0)  # fmt: skip
+from gesturebank.train.lifter_motion import gesture_take
+from gesturebank.train.lifter_net import UP, Sampler
+from gesturebank.train.lifter_views import MIN_DEPTH_M, CameraRanges, detector_noise, view_batch
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    x=st.floats(-0.5, 0.5), z=st.floats(1.0, 1.6), distance=st.floats(2.0, 6.0),
-    step=st.floats(-10.0, 10.0),
-)  # fmt: skip
-def test_a_point_is_in_the_picture_exactly_when_it_projects_inside_and_in_front(
-    x: float, z: float, distance: float, step: float
-) -> None:
-    cam = _camera(distance)
-    point = np.array([[[x, 0.0, z]]])
-    local = cam.to_camera(point)
-    px = cam.project(point)[0, 0]
-    inside = bool(np.all(px > -0.1 * np.array(SIZE)) and np.all(px < 1.1 * np.array(SIZE)))
-    assert in_picture(local, cam) == inside
-    # walked towards the camera past it (or to within MIN_DEPTH_M): never in the picture
-    near = point + np.array([0.0, -(distance - MIN_DEPTH_M / 2) + min(step, 0) * 0.01, 0.0])
-    assert not in_picture(cam.to_camera(near), cam)
+def test_a_kept_camera_sees_the_shoulders_and_comes_no_nearer_than_the_minimum() -> None:
+    rng = np.random.default_rng(3)
+    takes = [gesture_take(rng, 60) for _ in range(48)]
+    uv, local, outside, seen = view_batch(takes, [UP] * len(takes), rng, CameraRanges())
+    assert seen.mean() > 0.9
+    for k in np.flatnonzero(seen):
+        spine = np.median(np.linalg.norm(takes[k][:, 5:7].mean(1) - takes[k][:, 11:13].mean(1),
+                                         axis=-1))  # fmt: skip
+        assert (local[k][..., 2] > MIN_DEPTH_M * spine / 0.5).all()
+        assert not outside[k][:, 5:7].all()
+    # the person anywhere in the picture, sometimes partly outside it
+    assert 0.0 < outside[seen].mean() < 0.3
+    # half read with the true focal: those rays are the camera-frame joints' own
+    rays = local[..., :2] / local[..., 2:3]
+    exact = np.isclose(uv, rays, atol=1e-9).all(axis=(1, 2, 3))
+    assert 0.2 < exact[seen].mean() < 0.9
+
+
+def test_detector_noise_drops_and_swaps_but_keeps_the_torso() -> None:
+    rng = np.random.default_rng(5)
+    takes = [gesture_take(rng, 176) for _ in range(16)]
+    uv, local, outside, _ = view_batch(takes, [UP] * len(takes), rng, CameraRanges())
+    noisy = np.stack([detector_noise(uv[k], local[k], outside[k], rng) for k in range(16)])
+    assert np.isfinite(noisy[..., [5, 6, 11, 12], :]).all()
+    missing = np.isnan(noisy).any(-1).mean()
+    assert 0.002 < missing < 0.2
+    spine = np.linalg.norm(uv[:, :, 5:7].mean(2) - uv[:, :, 11:13].mean(2), axis=-1)
+    err = np.linalg.norm(noisy - uv, axis=-1) / spine[..., None]
+    assert 0.02 < np.nanmedian(err) < 0.15  # BlazePose-sized error, in spine lengths
 
 
 def test_training_inputs_stay_bounded(samples: Path) -> None:
@@ -54,5 +58,5 @@ def test_training_inputs_stay_bounded(samples: Path) -> None:
     sampler = Sampler([take], frames=176)
     x, y = sampler.batch(np.random.default_rng(1), 96)
     # in torso sizes about the neck (and the neck's ray coordinates): a person in a 60° picture
-    assert np.isfinite(x).all() and np.abs(x).max() < 5.0
+    assert np.isfinite(x).all() and np.abs(x).max() < 8.0
     assert np.abs(y).max() < 3.0
