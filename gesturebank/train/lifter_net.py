@@ -1,13 +1,16 @@
 """Training of the `learned` lifter (gesturebank.lift.learned): a dilated temporal convolution
 net (after VideoPose3D, Pavllo et al. CVPR 2019) from 2D keypoint windows to root-relative 3D.
 
-Training pairs are made on the fly from motion capture: each sample is a stretch of the take,
-played faster or slower, optionally mirrored, given other proportions or a sampled arm motion
-(lifter_poses), seen by a random pinhole camera (azimuth around the person's mean front over the
-stretch, height, distance, field of view, aim) that keeps the person in its picture, its joints
-projected and disturbed by detector-like 2D noise (`NOISE_BIAS_Y`, `NOISE_SD`), then turned into the
-network's input by the very function the lifter uses (features.features). The loss is the
-mean joint distance in units of the neck → mid-hip length, arms weighted up.
+Training pairs are made on the fly (issue 39: a net that learns geometry, not one take): most
+stretches are gesture motion made up over the upper body's range with random proportions
+(lifter_motion), the rest stretches of motion capture, played faster or slower, optionally
+mirrored, given other proportions or a sampled arm motion (lifter_poses). Each is seen by a
+random camera as people film (lifter_views: height, distance, field of view, aim, roll, lens,
+the focal known or assumed; kornia's batched geometry) with BlazePose-like 2D error (drift, bias,
+blur, left/right swaps, dropped keypoints), then turned into the network's input by the very
+function the lifter uses (features.features). Batches are made in a worker process beside the
+training. The loss is the mean joint distance in units of the neck → mid-hip length, arms
+weighted up.
 """
 
 from __future__ import annotations
