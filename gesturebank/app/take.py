@@ -24,7 +24,7 @@ from gesturebank.config import Config
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.digest import content_digest, measure_digest
 from gesturebank.datasets.partners import pair_clips
-from gesturebank.datasets.store import ClipRecord, TakeRecord
+from gesturebank.datasets.records import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
 from gesturebank.extract.vad import silences
 from gesturebank.qc.checks import absolute_reasons
