@@ -25,6 +25,7 @@ import numpy as np
 from gesturebank.clip import Clip, kept_parts, part_mask
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
+from gesturebank.datasets.head import FaceHead, in_pose_frame, mix_head
 from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
@@ -33,6 +34,7 @@ from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio
 from gesturebank.extract.vad import RATE_HZ, SpeechActivity, silences, speech_activity
 from gesturebank.filters import butter_lowpass, interpolate_at
+from gesturebank.geometry import Camera
 from gesturebank.lift.depth_confidence import pose_confidence
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.checks import absolute_reasons
@@ -43,6 +45,7 @@ from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
 if TYPE_CHECKING:
     from gesturebank.extract.cache import DetectionCache
+    from gesturebank.extract.head_pose import HeadPoses
     from gesturebank.extract.tracking import Tracked, TrackReport
     from gesturebank.poses import MultiPose2D
 
@@ -87,6 +90,8 @@ class _View:
     detect_s: float
     tracking: dict[str, Any]
     preview: tuple[tuple[float, np.ndarray], ...]
+    face: FaceHead | None = None
+    camera: Camera | None = None
 
 
 def check_names(config: Config) -> None:
@@ -199,9 +204,35 @@ def _single_views(take: Take, config: Config, chunks: DetectionCache | None) -> 
                     "people": people_summary(ext.multi, ext.tracked),
                 },
                 preview=ext.preview,
+                face=face_head(ext.heads, track, image_size=pose.image_size, config=config),
             )
         )
     return views
+
+
+def face_head(
+    heads: HeadPoses | None,
+    track: np.ndarray,
+    *,
+    image_size: tuple[int, int],
+    config: Config,
+    camera: Camera | None = None,
+) -> FaceHead | None:
+    """The head of the person given per frame by `track (T,)` from the face mesh, in the
+    camera's axes (`extract.head_pose.on_ray`: the calibrated `camera`'s intrinsics, else a
+    pinhole of `fitted.fov_deg`); None without face measurements."""
+    from gesturebank.extract.head_pose import on_ray
+    from gesturebank.lift.fitted import pinhole
+
+    if heads is None:
+        return None
+    axes, centre, residual = heads.of(track)
+    focal, principal, _ = pinhole(
+        np.zeros((0, 2)), image_size, camera, fov_deg=config.fitted.fov_deg
+    )
+    if camera is not None:
+        centre = camera.undistort_points(centre)
+    return FaceHead(on_ray(axes, centre, focal=focal, principal=principal), residual)
 
 
 def people_summary(multi: MultiPose2D, tracked: Tracked) -> dict[str, dict[str, Any]]:
@@ -300,6 +331,14 @@ def _multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> _V
         detect_s=sum(x.info.detect_seconds for x in exts),
         tracking=_tracking_json(e.tracked.report),
         preview=e.preview,
+        face=face_head(
+            e.heads,
+            e.tracked.report.main_ids,
+            image_size=poses[ref].image_size,
+            config=config,
+            camera=cameras[ref],
+        ),
+        camera=cameras[ref],
     )
 
 
@@ -429,6 +468,18 @@ def _clip(
     raw = pepper_angles(pose3d, config=config.retarget)
     support = angle_support(valid)
     raw[~support] = np.nan
+    face = view.face.frames(a, b) if view.face is not None else None
+    raw, roll, head_source = mix_head(
+        pose3d=pose3d,
+        raw=raw,
+        roll=head_roll(pose3d),
+        body_ok=support[:, pepper.INDEX["HeadPitch"]],
+        torso_ok=valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]],
+        face_axes=None if face is None else in_pose_frame(face.axes, pose3d, view.camera),
+        face_ok=np.zeros(b - a, bool)
+        if face is None
+        else face.residual <= config.retarget.head_max_fit_residual,
+    )
     pose2d = view.pose2d.frames(a, b, origin_s=float(times[0]))
     processed = process_angles(
         raw=raw,
@@ -444,8 +495,6 @@ def _clip(
     )
     keep = part_mask(parts)
     mask = processed.mask & keep
-    roll = head_roll(pose3d)
-    roll[~support[:, pepper.INDEX["HeadPitch"]]] = np.nan
     known = mask[:, pepper.INDEX["HeadPitch"]]
     clock = {"timestamps": ts, "clock": times, "known": known}
     roll100 = head_roll_at(roll, **clock, processing=config.processing)
@@ -472,6 +521,7 @@ def _clip(
         depth_confidence=lift_confidence(pose2d, pose3d, lifter=view.lifter),
         person=int(view.speaker[a]),
         role=role_at(view.role[a:b], ts, times),
+        head_source=head_source,
         partner_clip_id="",  # set for the whole take (`datasets.partners.pair_clips`)
         partner_speaking=np.zeros(len(times), bool),
     )
