@@ -286,6 +286,7 @@ def measure_roles(
         video_config=video_config,
         config=config,
         threads=threads,
+        mouths=True,
     )
     assert roles is not None
     return roles
@@ -300,7 +301,7 @@ def measure_people(
     video_config: VideoConfig,
     config: SpeechConfig,
     threads: int | None = None,
-    mouths: bool = True,
+    mouths: bool,
     head_limits: tuple[float, float] | None = None,
 ) -> tuple[Roles | None, HeadPoses]:
     """Every track's roles (with `mouths`; else None) and head poses (faces within
