@@ -5,7 +5,9 @@ in the photo's own axes (x right, y down, z away from the camera; pixels of the 
 Prints how far the shipped `gesturebank/data/face-reference.csv` lies from a fresh measurement
 (RMS, photo px); `--write` measures it again and writes the file.
 
-    .venv/bin/python benchmarks/face_reference.py [--write]
+    .venv/bin/python benchmarks/face_reference.py [--write] [--quick]
+
+--quick: the same (one run of the face model).
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ def measure() -> np.ndarray:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help="measure and write the file")
+    parser.add_argument("--quick", action="store_true", help="the same: one model run")
     args = parser.parse_args()
     points = measure()
     path = Path(__file__).resolve().parents[1] / "gesturebank" / "data" / REFERENCE_FILE
