@@ -28,7 +28,8 @@ The head (issue 40): "head °" is the head direction error (HeadPitch and HeadYa
 clips' 100 Hz frames by the source of their head (`clip.head_source`: the face mesh, the body's
 face keypoints): the share of each and its head error, so the mesh, the fallback and the chosen
 mix are each scored. `--head-source body` builds with the body's keypoints only (the head
-before issue 40).
+before issue 40); `--every-clip` scores the clips QC rejected too (side views, arms at a limit:
+their heads are still measured).
 
     .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
     .venv/bin/python benchmarks/pipeline_truth.py --bvh test2.bvh test3.bvh --start 0 \
@@ -123,20 +124,22 @@ class Measured:
     unlimited: Scores | None
 
 
-def measure(truth: Truth, config: Config, out: Path) -> Measured:
-    """Build the render's video into `out` and score its kept clips against both truths."""
+def measure(truth: Truth, config: Config, out: Path, *, every_clip: bool = False) -> Measured:
+    """Build the render's video into `out` and score its kept clips (`every_clip`: every clip
+    it made, QC's verdict aside) against both truths."""
+    status = None if every_clip else "accepted"
     build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
     dataset = open_dataset(out)
     stored, pipeline_truth, unlimited, sources = [], [], [], []
     deep, wrong = 0, 0
     expected = [(row.clip.metrics.get("expected_hand_error_cm", np.nan), row.clip.duration_s)
-                for row in dataset.clips()]  # fmt: skip
+                for row in dataset.clips(status)]  # fmt: skip
     expected_cm = (
         float(np.average([e for e, _ in expected], weights=[d for _, d in expected]))
         if expected
         else float("nan")
     )
-    for row in dataset.clips():
+    for row in dataset.clips(status):
         clip = dataset.load(row.clip.clip_id)
         frames = np.round((clip.timestamps + clip.start_s - truth.times[0]) * truth.fps)
         frames = np.clip(frames.astype(int), 0, len(truth.times) - 1)
@@ -196,6 +199,12 @@ def main() -> None:
                         help="skip the second build with QC's view limits off")  # fmt: skip
     parser.add_argument("--quick", action="store_true", help="3 s at 0°, small, one look")
     parser.add_argument(
+        "--every-clip",
+        action="store_true",
+        help="score every clip the build made, QC's verdict aside (the head where QC rejects "
+        "the view or the arms); 'kept s' then counts them all",
+    )
+    parser.add_argument(
         "--bvh",
         nargs="+",
         default=["test.bvh"],
@@ -246,7 +255,7 @@ def main() -> None:
             away = facing_away(true_2d, np.ones(true_2d.shape[:2], dtype=bool)).mean()
             for qc, config in configs.items():
                 name = f"{bvh}-{look}-{azimuth:g}-{elevation:g}-{qc}"
-                got = measure(truth, config, Path(tmp) / name)
+                got = measure(truth, config, Path(tmp) / name, every_clip=args.every_clip)
                 view = f"{azimuth:g}°" + (f" ↑{elevation:g}°" if elevation else "")
                 first = (bvh, look, view, f"{100 * away:.0f}", qc)
                 kept = f"{got.kept_s:.1f} / {length:g}"
