@@ -40,10 +40,10 @@ HEAD_IN_REFERENCE = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0
 # Face width over the nose-to-ear distance (adults: about 145 mm over 100-110 mm), which a turned
 # face does not foreshorten as it does the eye distance.
 WIDTH_PER_EAR_NOSE = 1.4
-# The face model's presence probability below which a crop gives no head. Lower than the mouth's
-# (0.5): a face turned 50-70° from the camera often scores 0.1-0.5 and still gives its turn
-# (test.bvh 0–6 s rendered at 60°: yaw error 10.9° over the 46 of 52 frames ≥ 0.1, 10.5° over the
-# 35 ≥ 0.5).
+# The face model's presence probability (on the crop from the first mesh, `mesh_roi`) below which
+# a crop gives no head. Lower than the mouth's (0.5): a face turned 50-70° from the camera often
+# scores 0.1-0.5 and still gives its turn (test.bvh 0–6 s rendered at 60°: yaw error 10.9° over
+# the 46 of 52 frames ≥ 0.1, 10.5° over the 35 ≥ 0.5).
 MIN_HEAD_PRESENCE = 0.1
 EYE_CORNERS = (33, 263)  # the right and left eyes' outer corners on the canonical face mesh
 # A crop from a mesh: its bounding box enlarged this much (as mediapipe's face pipeline tracks a

@@ -170,8 +170,7 @@ def measure_faces(
             mesh = model(image, roi)
             if mouth and mesh.presence >= MIN_FACE_PRESENCE:
                 row[m] = mesh.opening
-            if mesh.presence >= MIN_HEAD_PRESENCE:  # again, on the crop the mesh gives
-                mesh = model(image, mesh_roi(mesh.points))
+            mesh = model(image, mesh_roi(mesh.points))  # again, on the crop the mesh gives
             if mesh.presence >= MIN_HEAD_PRESENCE:
                 fit = fit_head(mesh.points3d)
                 head[m], centre[m], residual[m] = fit.axes, fit.centre, fit.residual
