@@ -1,7 +1,6 @@
 """The head of a clip from the face or the body (issue 40): the face where it was found and the
-torso seen, the body's face keypoints elsewhere (shifted by the two sources' median difference
-where both measured the head), the source of every frame; the face's axes put into a lifter's
-frame or a calibrated camera's world."""
+torso seen, the body's face keypoints elsewhere (as they are), the source of every frame; the
+face's axes put into a lifter's frame or a calibrated camera's world."""
 
 from __future__ import annotations
 
@@ -9,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gesturebank.datasets.head import BODY, FACE, MIN_SHARED, in_pose_frame, mix_head
+from gesturebank.datasets.head import BODY, FACE, in_pose_frame, mix_head
 from gesturebank.geometry import Camera
 from gesturebank.poses import Pose3D
 from gesturebank.robot import pepper
@@ -35,7 +34,7 @@ def _scene(n: int = 40) -> tuple[Pose3D, np.ndarray, np.ndarray]:
     return _pose(joints), joints, axes
 
 
-def test_the_face_is_used_where_found_and_the_body_elsewhere_shifted_to_meet_it() -> None:
+def test_the_face_is_used_where_found_and_the_body_elsewhere_as_it_is() -> None:
     pose, joints, axes = _scene()
     n = len(joints)
     raw = pepper_angles(joints)
@@ -49,17 +48,18 @@ def test_the_face_is_used_where_found_and_the_body_elsewhere_shifted_to_meet_it(
     assert source.dtype == np.int8
     np.testing.assert_array_equal(source, np.where(face_ok, FACE, BODY))
     truth = pepper_angles(joints)
-    np.testing.assert_allclose(got[:, [P, Y]], truth[:, [P, Y]], atol=1e-4)  # bias gone
+    np.testing.assert_allclose(got[:30][:, [P, Y]], truth[:30][:, [P, Y]], atol=1e-4)
+    np.testing.assert_allclose(got[30:][:, [P, Y]], raw[30:][:, [P, Y]])  # the body's, biased
     np.testing.assert_allclose(got_roll, roll, atol=1e-4)
     np.testing.assert_array_equal(got[:, 2:], raw[:, 2:])  # the arms untouched
 
 
-def test_without_enough_shared_frames_the_body_is_not_shifted_and_unknown_stays_unknown() -> None:
+def test_no_torso_takes_the_body_and_unknown_stays_unknown() -> None:
     pose, joints, axes = _scene()
     n = len(joints)
     raw = pepper_angles(joints)
     raw[:, P] += 0.35
-    face_ok = np.arange(n) < MIN_SHARED - 1
+    face_ok = np.arange(n) < 9
     body_ok = np.arange(n) < n - 5
     torso_ok = np.ones(n, bool)
     torso_ok[3] = False  # no torso: the face's head cannot be put against it
@@ -68,7 +68,8 @@ def test_without_enough_shared_frames_the_body_is_not_shifted_and_unknown_stays_
         face_axes=axes, face_ok=face_ok,
     )  # fmt: skip
     assert source[3] == BODY and source[0] == FACE and (source[-5:] == 0).all()
-    np.testing.assert_allclose(got[MIN_SHARED:-5, P], raw[MIN_SHARED:-5, P])  # not shifted
+    assert got[3, P] == raw[3, P]
+    np.testing.assert_allclose(got[9:-5, P], raw[9:-5, P])
     assert np.isnan(got[-5:, [P, Y]]).all() and np.isnan(got_roll[-5:]).all()
 
 
