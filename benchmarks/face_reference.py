@@ -29,6 +29,7 @@ HEADER = (
     "# data.astronaut(): Eileen Collins, NASA, public domain), in the photo's axes: x right,\n"
     "# y down, z away from the camera, 512 x 512 photo pixels. Measured by\n"
     "# benchmarks/face_reference.py --write (one unrotated crop centred between eyes and mouth).\n"
+    "# The model is mediapipe's (Apache License 2.0); the photo is in the public domain.\n"
 )
 
 
