@@ -54,6 +54,7 @@ from gesturebank.clip import HEAD_SOURCES, Clip
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.process import process_angles
+from gesturebank.datasets.store import Status
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
 from gesturebank.lift import LIFTERS
@@ -127,7 +128,7 @@ class Measured:
 def measure(truth: Truth, config: Config, out: Path, *, every_clip: bool = False) -> Measured:
     """Build the render's video into `out` and score its kept clips (`every_clip`: every clip
     it made, QC's verdict aside) against both truths."""
-    status = None if every_clip else "accepted"
+    status: Status | None = None if every_clip else "accepted"
     build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
     dataset = open_dataset(out)
     stored, pipeline_truth, unlimited, sources = [], [], [], []
