@@ -19,7 +19,7 @@ from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.registry import Registry
 
 if TYPE_CHECKING:
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
     from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 
 

@@ -43,7 +43,7 @@ from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.skeletons import COCO17
 
 if TYPE_CHECKING:
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
 log = logging.getLogger(__name__)
 
