@@ -23,7 +23,7 @@ from gesturebank.mocap.pose import body_axes, motion_pose
 from gesturebank.poses import Pose2D
 
 torch = pytest.importorskip("torch")
-from gesturebank.train.lifter_net import Architecture, TemporalLifterNet  # noqa: E402
+from gesturebank.lift.training.lifter_net import Architecture, TemporalLifterNet  # noqa: E402
 
 
 def _onnx_dims(value: onnx.ValueInfoProto) -> list[int | str]:
