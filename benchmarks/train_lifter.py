@@ -23,11 +23,11 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, LearnedConfig
 from gesturebank.lift import TakeViews
 from gesturebank.lift.learned import PACKAGED, LearnedLifter
 from gesturebank.lift.learned import features as F
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.scoring import look_at, project_view, score_lift
 from gesturebank.lift.training.lifter_net import Architecture, Sampler, Schedule, export, train
 from gesturebank.mocap.bvh import read_bvh

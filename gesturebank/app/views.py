@@ -180,8 +180,8 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
     the reference clock by the camera offsets the lifter used."""
     from gesturebank.app.extract import extract_take
     from gesturebank.audio.io import read_audio
+    from gesturebank.camera_files import CameraGroup
     from gesturebank.lift import LIFTERS, TakeViews
-    from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
 
     assert take.calibration is not None

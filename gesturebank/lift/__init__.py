@@ -20,7 +20,7 @@ from gesturebank.registry import Registry
 
 if TYPE_CHECKING:
     from gesturebank.audio.io import Audio
-    from gesturebank.lift.multiview.cameras import Camera, CameraGroup
+    from gesturebank.camera_files import Camera, CameraGroup
 
 
 @dataclass(frozen=True, eq=False)

@@ -20,11 +20,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.bundle import BundleReport, refine_cameras
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.refine import Refinement, refine, reprojection
 from gesturebank.lift.multiview.robust import (
     TORSO,
