@@ -16,6 +16,8 @@ import argparse
 from pathlib import Path
 
 import numpy as np
+from rich.console import Console
+from rich.table import Table
 
 from gesturebank.extract.detectors.blazepose import Roi
 from gesturebank.extract.head_pose import REFERENCE_FILE, reference_face
@@ -54,8 +56,14 @@ def main() -> None:
         path.write_text("\n".join(lines) + "\n", encoding="utf-8")
         print(f"wrote {path}")
         reference_face.cache_clear()
-    rms = float(np.sqrt(np.mean(np.sum((reference_face() - points) ** 2, axis=1))))
-    print(f"shipped reference against a fresh measurement: RMS {rms:.3f} photo px")
+    shipped = reference_face()
+    rms = float(np.sqrt(np.mean(np.sum((shipped - points) ** 2, axis=1))))
+    worst = float(np.max(np.linalg.norm(shipped - points, axis=1)))
+    table = Table(title="the reference face (gesturebank/data/face-reference.csv)")
+    for col in ("points", "RMS against a fresh measurement, photo px", "worst point, photo px"):
+        table.add_column(col, justify="right")
+    table.add_row(str(len(shipped)), f"{rms:.3f}", f"{worst:.3f}")
+    Console().print(table)
 
 
 if __name__ == "__main__":
