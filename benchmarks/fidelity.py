@@ -88,12 +88,14 @@ from gesturebank.lift.scoring import (
     ARM_JOINTS,
     DEEP,
     LiftScore,
+    camera_axes,
     look_at,
     mirror_angles,
     mirror_view,
     project_view,
     score_angles,
     score_lift,
+    sign_errors,
 )
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import body_axes, motion_pose
@@ -524,7 +526,8 @@ def build_and_pair(truth: Truth, config: Config, out: Path) -> list[dict[str, np
     """`build-dataset` on the render's video; per stored clip (accepted or not): the stored
     angles and the truth through the build's processing (`angles`, `truth`, (N, 11) rad on the
     clip's clock), its stored 2D and the true 2D of its video frames (`2d`, `true 2d`), and
-    `accepted` (0-d bool)."""
+    `accepted` (0-d bool), and its arm bones' depth signs (`signs`: (bones, 2) deep frames,
+    wrong ones; `lift.scoring.sign_errors`)."""
     build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
     dataset = open_dataset(out)
     profile = pepper.load_profile(config.robot.profile)
@@ -540,6 +543,9 @@ def build_and_pair(truth: Truth, config: Config, out: Path) -> list[dict[str, np
             "angles": clip.angles.astype(np.float64), "truth": true.angles.astype(np.float64),
             "2d": clip.pose2d.to_coco17().keypoints, "true 2d": truth.joints2d[0][frames],
             "accepted": np.array(row.clip.qc_status == "accepted"),
+            "signs": np.array([v for v in sign_errors(camera_axes(clip.pose3d),
+                                                      truth.joints3d[frames],
+                                                      truth.cameras[0]).values()]),
         })  # fmt: skip
     return clips
 
@@ -560,7 +566,7 @@ def heldout_tables(config: Config, *, quick: bool) -> tuple[Table, Table]:
                     "(worst-joint p90, % torso; frames with left and right exchanged)")  # fmt: skip
     config = config.model_copy(update={"clips": config.clips.model_copy(update={"max_s": CLIP_S})})
     for col in ("motion", "camera", "look", "clips", "accepted s", "arm MAE °", "hand cm",
-                "head °", "2D p90 %: stored / each frame",
+                "wrong sign %", "head °", "2D p90 %: stored / each frame",
                 "L/R exchanged %: stored / each frame"):  # fmt: skip
         renders.add_column(col, justify="right")
     pooled: list[dict[str, np.ndarray]] = []
@@ -580,7 +586,7 @@ def heldout_tables(config: Config, *, quick: bool) -> tuple[Table, Table]:
 def render_cells(clips: list[dict[str, np.ndarray]], truth: Truth, config: Config) -> list[str]:
     """One render's row of `heldout_tables` after its motion, camera and look."""
     if not clips:
-        return ["0", *["-"] * 6]
+        return ["0", *["-"] * 7]
     rate = config.processing.rate_hz
     accepted = sum(len(c["angles"]) for c in clips if c["accepted"]) / rate
     angles, true = (np.concatenate([c[k] for c in clips]) for k in ("angles", "truth"))
@@ -588,9 +594,11 @@ def render_cells(clips: list[dict[str, np.ndarray]], truth: Truth, config: Confi
     stored = np.concatenate([c["2d"] for c in clips])
     true_2d = np.concatenate([c["true 2d"] for c in clips])
     each = detect_cached(config, truth.videos[0], each_frame=True).to_coco17().keypoints
+    signs = np.sum([c["signs"].sum(axis=0) for c in clips], axis=0)
     return [
         str(len(clips)), f"{accepted:.1f} / {len(truth.times) / truth.fps:g}",
-        f"{np.nanmean(per_joint[ARM_JOINTS]):.1f}", f"{hand:.1f}", f"{head:.1f}",
+        f"{np.nanmean(per_joint[ARM_JOINTS]):.1f}", f"{hand:.1f}",
+        f"{100 * signs[1] / max(signs[0], 1):.0f}", f"{head:.1f}",
         f"{worst_joint_p90(stored, true_2d):.0f} / {worst_joint_p90(each, truth.joints2d[0]):.0f}",
         f"{100 * score_2d(stored, true_2d).swapped:.1f} / "
         f"{100 * score_2d(each, truth.joints2d[0]).swapped:.1f}",
