@@ -102,8 +102,8 @@ def _step_costs(roles: F64, times: F64, scale: float) -> tuple[F64, F64]:
     frames exchanged before the repair and 11.8 % after)."""
     prev = _ffill(roles, times, _FRESH_S)[:-1]
     cur = roles[1:]
-    both = np.isfinite(cur).all(axis=-1).all(axis=-1) & np.isfinite(prev).all(axis=-1).all(axis=-1)
-    cur = np.where(both[..., None, None], cur, np.nan)
+    both = np.isfinite(cur).all(axis=(-2, -1)) & np.isfinite(prev).all(axis=(-2, -1))  # (n, P)
+    cur = np.where(np.asarray(both)[..., None, None], cur, np.nan)
     same = np.linalg.norm(cur - prev, axis=-1)
     cross = np.linalg.norm(cur[:, :, ::-1] - prev, axis=-1)
     return np.nansum(same, axis=(1, 2)) / scale, np.nansum(cross, axis=(1, 2)) / scale
