@@ -66,14 +66,14 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.app.build import build_dataset
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes, find_calibration
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.detectors.blazepose import BlazePoseDetector
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.extract.video import iter_frames
 from gesturebank.fileio import sha256_file
 from gesturebank.footage import SPEECH

@@ -20,7 +20,8 @@ import numpy as np
 from rich import box
 from rich.table import Table
 
-from gesturebank.datasets.store import STATUSES, Dataset, ManifestRow, Status
+from gesturebank.datasets.reader import Dataset, ManifestRow
+from gesturebank.datasets.records import STATUSES, Status
 from gesturebank.errors import InputError
 
 if TYPE_CHECKING:

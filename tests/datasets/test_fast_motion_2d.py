@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.extract.detectors.blazepose import BlazePoseDetector
 from gesturebank.extract.video import iter_frames
