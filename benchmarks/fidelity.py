@@ -68,6 +68,7 @@ from rich.table import Table
 
 from gesturebank.app.build import build_dataset
 from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.process import process_angles
@@ -81,7 +82,6 @@ from gesturebank.geometry import similarity
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.agreement import Interval, agreement, bootstrap_over_clips
 from gesturebank.lift.multiview.bundle import camera_errors
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
     ARM_BONES,

@@ -170,7 +170,7 @@ def write_clip_audio(
 ) -> Path | None:
     """The clip's stretch of its source audio (from clip time 0 on the source's clock) as a
     16-bit mono WAV at `out`; None when the source is missing or has no audio track."""
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
 
     media = source_media(data, row)
     if media is None:
