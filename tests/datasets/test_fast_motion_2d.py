@@ -7,10 +7,10 @@ so is `BlazePoseDetector.detect_each_frame` on the same frames. Issue 39's bound
 joint's 90th percentile error at most 1.1× the per-frame detector's, frames with left and right
 exchanged at most 0.5 points more.
 
-Measured when written, on the clips' frames: each frame alone 24.1 % of the torso and 0.8 % of
-frames exchanged; the build before the swap repair's fix 39.9 % (and 4.2 % exchanged: the repair
+Measured when written, on the clips' frames: each frame alone 23.4 % of the torso and 0.8 % of
+frames exchanged; the build before the swap repair's fix 36.8 % (and 4.2 % exchanged: the repair
 exchanged right labels where one side of the body was hidden, `repair.swaps._step_costs`),
-after it 18.4 % and none.
+after it 17.9 % and none.
 """
 
 from __future__ import annotations
