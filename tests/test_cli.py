@@ -124,7 +124,7 @@ def test_train_and_qc_output_errors_are_one_line(demo_dataset: Path, tmp_path: P
     (dataset / "qc").write_text("not a folder")
     sd = ["--variant", "sd", "--subject", "lab"]
     cases = [
-        (("train", str(dataset), "-q"), "at least 3 subjects, the dataset has 2; train with"),
+        (("train", str(dataset), "-q"), "at least 3 subjects, the dataset has 2 ("),
         (("train", str(dataset), *sd, "--out", str(blocker / "m")), "cannot write the model"),
         (("qc", str(dataset)), f"{dataset}: cannot write the QC results"),
     ]
