@@ -182,14 +182,52 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     assert live_csv.read_text().startswith("# gesturebank angle timeline; robot profile: pepper-")
     for recorded in (live, sent, live_csv):  # a record file replays and exports as a timeline
         r = run("gesturebank", "replay", str(recorded), "--backend", "record",
-                "--out", str(tmp_path / "again.jsonl"))  # fmt: skip
+                "--out", str(tmp_path / "again.jsonl"), "--force")  # fmt: skip
         assert r.returncode == 0, r.stderr
         r = run("gesturebank", "export", str(recorded), "--format", "naoqi",
-                "--out", str(tmp_path / "r.naoqi.json"))  # fmt: skip
+                "--out", str(tmp_path / "r.naoqi.json"), "--force")  # fmt: skip
         assert r.returncode == 0, r.stderr
     r = run("gesturebank", "replay", str(csv), "--backend", "naoqi", "--url", "tcp://127.0.0.1:1")
     assert r.returncode == 1  # the robot failed: one line, no traceback
     assert len([ln for ln in r.stderr.splitlines() if ln.strip()]) == 1
+
+
+def test_every_writer_keeps_an_existing_output_unless_forced(tmp_path: Path) -> None:
+    """Issue 44: a second `train` wiped a trained model without a word. Every command that
+    writes an output keeps an existing one, exits 2 and names --force."""
+    model = tmp_path / "model"
+    model.mkdir()
+    (model / "model.json").write_text("{}")
+    kept = tmp_path / "kept.csv"
+    kept.write_text("precious")
+    study = tmp_path / "study"
+    study.mkdir()
+    (study / "key.json").write_text("{}")
+    dataset, wav = str(tmp_path / "ds"), str(tmp_path / "a.wav")
+    timeline = tmp_path / "t.csv"
+    joints = "HeadPitch,HeadYaw,LShoulderPitch,LShoulderRoll,LElbowYaw,LElbowRoll,"
+    joints += "RShoulderPitch,RShoulderRoll,RElbowYaw,RElbowRoll,HipRoll"
+    timeline.write_text(f"time_s,{joints}\n" + "".join(f"{t}{',0' * 11}\n" for t in (0, 0.01)))
+    cases = [
+        ("train", dataset, "--variant", "sd", "--subject", "lab", "--out", str(model)),
+        ("synthesize", str(model), wav, "--out", str(kept)),
+        ("export", str(tmp_path / "t.csv"), "--format", "csv", "--out", str(kept)),
+        ("stimuli", str(model), "--audio", wav, "--out", str(study)),
+        ("preview", dataset, "--clip", "c", "--out", str(kept)),
+        ("replay", str(tmp_path / "t.csv"), "--backend", "record", "--out", str(kept)),
+        ("live", str(model), "--backend", "record", "--input", wav, "--out", str(kept)),
+    ]
+    for args in cases:
+        r = run("gesturebank", *args)
+        assert r.returncode == 2, (args, r.stdout, r.stderr)
+        assert "already exists and is kept; --force replaces it" in r.stderr, (args, r.stderr)
+    assert kept.read_text() == "precious" and (model / "model.json").read_text() == "{}"
+    assert (study / "key.json").is_file()
+    # with --force the output is replaced
+    forced = ("export", str(timeline), "--format", "csv", "--out", str(kept), "--force")
+    r = run("gesturebank", *forced)
+    assert r.returncode == 0, r.stderr
+    assert kept.read_text() != "precious"
 
 
 def test_unknown_plugin_names_are_one_usage_error_before_any_take(tmp_path: Path) -> None:

@@ -7,8 +7,16 @@ from typing import Annotated
 
 import typer
 
-from gesturebank.cli.options import ConfigOption, DatasetArg, SetOption, Status, resolve_config
+from gesturebank.cli.options import (
+    ConfigOption,
+    DatasetArg,
+    ForceOption,
+    SetOption,
+    Status,
+    resolve_config,
+)
 from gesturebank.cli.terminal import out, user_errors
+from gesturebank.fileio import keep_existing
 
 
 def preview(
@@ -20,6 +28,7 @@ def preview(
     take: Annotated[str | None, typer.Option(help="Every clip of this take, one MP4 each.")] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """A clip's speaker beside the robot doing the same, on one clock, with the clip's audio.
 
@@ -30,6 +39,7 @@ def preview(
     from gesturebank.datasets.preview import preview_command
 
     with user_errors():
+        keep_existing([out_path], force=force)
         config = resolve_config(config_file=config_file, sets=sets, flags={})
         written = preview_command(dataset, clip=clip, take=take, out=out_path, config=config)
     for path in written:

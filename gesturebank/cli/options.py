@@ -29,6 +29,9 @@ SetOption = Annotated[
     ),
 ]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")]
+ForceOption = Annotated[
+    bool, typer.Option("--force", help="Replace an output that exists (else it is kept: exit 2).")
+]
 ModelDirArg = Annotated[Path, typer.Argument(help="A model folder written by `train`.")]
 DatasetArg = Annotated[Path, typer.Argument(help="A dataset folder written by build-dataset.")]
 # a registry, not a Literal: plug-in backends are valid too

@@ -16,6 +16,7 @@ import typer
 from gesturebank.cli.options import (
     BackendOption,
     ConfigOption,
+    ForceOption,
     ModelDirArg,
     OutFileOption,
     SetOption,
@@ -31,6 +32,7 @@ from gesturebank.config import (
     Target,
 )
 from gesturebank.errors import InputError, RobotError
+from gesturebank.fileio import keep_existing
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import create
 
@@ -331,6 +333,7 @@ def replay(
     ] = False,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """Play an angle timeline on Pepper, a simulator render, or a file — safely.
 
@@ -344,6 +347,7 @@ def replay(
     from gesturebank.cli.robot import replay_command
 
     with user_errors(), tempfile.TemporaryDirectory(prefix="gesturebank-replay-") as scratch:
+        keep_existing([out_file] if out_file else [], force=force)
         config = resolve_config(config_file=config_file, sets=sets, flags={})
         if clip is not None:
             from gesturebank.datasets.listing import clip_to_play
@@ -413,6 +417,7 @@ def live(
     ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """Live synthesis: speech from a microphone (or a WAV in real time) drives the robot.
 
@@ -428,6 +433,7 @@ def live(
     from gesturebank.cli.robot import live_command
 
     with user_errors():
+        keep_existing([out_file] if out_file else [], force=force)
         config = resolve_config(config_file=config_file, sets=sets, flags={})
         result = live_command(
             model_dir=model_dir,

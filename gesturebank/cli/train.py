@@ -16,6 +16,7 @@ import typer
 from gesturebank.cli.options import (
     ConfigOption,
     DatasetArg,
+    ForceOption,
     ModelDirArg,
     QuietOption,
     SetOption,
@@ -26,6 +27,7 @@ from gesturebank.cli.options import (
 from gesturebank.cli.terminal import out, user_errors
 from gesturebank.config import Target, Variant
 from gesturebank.errors import InputError
+from gesturebank.fileio import keep_existing
 from gesturebank.train.registry import MODELS
 
 
@@ -51,7 +53,10 @@ def train_cmd(
     fold: Annotated[int | None, typer.Option(help="SI fold (default 0).")] = None,
     subject: Annotated[str | None, typer.Option(help="SD subject.")] = None,
     out_dir: Annotated[
-        Path, typer.Option("--out", help="Model folder to write (an older one is replaced whole).")
+        Path,
+        typer.Option(
+            "--out", help="Model folder to write (with --force an older one is replaced whole)."
+        ),
     ] = Path("model"),
     epochs: Annotated[
         int | None,
@@ -72,6 +77,7 @@ def train_cmd(
     config_file: ConfigOption = None,
     sets: SetOption = None,
     quiet: QuietOption = False,
+    force: ForceOption = False,
 ) -> None:
     """Train a speech-to-motion model on a dataset split: the dissertation's MLP or LSTM (§4.3)
     or a seed model — aud2motion (causal GRU), aud2pose (BiGRU window), aud2repr2pose (motion
@@ -93,6 +99,7 @@ def train_cmd(
     from gesturebank.cli.training import train_command
 
     with user_errors():
+        keep_existing([out_dir], force=force)
         config = resolve_config(
             config_file=config_file, sets=sets, flags={"train": {"target": target}}
         )
@@ -250,6 +257,7 @@ def synthesize(
     znorm: Annotated[
         str, typer.Option(help="Audio z-norm stats: '*' (whole dataset), a subject, or 'self'.")
     ] = "*",
+    force: ForceOption = False,
 ) -> None:
     """Offline synthesis: speech → the 11 Pepper angles at 100 Hz, as a CSV for `replay`.
 
@@ -260,6 +268,7 @@ def synthesize(
     from gesturebank.train.synthesis import synthesize as synthesize_angles
 
     with user_errors():
+        keep_existing([out_csv], force=force)
         angles = synthesize_angles(
             model_dir=model_dir, audio_path=audio, out_csv=out_csv, znorm=znorm
         )
