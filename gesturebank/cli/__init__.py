@@ -18,6 +18,7 @@ import typer
 
 from gesturebank.cli import build, calibrate, clips, export, info, qc, render, robot, study, train
 from gesturebank.cli.build import build_dataset_main
+from gesturebank.cli.terminal import missing_extras
 
 __all__ = ["app", "build_dataset_main", "main"]
 
@@ -63,4 +64,5 @@ app.add_typer(study.study_app, name="study")
 
 
 def main() -> None:
-    app()
+    with missing_extras():
+        app()

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.cli.options import ConfigOption, QuietOption, SetOption, one_of, resolve_config
-from gesturebank.cli.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, user_errors
+from gesturebank.cli.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, missing_extras, user_errors
 from gesturebank.config import Executor
 from gesturebank.errors import InputError
 from gesturebank.extract.detectors import DETECTORS
@@ -181,4 +181,5 @@ def build_dataset_main() -> None:
         add_completion=False, pretty_exceptions_enable=False, rich_markup_mode="markdown"
     )
     single.command()(build_dataset)
-    single(prog_name="build-dataset")
+    with missing_extras():
+        single(prog_name="build-dataset")
