@@ -131,7 +131,7 @@ def test_synthesize_keeps_the_old_csv_when_the_write_fails(mlp_model: Path, tmp_
     csv.write_text("old\n")
     script = Path(sys.executable).parent / "gesturebank"
     r = subprocess.run(
-        [str(script), "synthesize", str(mlp_model), str(wav), "--out", str(csv)],
+        [str(script), "synthesize", str(mlp_model), str(wav), "--out", str(csv), "--force"],
         capture_output=True,
         text=True,
         timeout=120,
