@@ -1,5 +1,6 @@
 """The installed console scripts: help texts, exit codes, one-line errors."""
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -9,9 +10,15 @@ import pytest
 BIN = Path(sys.executable).parent
 
 
-def run(*args: str) -> subprocess.CompletedProcess[str]:
+def run(*args: str, columns: int | None = None) -> subprocess.CompletedProcess[str]:
     cmd = [str(BIN / args[0]), *args[1:]]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+    env = None if columns is None else {**os.environ, "COLUMNS": str(columns)}
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False, env=env)
+
+
+def fits(text: str, columns: int = 80) -> bool:
+    """Every line within `columns` and none cut short by rich (`…`)."""
+    return all(len(ln.rstrip()) <= columns and "…" not in ln for ln in text.splitlines())
 
 
 def test_help_lists_every_command_with_text() -> None:
@@ -146,9 +153,12 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
             "--subject", "lab", "--out", str(model), "-q", *fast)  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert (model / "model_step.onnx").is_file()
-    r = run("gesturebank", "evaluate", str(model))
+    r = run("gesturebank", "evaluate", str(model), columns=80)
     assert r.returncode == 0, r.stderr
     assert "mean pose" in r.stdout and "RMSE" in r.stdout
+    # issue 44: at 80 columns headers were cut (`Subje…`, `avera…`); short ones and their units
+    assert fits(r.stdout), r.stdout
+    assert " Subject " in r.stdout and " average " in r.stdout and "units: RMSE °" in r.stdout
     # the 1.06 s test part is shorter than the 3 s LCCA window: flagged, not scored, no warnings
     assert "LCCA, CCA, FCCA not computable" in r.stdout and "Warning" not in r.stderr
     csv = tmp_path / "angles.csv"

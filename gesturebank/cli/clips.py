@@ -58,16 +58,17 @@ def clips(
     ] = False,
 ) -> None:
     """List a dataset's clips: id, take, subject, where in the source video (start–end, s),
-    seconds, QC status and reasons, and the body parts unknown in some frames (masked).
+    seconds, QC status and reasons, and the body parts unknown in some frames (masked). A
+    terminal narrower than 120 columns gets one block per clip instead of a table.
 
     A clip id (or a take id, when the take has one clip) is what `replay OUT_DIR --clip` takes.
     """
     from gesturebank import datasets
-    from gesturebank.datasets.listing import clips_table, list_clips, rows_csv
+    from gesturebank.datasets.listing import clips_view, list_clips, rows_csv
 
     with user_errors():
         rows = list_clips(datasets.open(out_dir), status=status, subject=subject, take=take)
     if as_csv:
         typer.echo(rows_csv(rows), nl=False)
         return
-    out.print(clips_table(rows, title=f"{out_dir}: {len(rows)} clips"))
+    out.print(clips_view(rows, title=f"{out_dir}: {len(rows)} clips", width=out.width))

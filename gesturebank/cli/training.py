@@ -26,6 +26,7 @@ from gesturebank.train.eval.compare import model_names
 from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     LEGEND,
+    NARROW_COLUMNS,
     SEED_MEASURES,
     TABLE_5_1,
     average,
@@ -34,6 +35,7 @@ from gesturebank.train.eval.evaluate import (
     postprocess,
     score_systems,
     table,
+    units,
 )
 from gesturebank.train.eval.field import SplitInputs
 from gesturebank.train.eval.roles import per_role
@@ -302,9 +304,12 @@ def _print_tables(
     from gesturebank.train.eval.fgd import label as fgd_label
 
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
-    out.print(table(results, title, TABLE_5_1, notes))
-    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes))
+    narrow = out.width < NARROW_COLUMNS  # short headers, units in a line of their own
+    out.print(table(results, title, TABLE_5_1, notes, narrow=narrow))
+    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes, narrow=narrow))
     fgd_title = fgd_label(inputs.fgd)
-    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES, notes))
-    for line in [LEGEND, *notes.lines]:
-        out.print(line, highlight=False, soft_wrap=True)
+    field_title = f"{title}: GENEA/BEAT measures ({fgd_title})"
+    out.print(table(results, field_title, FIELD_MEASURES, notes, narrow=narrow))
+    legend = [LEGEND, units((*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES))] if narrow else [LEGEND]
+    for line in [*legend, *notes.lines]:  # narrow: wrapped at words, each note whole
+        out.print(line, highlight=False, soft_wrap=not narrow)

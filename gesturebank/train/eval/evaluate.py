@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
+from rich import box
 from rich.table import Table
 
 from gesturebank.config import AudioConfig, TrainConfig
@@ -49,6 +50,7 @@ NATURAL = "natural motion"
 SHUFFLED = "shuffled clip"
 
 LOWER, HIGHER, NEAR_NATURAL = "↓", "↑", "≈"
+NARROW_COLUMNS = 100  # a terminal narrower than this gets `table(narrow=True)` (80 columns fit)
 LEGEND = (
     f"{LOWER} lower is better · {HIGHER} higher is better · "
     f"{NEAR_NATURAL} closer to natural motion's value is better"
@@ -66,6 +68,23 @@ class Column(NamedTuple):
     def title(self) -> str:
         """The header with its better-direction mark, e.g. 'RMSE (°) ↓'."""
         return f"{self.header} {self.better}"
+
+    @property
+    def short(self) -> str:
+        """The header without its unit, e.g. 'RMSE ↓' (narrow tables; the unit in `units`)."""
+        return f"{self.header.split(' (')[0]} {self.better}"
+
+    @property
+    def unit(self) -> str:
+        """The unit in the header's parentheses ('' when none)."""
+        _, sep, rest = self.header.partition(" (")
+        return rest.removesuffix(")") if sep else ""
+
+
+def units(columns: Sequence[Column]) -> str:
+    """'units: RMSE °, ΔJ̃ 10⁵ rad²s⁻⁵': the units a narrow table's short headers leave out."""
+    named = [f"{c.header.split(' (')[0]} {c.unit}" for c in columns if c.unit]
+    return f"units: {', '.join(named)}" if named else ""
 
 
 # The columns of Table 5.1, a second table with the other seeds' measures and a third with the
@@ -563,16 +582,22 @@ def table(
     title: str,
     columns: Sequence[Column] = TABLE_5_1,
     notes: Footnotes | None = None,
+    *,
+    narrow: bool = False,
 ) -> Table:
     """A rich table like Table 5.1: one row per subject and system, then the averages.
 
-    Headers carry the better-direction (`LEGEND`); n/a cells the marks of `notes`."""
+    Headers carry the better-direction (`LEGEND`); n/a cells the marks of `notes`. `narrow`
+    (an 80-column terminal): headers without units (`units` says them), no vertical rules."""
     notes = notes or footnotes(results)
-    t = Table(title=title)
-    t.add_column("Subject")
+    if narrow:
+        t = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    else:
+        t = Table(title=title)
+    t.add_column("Subject", no_wrap=True)
     t.add_column("System", no_wrap=True)
     for c in columns:
-        t.add_column(c.title, justify="right")
+        t.add_column(c.short if narrow else c.title, justify="right", no_wrap=narrow)
 
     def cells(system: str, row: dict[str, Any], subject: str | None) -> list[str]:
         return [cell(row.get(c.key), c, notes.mark(system, c.key, subject)) for c in columns]
