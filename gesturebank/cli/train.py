@@ -114,6 +114,7 @@ def train_cmd(
             quiet=quiet,
             epochs=epochs,
             require=require,
+            on_warning=lambda message: typer.echo(f"warning: {message}", err=True),
         )
     out.print(result.stop_line(), highlight=False, soft_wrap=True)
     out.print(

@@ -7,8 +7,9 @@ The model folder they write and read is `train.model_folder`'s (its docstring li
 
 from __future__ import annotations
 
+import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,19 +27,24 @@ from gesturebank.train.eval.compare import model_names
 from gesturebank.train.eval.evaluate import (
     FIELD_MEASURES,
     LEGEND,
-    NARROW_COLUMNS,
     SEED_MEASURES,
     TABLE_5_1,
     average,
     baselines,
-    footnotes,
     postprocess,
     score_systems,
-    table,
-    units,
 )
 from gesturebank.train.eval.field import SplitInputs
 from gesturebank.train.eval.roles import per_role
+from gesturebank.train.eval.tables import (
+    NARROW_COLUMNS,
+    WORSE_LEGEND,
+    footnotes,
+    table,
+    units,
+    worse_lines,
+    worse_than_mean_pose,
+)
 from gesturebank.train.eval.timelines import system_angles
 from gesturebank.train.export import export_onnx
 from gesturebank.train.loss_plot import write_loss_png
@@ -51,6 +57,36 @@ from gesturebank.train.torch_runtime import torch_settings
 from gesturebank.train.trainer import TrainResult, train
 
 PathLike = str | os.PathLike[str]
+log = logging.getLogger(__name__)
+
+
+def data_warnings(
+    model: str,
+    config: TrainConfig,
+    parts: dict[str, list[Segment]],
+    rate_hz: float,
+) -> list[str]:
+    """Why a model trained on these parts will likely be useless: a train part under
+    `config.min_train_s`, or a part whose every stretch is shorter than the model's training
+    window (its `seq_len`: the windows are then mostly padding)."""
+    found = []
+    seconds = {p: sum(len(s) for s in segs) / rate_hz for p, segs in parts.items()}
+    if seconds["train"] < config.min_train_s:
+        found.append(
+            f"the train part holds {seconds['train']:.1f} s, under train.min_train_s "
+            f"({config.min_train_s:g} s): a model learns little from so little (`evaluate` "
+            "says whether it beats the mean pose)"
+        )
+    seq_len = getattr(getattr(config, model, None), "seq_len", None)
+    for part, segs in parts.items():
+        longest = max((len(s) for s in segs), default=0)
+        if seq_len is not None and longest < seq_len:
+            found.append(
+                f"the {part} part's longest stretch is {longest / rate_hz:.2f} s, shorter than "
+                f"{model}'s {seq_len / rate_hz:g} s training window (train.{model}.seq_len = "
+                f"{seq_len} frames): its windows are mostly padding"
+            )
+    return found
 
 
 def _mean_pose01(segments: list[Segment]) -> np.ndarray:
@@ -73,13 +109,15 @@ def train_command(
     quiet: bool = False,
     epochs: int | None = None,
     require: str | None = None,
+    on_warning: Callable[[str], None] | None = None,
 ) -> TrainResult:
     """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
 
     `epochs` replaces the model's `max_epochs` (each stage's, for a model trained in stages);
     early stopping may still end it sooner. loss.png beside model.json draws the losses.
     `require`: body parts every clip trained on must have ("head", "arms", ...); None: what the
-    model's targets need (`train.parts.default_require`).
+    model's targets need (`train.parts.default_require`). `on_warning` gets each of
+    `data_warnings` before training (default: logged).
 
     The model folder is written beside `out_dir` and swapped in whole, so no file of an older
     model survives and a failed or interrupted run keeps the old one.
@@ -108,6 +146,9 @@ def train_command(
         )
     if not train_segments or not val_segments:
         raise InputError(f"{ds.path}: the {variant} split has an empty train or val part")
+    parts = {"train": train_segments, "val": val_segments}
+    for warning in data_warnings(model, cfg, parts, float(ds.info.rates.pose_hz)):
+        (on_warning or log.warning)(warning)
     n_features = train_segments[0].audio.shape[1]
     with torch_settings(cfg.seed, cfg.threads):
         net = build_model(model, n_features, cfg)
@@ -194,7 +235,14 @@ def evaluate_command(
         title = f"{name} ({info.target}) on {split} ({ds.path.name})"
     _print_tables(results, title, inputs, console or Console())
     _print_roles(roles, f"{title}: per role", console or Console())
+    _print_verdict(results, console or Console())
     return report
+
+
+def _print_verdict(results: dict[str, dict[str, dict[str, Any]]], out: Console) -> None:
+    """The last lines: each scored system worse than the mean pose, said plainly."""
+    for line in worse_lines(results):
+        out.print(f"[bold red]warning:[/bold red] {line}", highlight=False)
 
 
 def _print_roles(scores: dict[str, dict[str, float]], title: str, out: Console) -> None:
@@ -257,6 +305,7 @@ def evaluate_timelines_command(
     part = {"si": f"fold {fold}", "sd": f"subject {subject}"}.get(variant, "split")
     title = f"{', '.join(systems)} on {variant.upper()} {part}, {split} ({ds.path.name})"
     _print_tables(results, title, inputs, console or Console())
+    _print_verdict(results, console or Console())
     return {
         "model": None,
         "split": split,
@@ -311,5 +360,6 @@ def _print_tables(
     field_title = f"{title}: GENEA/BEAT measures ({fgd_title})"
     out.print(table(results, field_title, FIELD_MEASURES, notes, narrow=narrow))
     legend = [LEGEND, units((*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES))] if narrow else [LEGEND]
+    legend += [WORSE_LEGEND] if worse_than_mean_pose(results) else []
     for line in [*legend, *notes.lines]:  # narrow: wrapped at words, each note whole
         out.print(line, highlight=False, soft_wrap=not narrow)
