@@ -131,7 +131,7 @@ def test_train_and_qc_output_errors_are_one_line(demo_dataset: Path, tmp_path: P
     (dataset / "qc").write_text("not a folder")
     sd = ["--variant", "sd", "--subject", "lab"]
     cases = [
-        (("train", str(dataset), "-q"), "at least 3 subjects, the dataset has 2 ("),
+        (("train", str(dataset), "-q"), "2 subjects, too few for --variant si (needs 3); train"),
         (("train", str(dataset), *sd, "--out", str(blocker / "m")), "cannot write the model"),
         (("qc", str(dataset)), f"{dataset}: cannot write the QC results"),
     ]
@@ -240,13 +240,46 @@ def test_every_writer_keeps_an_existing_output_unless_forced(tmp_path: Path) -> 
     assert kept.read_text() != "precious"
 
 
+def test_every_name_choice_says_the_flag_the_values_and_the_closest(tmp_path: Path) -> None:
+    """Issue 44: `--model lsmt` had no "did you mean lstm", as config keys do. Every name
+    choice now names its flag, lists the valid values and suggests the closest."""
+    timeline = tmp_path / "t.csv"
+    joints = "HeadPitch,HeadYaw,LShoulderPitch,LShoulderRoll,LElbowYaw,LElbowRoll,"
+    joints += "RShoulderPitch,RShoulderRoll,RElbowYaw,RElbowRoll,HipRoll"
+    timeline.write_text(f"time_s,{joints}\n" + "".join(f"{t}{',0' * 11}\n" for t in (0, 0.01)))
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    (videos / "a.mp4").write_bytes(b"")
+    out, ds = str(tmp_path / "out"), str(tmp_path / "ds")
+    cases = [
+        (("train", ds, "--model", "lsmt"), "--model", "lstm", "aud2motion, "),
+        (("train", ds, "--variant", "dyadc"), "--variant", "dyadic", "si, sd, dyadic"),
+        (("train", ds, "--target", "listner"), "--target", "listener", "speaker, listener"),
+        (("evaluate", ds, "--split", "tset"), "--split", "test", "test, val, train"),
+        (("export", str(timeline), "--format", "bhv"), "--format", "bvh", "bvh, trc, csv, naoqi"),
+        (("clips", ds, "--status", "rejectd"), "--status", "rejected", "accepted, rejected"),
+        (("build-dataset", str(videos), out, "--detector", "blazpose"), "--detector", "blazepose",
+         "mediapipe"),
+        (("build-dataset", str(videos), out, "--lifter", "learnd"), "--lifter", "learned",
+         "geometric"),
+        (("build-dataset", str(videos), out, "--executor", "rey"), "--executor", "ray", "local"),
+        (("replay", str(timeline), "--backend", "smi", "--out", str(tmp_path / "v.mp4")),
+         "--backend", "sim", "record"),
+    ]  # fmt: skip
+    for args, flag, closest, listed in cases:
+        r = run("gesturebank", *args, columns=200)
+        assert r.returncode == 2, (args, r.stderr)
+        assert flag in r.stderr and f"did you mean {closest!r}?" in r.stderr, (args, r.stderr)
+        assert listed in r.stderr, (args, r.stderr)
+
+
 def test_unknown_plugin_names_are_one_usage_error_before_any_take(tmp_path: Path) -> None:
     videos, out = tmp_path / "videos", tmp_path / "out"
     (videos / "s1").mkdir(parents=True)
     (videos / "s1" / "a.mp4").write_bytes(b"")  # would fail as a take: no take may start
     for option, message in [
-        (("--detector", "foo"), "unknown detector 'foo'; available: blazepose"),
-        (("--lifter", "bar"), "unknown lifter 'bar'; available: blazepose-world"),
+        (("--detector", "foo"), "unknown detector 'foo' (--detector); one of: blazepose"),
+        (("--lifter", "bar"), "unknown lifter 'bar' (--lifter); one of: blazepose-world"),
         (("--set", "robot.profile=nao"), "unknown robot profile 'nao'"),
     ]:
         r = run("build-dataset", str(videos), str(out), "--quiet", *option)

@@ -10,7 +10,14 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from gesturebank.cli.options import ConfigOption, QuietOption, SetOption, one_of, resolve_config
+from gesturebank.cli.options import (
+    ConfigOption,
+    QuietOption,
+    SetOption,
+    one_of,
+    pick,
+    resolve_config,
+)
 from gesturebank.cli.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, missing_extras, user_errors
 from gesturebank.config import Executor
 from gesturebank.errors import InputError
@@ -38,7 +45,8 @@ def build_dataset(
         int | None, typer.Option(min=1, help="Takes built in parallel (default: CPU cores).")
     ] = None,
     executor: Annotated[
-        Executor | None, typer.Option(help="'local' process pool (default) or 'ray'.")
+        Executor | None,
+        typer.Option(parser=pick(Executor), help="'local' process pool (default) or 'ray'."),
     ] = None,
     ray_address: Annotated[
         str | None,

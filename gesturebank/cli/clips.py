@@ -13,6 +13,7 @@ from gesturebank.cli.options import (
     ForceOption,
     SetOption,
     Status,
+    pick,
     resolve_config,
 )
 from gesturebank.cli.terminal import out, user_errors
@@ -49,7 +50,8 @@ def preview(
 def clips(
     out_dir: DatasetArg,
     status: Annotated[
-        Status | None, typer.Option(help="Only clips the QC accepted or rejected.")
+        Status | None,
+        typer.Option(parser=pick(Status), help="Only clips the QC accepted or rejected."),
     ] = None,
     subject: Annotated[str | None, typer.Option(help="Only this subject's clips.")] = None,
     take: Annotated[str | None, typer.Option(help="Only this take's clips.")] = None,

@@ -16,7 +16,7 @@ from typing import Annotated, Literal
 import numpy as np
 import typer
 
-from gesturebank.cli.options import ConfigOption, ForceOption, SetOption, resolve_config
+from gesturebank.cli.options import ConfigOption, ForceOption, SetOption, pick, resolve_config
 from gesturebank.cli.terminal import out, user_errors
 from gesturebank.config import Config
 from gesturebank.errors import InputError
@@ -212,6 +212,7 @@ def export(
         Format,
         typer.Option(
             "--format",
+            parser=pick(Format),
             help="bvh: Pepper's upper body (and, for a clip, the person as NAME_person.bvh); "
             "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: the angle timeline "
             "replay reads (profile, unit, reach in a # line; masked angles empty); naoqi: "

@@ -20,6 +20,7 @@ from gesturebank.cli.options import (
     ModelDirArg,
     OutFileOption,
     SetOption,
+    pick,
     resolve_config,
 )
 from gesturebank.cli.terminal import out, user_errors
@@ -409,6 +410,7 @@ def live(
     role: Annotated[
         Target | None,
         typer.Option(
+            parser=pick(Target),
             help="'speaker': the robot moves as it speaks; 'listener': it listens and nods, only "
             "its head moving with the person's speech (a causal model trained with --target "
             "listener). Default: the model's target.",

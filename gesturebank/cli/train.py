@@ -22,6 +22,7 @@ from gesturebank.cli.options import (
     SetOption,
     SplitPart,
     one_of,
+    pick,
     resolve_config,
 )
 from gesturebank.cli.terminal import out, user_errors
@@ -35,15 +36,19 @@ def train_cmd(
     dataset: DatasetArg,
     model: Annotated[str, typer.Option(help=f"The network, {one_of(MODELS)}.")] = "mlp",
     variant: Annotated[
-        Variant,
+        Variant | None,
         typer.Option(
+            parser=pick(Variant),
             help="'si' subject-independent (a fold), 'sd' (one subject) or 'dyadic' (seed 004's "
-            "85/10/5 split, a clip always with its partner: splits/dyadic.json)."
+            "85/10/5 split, a clip always with its partner: splits/dyadic.json). Default: si "
+            "when the dataset has 3 subjects or more, else sd of its one subject.",
+            show_default=False,
         ),
-    ] = "si",
+    ] = None,
     target: Annotated[
         Target | None,
         typer.Option(
+            parser=pick(Target),
             help="What the model predicts: 'speaker' (the person's motion from their speech) or "
             "'listener' (a listener's head from the partner's speech and speaking flag, loss on "
             "listening frames; needs paired clips). Default: train.target ('speaker').",
@@ -133,7 +138,7 @@ def evaluate(
     dataset: Annotated[
         Path | None, typer.Argument(help="Dataset (default: the one it was trained on).")
     ] = None,
-    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+    split: Annotated[SplitPart, typer.Option(parser=pick(SplitPart), help="Split part.")] = "test",
     timelines: Annotated[
         list[Path] | None,
         typer.Option(
@@ -146,7 +151,8 @@ def evaluate(
     variant: Annotated[
         Variant | None,
         typer.Option(
-            help="Without a model: the split, 'si' (a fold; the default), 'sd' or 'dyadic'."
+            parser=pick(Variant),
+            help="Without a model: the split, 'si' (a fold; the default), 'sd' or 'dyadic'.",
         ),
     ] = None,
     fold: Annotated[int | None, typer.Option(help="Without a model: SI fold (default 0).")] = None,
@@ -217,7 +223,7 @@ def compare(
         Path | None,
         typer.Option(help="Dataset (default: the one the models were trained on)."),
     ] = None,
-    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+    split: Annotated[SplitPart, typer.Option(parser=pick(SplitPart), help="Split part.")] = "test",
     table_out: Annotated[
         Path | None, typer.Option("--out", help="Also write the table: a .csv or .md file.")
     ] = None,

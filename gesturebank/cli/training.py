@@ -19,7 +19,7 @@ from rich.console import Console
 from gesturebank.config import TrainConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.store import Dataset
-from gesturebank.datasets.torch import Segment, load_segments, split_items
+from gesturebank.datasets.torch import Segment, choose_variant, load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.robot import pepper
 from gesturebank.train import model_folder
@@ -100,7 +100,7 @@ def _mean_pose01(segments: list[Segment]) -> np.ndarray:
 def train_command(
     dataset: PathLike,
     model: str,
-    variant: str,
+    variant: str | None,
     fold: int | None = None,
     subject: str | None = None,
     out_dir: PathLike = "model",
@@ -111,7 +111,9 @@ def train_command(
     require: str | None = None,
     on_warning: Callable[[str], None] | None = None,
 ) -> TrainResult:
-    """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
+    """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject;
+    `variant` None: the one the dataset supports (`datasets.torch.choose_variant`, its note
+    given to `on_warning`).
 
     `epochs` replaces the model's `max_epochs` (each stage's, for a model trained in stages);
     early stopping may still end it sooner. loss.png beside model.json draws the losses.
@@ -124,14 +126,17 @@ def train_command(
     """
     cfg = config or TrainConfig()
     MODELS.check(model)  # before any data is read
-    if variant == "si" and fold is None:
-        fold = 0
     out = Path(out_dir)
     model_folder.check_target(out)
     # a listener model predicts the head only (seed 004), whatever the model class predicts
     targets = pepper.HEAD_JOINTS if cfg.target == "listener" else target_joints(MODELS.get(model))
     need = require if require is not None else default_require(targets)
     ds = open_dataset(dataset, require=need)
+    variant, subject, chose = choose_variant(ds, variant, fold, subject)
+    if chose:
+        (on_warning or log.warning)(chose)
+    if variant == "si" and fold is None:
+        fold = 0
     train_segments, val_segments = (
         load_segments(
             ds, split_items(ds, variant, p, fold=fold, subject=subject), target=cfg.target

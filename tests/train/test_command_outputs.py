@@ -297,3 +297,22 @@ def test_evaluate_says_plainly_when_a_model_is_worse_than_the_mean_pose() -> Non
     assert len(rows) == 2 and all("MLP ✗" in ln for ln in rows)  # the subject's and average
     better = _worse_results(0.0)
     assert worse_than_mean_pose(better) == {} and worse_lines(better) == []
+
+
+def test_train_picks_a_variant_the_dataset_supports_or_says_which(tmp_path: Path) -> None:
+    """Issue 44: the default --variant si failed on any dataset with fewer than 3 subjects, and
+    "a subject-dependent split needs a subject" named neither --subject nor the subjects."""
+    one = write_speech_motion_dataset(tmp_path / "one", subjects=1, seconds=4.0)
+    said: list[str] = []
+    train_command(one, "mlp", None, None, None, tmp_path / "m", ONE_EPOCH, quiet=True,
+                  on_warning=said.append)  # fmt: skip
+    info = json.loads((tmp_path / "m" / "model.json").read_text())
+    assert (info["variant"], info["subject"]) == ("sd", "s0")
+    assert any("its only subject 's0'" in w for w in said), said
+    two = write_speech_motion_dataset(tmp_path / "two", subjects=2, seconds=4.0)
+    with pytest.raises(InputError, match=r"2 subjects, too few for --variant si.*one of: s0, s1"):
+        train_command(two, "mlp", None, None, None, tmp_path / "m2", ONE_EPOCH)
+    with pytest.raises(InputError, match=r"^--variant sd needs --subject, one of: s0, s1$"):
+        train_command(two, "mlp", "sd", None, None, tmp_path / "m2", ONE_EPOCH)
+    with pytest.raises(InputError, match=r"--subject 's00'.*one of: s0, s1; did you mean 's0'\?"):
+        train_command(two, "mlp", "sd", None, "s00", tmp_path / "m2", ONE_EPOCH)
