@@ -26,6 +26,7 @@ from gesturebank.lift import LIFTERS
 
 if TYPE_CHECKING:
     from gesturebank.datasets.build import BuildSummary
+    from gesturebank.datasets.store import ClipRecord, TakeRecord
 
 
 def build_dataset(
@@ -129,7 +130,7 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
     so takes are counted, not built/skipped)."""
     table = Table(title=f"dataset {summary.out}")
     takes = ("takes built", "skipped", "failed") if built else ("takes", "failed")
-    columns = (*takes, "clips kept", "rejected", "usable s", "seen s")
+    columns = (*takes, "clips kept", "clips rejected", "stretches dropped", "usable s", "seen s")
     for name in (*columns, "kept"):
         table.add_column(name, justify="right")
     visible = summary.visible_s
@@ -138,9 +139,11 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
         if built
         else [str(len(summary.takes)), str(sum(bool(r.failed) for r in summary.takes))]
     )
+    dropped = sum(len(_dropped(r)) for r in summary.takes if not r.failed)
     table.add_row(
         *counts,
         *(str(summary.clip_count(s)) for s in ("accepted", "rejected")),
+        str(dropped),
         f"{summary.usable_s:.1f}",
         f"{visible:.1f}",
         f"{summary.usable_s / visible:.0%}" if visible > 0 else "–",
@@ -155,13 +158,14 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
             )
             continue
         kept = sum(c.qc_status == "accepted" for c in record.data_clips)
-        reasons = sorted(
-            {r for c in record.clips if c.qc_status != "accepted" for r in c.qc_reasons}
-        )
-        why = f" — dropped or rejected: {'; '.join(reasons)}" if reasons else ""
+        rejected = [c for c in record.data_clips if c.qc_status != "accepted"]
+        dropped = _dropped(record)
+        stretches = "stretch" if len(dropped) == 1 else "stretches"
         console.print(
             f"{record.take_id}: {kept} of {len(record.data_clips)} clips kept, "
-            f"{record.usable_s:.1f} of {record.visible_s:.1f} s{why}",
+            f"{len(rejected)} rejected{_why(rejected)}, "
+            f"{len(dropped)} {stretches} dropped{_why(dropped)}; "
+            f"{record.usable_s:.1f} of {record.visible_s:.1f} s",
             highlight=False,
             soft_wrap=True,
         )
@@ -171,6 +175,17 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
         console.print(f"QC dashboard: {summary.dashboard}", highlight=False, soft_wrap=True)
     if summary.interrupted:
         console.print("interrupted: finished takes are kept; run the same command to resume")
+
+
+def _dropped(record: TakeRecord) -> list[ClipRecord]:
+    """The spans of a built take that gave no clip (the dashboard's "dropped")."""
+    return [c for c in record.clips if c.kind == "span" and c.qc_status != "failed"]
+
+
+def _why(parts: list[ClipRecord]) -> str:
+    """' (reason; reason)' of rejected clips or dropped stretches, each reason once."""
+    reasons = sorted({r for c in parts for r in c.qc_reasons})
+    return f" ({'; '.join(reasons)})" if reasons else ""
 
 
 def ensure_writable(path: Path) -> None:
