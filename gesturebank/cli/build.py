@@ -139,11 +139,11 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
         if built
         else [str(len(summary.takes)), str(sum(bool(r.failed) for r in summary.takes))]
     )
-    dropped = sum(len(_dropped(r)) for r in summary.takes if not r.failed)
+    n_dropped = sum(len(_dropped(r)) for r in summary.takes if not r.failed)
     table.add_row(
         *counts,
         *(str(summary.clip_count(s)) for s in ("accepted", "rejected")),
-        str(dropped),
+        str(n_dropped),
         f"{summary.usable_s:.1f}",
         f"{visible:.1f}",
         f"{summary.usable_s / visible:.0%}" if visible > 0 else "–",
