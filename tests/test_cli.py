@@ -338,3 +338,34 @@ def test_build_dataset_of_one_video_file_and_the_qc_summary(samples: Path, tmp_p
     assert r.returncode == 0, r.stderr
     assert [ln for ln in r.stdout.splitlines() if ln.startswith("cam01_arctic: ")] == built
     assert "clips kept" in r.stdout and "rejected" in r.stdout and "QC dashboard:" in r.stdout
+
+
+def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_path: Path) -> None:
+    """Issue 44: the detection cache was invisible. `cache info` says where it is and what it
+    holds, the build's summary counts the takes whose detections came from it, `cache clear`
+    empties it."""
+    cache = tmp_path / "cache"
+    env = {**os.environ, "GESTUREBANK_CACHE": str(cache), "COLUMNS": "200"}
+
+    def gb(*args: str) -> subprocess.CompletedProcess[str]:
+        cmd = [str(BIN / "gesturebank"), *args]
+        return subprocess.run(
+            cmd, capture_output=True, text=True, timeout=600, check=False, env=env
+        )
+
+    video = samples / "talking" / "lab" / "cam01_arctic.mp4"
+    out = tmp_path / "ds"
+    r = gb("build-dataset", str(video), str(out))
+    assert r.returncode == 0, r.stderr
+    assert "from the cache" not in r.stdout  # a first build detects
+    r = gb("cache", "info")
+    assert r.returncode == 0, r.stderr
+    assert f"detection cache: {cache} (from $GESTUREBANK_CACHE)" in r.stdout
+    assert "1 entries, " in r.stdout
+    r = gb("build-dataset", str(video), str(out), "--force")
+    assert r.returncode == 0, r.stderr
+    assert "1 of 1 takes built took their detections from the cache" in r.stdout, r.stdout
+    r = gb("cache", "clear")
+    assert r.returncode == 0 and "removed 1 entries" in r.stdout, r.stdout
+    assert list(cache.iterdir()) == []
+    assert "0 entries, 0 B" in gb("cache", "info").stdout

@@ -169,6 +169,14 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
             highlight=False,
             soft_wrap=True,
         )
+    cached = sum(r.cached is True for r in summary.results)
+    if built and cached:
+        console.print(
+            f"{cached} of {summary.count('built')} takes built took their detections from the "
+            "cache (`gesturebank cache info`; --no-cache runs the detector again)",
+            highlight=False,
+            soft_wrap=True,
+        )
     for note in summary.notes:
         console.print(f"note: {note}", highlight=False, soft_wrap=True)
     if summary.dashboard:
