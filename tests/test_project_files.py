@@ -106,3 +106,29 @@ def test_a_missing_extra_is_one_line_naming_it(tmp_path: Path) -> None:
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "'train' extra" in lines[0], r.stderr
+
+
+def test_gitignore_covers_what_the_readme_recipes_write(tmp_path: Path) -> None:
+    """Issue 44: the README recipe's outputs were untracked files `.gitignore` did not cover.
+    Every `--out` and dataset folder its recipes write in the checkout is ignored."""
+    import re
+    import shutil
+    import subprocess
+
+    readme = (ROOT / "README.md").read_text()
+    recipes = [
+        readme.split(f"## {title}", 1)[1].split("\n## ", 1)[0]
+        for title in ("From your own videos to Pepper", "What `make demo` does")
+    ]
+    written = set()
+    for text in recipes:  # in code and in prose (`--out played.csv`, across a line break)
+        written |= set(re.findall(r"--out\s+([\w.-]+)", text))
+        written |= {ln.split()[2] for ln in text.splitlines() if ln.startswith("build-dataset ")}
+    assert {"my-dataset", "model", "angles.csv", "pepper.mp4", "played.csv"} <= written
+    repo = tmp_path / "repo"  # a fresh repository holding the project's .gitignore alone
+    repo.mkdir()
+    shutil.copy(ROOT / ".gitignore", repo / ".gitignore")
+    subprocess.run(["git", "init", "-q", str(repo)], check=True)
+    for name in sorted(written):
+        r = subprocess.run(["git", "check-ignore", "-q", name], cwd=repo, check=False)
+        assert r.returncode == 0, f"{name}: not ignored"

@@ -34,8 +34,10 @@ def preview(
     """A clip's speaker beside the robot doing the same, on one clock, with the clip's audio.
 
     Left: the source video cropped to the speaker, their 2D keypoints drawn. Right: the robot as
-    `replay --clip --backend sim` shows the clip ([render] sets the size and frame rate). A
-    frame code in each half's corner names the source frame and the clip frame shown.
+    `replay --clip --backend sim` shows the clip ([render] sets the size and frame rate). The
+    strip of black and white squares in each half's bottom-left corner is a frame code (its
+    legend beside it: "< video frame N", "< clip frame N"), the source frame and the clip frame
+    shown, readable back by `datasets.preview.read_frame_code`.
     """
     from gesturebank.datasets.preview import preview_command
 
