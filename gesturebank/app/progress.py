@@ -111,7 +111,7 @@ class BuildProgress:
         self.console = console
         self.plain = not console.is_terminal  # a log: plain lines per take, no live lines
         # a narrow terminal: compact counts, a shorter bar, each take's end a line of its own
-        self.narrow = not self.plain and console.width < NARROW_COLUMNS
+        self.narrow = console.width < NARROW_COLUMNS  # a log too: its last line is printed
         self.take_tasks: dict[str, TaskID] = {}
         # per take in plain mode: (time, frames) first seen, time of its last line
         self.started: dict[str, tuple[float, int]] = {}
@@ -158,7 +158,8 @@ class BuildProgress:
         c = COLOUR.get(result.outcome, "white")
         description = f"[{c}]{result.outcome}[/{c}] {result.take_id}"
         if self.narrow:  # above the live lines, whole, instead of cut at the bar's end
-            self.progress.console.print(description, highlight=False, soft_wrap=True)
+            if not self.plain:  # a log has said it in the take's plain line
+                self.progress.console.print(description, highlight=False, soft_wrap=True)
             description = ""
         if result.outcome == "skipped":
             total = self.progress.tasks[0].total or 1

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.table import Table
 
@@ -18,7 +19,14 @@ from gesturebank.cli.options import (
     pick,
     resolve_config,
 )
-from gesturebank.cli.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, missing_extras, user_errors
+from gesturebank.cli.terminal import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    NARROW_COLUMNS,
+    missing_extras,
+    user_errors,
+)
 from gesturebank.config import Executor
 from gesturebank.errors import InputError
 from gesturebank.extract.detectors import DETECTORS
@@ -128,7 +136,12 @@ def build_dataset(
 def print_summary(console: Console, summary: BuildSummary, *, built: bool = True) -> None:
     """The kept/rejected table and a line per take; `built` False: after `qc` (no build ran,
     so takes are counted, not built/skipped)."""
-    table = Table(title=f"dataset {summary.out}")
+    narrow = console.width < NARROW_COLUMNS  # no vertical rules: the headers fit 80 columns
+    table = (
+        Table(title=f"dataset {summary.out}", box=box.SIMPLE_HEAD, collapse_padding=True)
+        if narrow
+        else Table(title=f"dataset {summary.out}")
+    )
     takes = ("takes built", "skipped", "failed") if built else ("takes", "failed")
     columns = (*takes, "clips kept", "clips rejected", "stretches dropped", "usable s", "seen s")
     for name in (*columns, "kept"):

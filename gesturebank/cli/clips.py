@@ -75,4 +75,5 @@ def clips(
     if as_csv:
         typer.echo(rows_csv(rows), nl=False)
         return
-    out.print(clips_view(rows, title=f"{out_dir}: {len(rows)} clips", width=out.width))
+    title = f"{out_dir}: {len(rows)} clip{'' if len(rows) == 1 else 's'}"
+    out.print(clips_view(rows, title=title, width=out.width))

@@ -151,9 +151,6 @@ def train_command(
         )
     if not train_segments or not val_segments:
         raise InputError(f"{ds.path}: the {variant} split has an empty train or val part")
-    parts = {"train": train_segments, "val": val_segments}
-    for warning in data_warnings(model, cfg, parts, float(ds.info.rates.pose_hz)):
-        (on_warning or log.warning)(warning)
     n_features = train_segments[0].audio.shape[1]
     with torch_settings(cfg.seed, cfg.threads):
         net = build_model(model, n_features, cfg)
@@ -163,6 +160,9 @@ def train_command(
     )
     # the temporary folder is made before training, so an unwritable --out fails at once
     with model_folder.writing(out) as tmp:
+        parts = {"train": train_segments, "val": val_segments}  # once --out is known writable
+        for warning in data_warnings(model, cfg, parts, float(ds.info.rates.pose_hz)):
+            (on_warning or log.warning)(warning)
         result = train(
             net, train_segments, val_segments, cfg, quiet=quiet, description=what, epochs=epochs
         )

@@ -160,3 +160,21 @@ def test_one_set_of_counts_in_summary_dashboard_dataset_json_and_card(
     row = next(ln for ln in r.stdout.splitlines() if re.match(r"^│\s+\d", ln))
     numbers = [int(cell) for cell in row.split("│")[3:6]]  # after takes and failed
     assert numbers == list(truth.values()), row
+
+
+def test_the_summary_table_fits_80_columns(demo_dataset: Path, tmp_path: Path) -> None:
+    """Issue 44: at 80 columns the summary's headers were cut (`stret…`, `rejec…`)."""
+    import os
+    import subprocess
+    import sys
+
+    dataset = tmp_path / "ds"
+    shutil.copytree(demo_dataset, dataset)
+    gesturebank = Path(sys.executable).parent / "gesturebank"
+    env = {**os.environ, "COLUMNS": "80"}
+    cmd = [str(gesturebank), "qc", str(dataset)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False, env=env)
+    assert r.returncode == 0, r.stderr
+    table = r.stdout.split("lab__cam01_arctic:", 1)[0].splitlines()
+    assert all(len(ln) <= 80 and "…" not in ln for ln in table), r.stdout
+    assert "stretches" in r.stdout and "dropped" in r.stdout and "rejected" in r.stdout

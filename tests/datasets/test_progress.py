@@ -136,3 +136,15 @@ def test_the_lines_fit_80_columns(samples: Path) -> None:
     assert all(t.take_id in live for t in takes)  # each take's own line names it whole
     plain = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", screen.getvalue())
     assert f"built {takes[0].take_id}\n" in plain  # its end: a line of its own
+
+
+def test_a_log_at_80_columns_ends_with_a_whole_line(samples: Path) -> None:
+    """Not a terminal, 80 columns: the build's last line was cut (`ETA 00… built lab__cam01_`)."""
+    long = Take("lab__cam01_arctic", "lab", samples / "talking" / "lab" / "cam01_arctic.mp4")
+    text = io.StringIO()
+    with BuildProgress([long], Console(file=text, width=80)) as progress:
+        progress.frames(long.take_id, 1.0)
+        progress.result(TakeResult(long.take_id, "built"))
+    lines = text.getvalue().splitlines()
+    assert lines and all(len(ln) <= 80 and "…" not in ln for ln in lines), lines
+    assert sum(long.take_id in ln for ln in lines) >= 1  # its plain line names it whole
