@@ -66,6 +66,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.extract.detectors import DETECTORS
@@ -75,7 +76,6 @@ from gesturebank.footage import SPEECH
 from gesturebank.geometry import similarity
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.multiview.bundle import camera_errors
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
     ARM_BONES,

@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gesturebank.audio.io import Audio
 from gesturebank.config import Config
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_io import Audio
 from gesturebank.mocap import MOCAP
 from gesturebank.mocap.front_view import front_view
 from gesturebank.poses import Pose2D, Pose3D
@@ -181,9 +181,9 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
     audio is a .wav beside the videos, else the camera track with the most energy, moved onto
     the reference clock by the camera offsets the lifter used."""
     from gesturebank.app.extract import extract_take
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
+    from gesturebank.camera_files import CameraGroup
     from gesturebank.lift import LIFTERS, TakeViews
-    from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
 
     assert take.calibration is not None
@@ -241,7 +241,7 @@ def mocap_view(take: Take, config: Config) -> TakeView:
     lifter), one speaker, one shot; its audio starts with the first frame."""
     import time
 
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
     from gesturebank.mocap.bvh import read_bvh
     from gesturebank.mocap.pose import motion_pose
 

@@ -23,7 +23,8 @@ from rich.padding import Padding
 from rich.table import Table
 from rich.text import Text
 
-from gesturebank.datasets.store import STATUSES, Dataset, ManifestRow, Status
+from gesturebank.datasets.reader import Dataset, ManifestRow
+from gesturebank.datasets.records import STATUSES, Status
 from gesturebank.errors import InputError
 
 if TYPE_CHECKING:
@@ -173,7 +174,7 @@ def write_clip_audio(
 ) -> Path | None:
     """The clip's stretch of its source audio (from clip time 0 on the source's clock) as a
     16-bit mono WAV at `out`; None when the source is missing or has no audio track."""
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
 
     media = source_media(data, row)
     if media is None:

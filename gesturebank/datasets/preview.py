@@ -242,7 +242,7 @@ def preview_clip(
     The video has round(duration · render.frame_rate) frames, each half render.width_px ×
     render.height_px. Written under a hidden temporary name and renamed when complete.
     """
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
     from gesturebank.extract.video import frame_timestamps
     from gesturebank.robot.render import AUDIO_RATE, Scene, camera, mux_audio, poses_at
     from gesturebank.skeletons import to_coco17

@@ -132,7 +132,7 @@ def refresh(
     record in the folder). `recheck`: measure every clip again from its arrays (`gesturebank
     qc`: the invariants re-applied to what the folder holds). Returns notes (e.g. why no
     subject-independent split was written)."""
-    from gesturebank.extract.audio_features import feature_dim
+    from gesturebank.audio.features import feature_dim
 
     out = Path(out)
     if videos_dir is None:

@@ -33,12 +33,12 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset as TorchDataset
 
+from gesturebank.audio.features import apply_znorm
 from gesturebank.config import Target
 from gesturebank.datasets.listener import listener_inputs, listener_mask
+from gesturebank.datasets.reader import Dataset
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
-from gesturebank.datasets.store import Dataset
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_features import apply_znorm
 
 log = logging.getLogger(__name__)
 

@@ -113,8 +113,8 @@ def test_replay_of_a_clip_by_take_id_warns_when_rejected(
 def test_clip_audio_is_the_clip_stretch_of_its_source(demo_dataset: Path, tmp_path: Path) -> None:
     """The WAV cut for a clip lines up with the clip's own audio features: the best lag between
     them is the 12.5 ms half window (a frame centred at 0 starts before the clip), not more."""
-    from gesturebank.extract.audio_features import features
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.features import features
+    from gesturebank.audio.io import read_audio
 
     data = datasets.open(demo_dataset)
     config = data.info.config.audio

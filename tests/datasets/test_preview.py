@@ -13,6 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gesturebank import datasets
+from gesturebank.audio.io import read_audio
 from gesturebank.config import PlaybackConfig, RenderConfig, RobotConfig
 from gesturebank.datasets.preview import (
     BONE,
@@ -23,7 +24,6 @@ from gesturebank.datasets.preview import (
     read_frame_code,
 )
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_io import read_audio
 
 BIN = Path(sys.executable).parent
 RENDER = RenderConfig(width_px=320, height_px=240, frame_rate=12)  # small and few: a fast test
