@@ -104,6 +104,7 @@ def train_cmd(
     from gesturebank.cli.training import train_command
 
     with user_errors():
+        MODELS.check(model)  # a mistyped name first: it says more than the output's policy
         keep_existing([out_dir], force=force)
         config = resolve_config(
             config_file=config_file, sets=sets, flags={"train": {"target": target}}
