@@ -59,6 +59,7 @@ class TakeView:
     detect_s: float
     tracking: dict[str, Any]
     preview: tuple[tuple[float, np.ndarray], ...]
+    cached: bool | None = None  # detections from the cache (every camera's); None: not cached
     face: FaceHead | None = None
     camera: Camera | None = None
 
@@ -129,6 +130,7 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
                 lifter=lifter_name(take, config),
                 video_fps=ext.info.video.fps,
                 detect_s=ext.info.detect_seconds,
+                cached=ext.info.cache_hit,
                 tracking={
                     **_tracking_json(ext.tracked.report),
                     "mouth_seconds": ext.info.mouth_seconds,
@@ -260,6 +262,7 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
         lifter=lifter_name(take, config),
         video_fps=e.info.video.fps,
         detect_s=sum(x.info.detect_seconds for x in exts),
+        cached=None if None in (hits := [x.info.cache_hit for x in exts]) else all(hits),
         tracking=_tracking_json(e.tracked.report),
         preview=e.preview,
         face=face_head(
