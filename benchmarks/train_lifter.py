@@ -1,12 +1,12 @@
 """Train the `learned` lifter (gesturebank.lift.learned) and score it on a tuning stretch.
 
 Training data (issue 39): gesture motion made up on the fly over the upper body's range, many
-proportions (gesturebank.train.lifter_motion), and bvhtools' `test.bvh` outside 31–51 s (issue
+proportions (lift.training.lifter_motion), and bvhtools' `test.bvh` outside 31–51 s (issue
 30's acceptance stretch; test2/test3 and the renders are held back for evaluation) at 30 Hz,
 played faster or slower, mirrored, re-proportioned, arms resampled (lifter_poses); seen by random
 cameras as people film (seated to ceiling height, 1.2–6 m, 35–100°, the person anywhere in the
 picture, lens distortion, the focal known or assumed) with BlazePose-like 2D error
-(gesturebank.train.lifter_views). The ONNX file and its sidecar JSON (architecture, data,
+(lift.training.lifter_views). The ONNX file and its sidecar JSON (architecture, data,
 command, the table below) go to `--out`, by default the packaged
 gesturebank/data/learned-lifter.onnx. Then the new model lifts test.bvh 21–31 s (a tuning
 stretch, inside the training data) projected at 0/30/60° and 0° from 0.6 m above the chest and
@@ -29,16 +29,13 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, LearnedConfig
 from gesturebank.lift import TakeViews
 from gesturebank.lift.learned import PACKAGED, LearnedLifter
 from gesturebank.lift.learned import features as F
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.scoring import look_at, project_view, score_lift
-from gesturebank.mocap.bvh import read_bvh
-from gesturebank.mocap.pose import body_axes, motion_pose
-from gesturebank.samples import default_samples_dir
-from gesturebank.train.lifter_net import (
+from gesturebank.lift.training.lifter_net import (
     Architecture,
     Sampler,
     Schedule,
@@ -46,6 +43,9 @@ from gesturebank.train.lifter_net import (
     export,
     train,
 )
+from gesturebank.mocap.bvh import read_bvh
+from gesturebank.mocap.pose import body_axes, motion_pose
+from gesturebank.samples import default_samples_dir
 
 BVH = "bvhtools/testBvhFiles/test.bvh"
 HELD_OUT_S = (31.0, 51.0)  # issue 30's acceptance stretch: never trained on
@@ -122,11 +122,11 @@ def main() -> None:
         command = f"python benchmarks/train_lifter.py --steps {schedule.steps}"
         export(net, out, sidecar={
             "trained_on": f"{100 * sampler.gesture_share:.0f} % made-up gesture motion "
-            "(gesturebank.train.lifter_motion), the rest bvhtools "
+            "(gesturebank.lift.training.lifter_motion), the rest bvhtools "
             f"{BVH.split('/')[-1]} outside {HELD_OUT_S[0]:g}–{HELD_OUT_S[1]:g} s "
             f"({sum(len(t) for t in takes)} frames at {F.RATE_HZ:g} Hz; mirrored, other "
             "proportions and sampled arm motion); cameras as people film and BlazePose-like "
-            "2D error (gesturebank.train.lifter_views); never test2/test3",
+            "2D error (lift.training.lifter_views); never test2/test3",
             "command": command,
             "schedule": {k: getattr(schedule, k) for k in ("steps", "batch", "outputs",
                          "lr_start", "lr_end", "rng_seed", "torch_threads", "workers")},

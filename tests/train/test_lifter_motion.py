@@ -1,4 +1,4 @@
-"""Made-up gesture motion for the learned lifter (gesturebank.train.lifter_motion): a body whose
+"""Made-up gesture motion for the learned lifter (lift.training.lifter_motion): a body whose
 bones keep their lengths, elbows that bend only as elbows do, and the range a speaker's arms
 cover, from hands behind the back to overhead, at gesture speeds."""
 
@@ -8,7 +8,7 @@ import numpy as np
 
 from gesturebank.lift.depth_sign import torso_frame
 from gesturebank.lift.learned.features import RATE_HZ
-from gesturebank.train.lifter_motion import ARM_RANGES, gesture_take
+from gesturebank.lift.training.lifter_motion import ARM_RANGES, gesture_take
 
 FRAMES = 176
 

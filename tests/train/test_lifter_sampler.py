@@ -15,9 +15,14 @@ from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import motion_pose
 
 pytest.importorskip("torch")
-from gesturebank.train.lifter_motion import gesture_take
-from gesturebank.train.lifter_net import UP, Sampler
-from gesturebank.train.lifter_views import MIN_DEPTH_M, CameraRanges, detector_noise, view_batch
+from gesturebank.lift.training.lifter_motion import gesture_take
+from gesturebank.lift.training.lifter_net import UP, Sampler
+from gesturebank.lift.training.lifter_views import (
+    MIN_DEPTH_M,
+    CameraRanges,
+    detector_noise,
+    view_batch,
+)
 
 
 def test_a_kept_camera_sees_the_shoulders_and_comes_no_nearer_than_the_minimum() -> None:

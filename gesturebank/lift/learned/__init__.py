@@ -5,7 +5,7 @@ The net (after VideoPose3D's dilated temporal convolutions) sees `receptive` fra
 gives the 13 joints relative to the neck in the camera's axes: the depth sign of each bone comes
 from how the 2D moves over time, as learned from made-up gesture motion over the upper body's range
 and motion capture, seen by cameras as people film with BlazePose-like 2D error
-(gesturebank.train.lifter_net, lifter_motion, lifter_views; benchmarks/train_lifter.py). The
+(gesturebank.lift.training.lifter_net, lifter_motion, lifter_views; benchmarks/train_lifter.py). The
 packaged model was trained on 60 % made-up motion and bvhtools' test.bvh outside 31–51 s only,
 never on test2/test3 (its sidecar JSON names the data and the command).
 

@@ -30,10 +30,10 @@ from torch import nn
 
 from gesturebank.lift.learned import features as F
 from gesturebank.lift.scoring import MIRROR
+from gesturebank.lift.training.lifter_motion import gesture_take
+from gesturebank.lift.training.lifter_poses import Ranges, reproportion, sample_arm
+from gesturebank.lift.training.lifter_views import CameraRanges, detector_noise, view_batch
 from gesturebank.mocap.pose import body_axes
-from gesturebank.train.lifter_motion import gesture_take
-from gesturebank.train.lifter_poses import Ranges, reproportion, sample_arm
-from gesturebank.train.lifter_views import CameraRanges, detector_noise, view_batch
 
 SNAPSHOT_STEPS = 1000
 LOOKAHEAD = 4  # batches made ahead of the training step
