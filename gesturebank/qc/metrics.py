@@ -34,16 +34,16 @@ from numpy.typing import NDArray
 from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, part_mask, parts_of
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
-from gesturebank.geometry import torso_vectors
+from gesturebank.geometry import Camera, torso_vectors
 from gesturebank.lift.depth_confidence import expected_hand_error_cm
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.invariants import invariant_metrics
+from gesturebank.qc.table import CHECKS
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
 from gesturebank.robot.reach import out_of_reach, unlimited_angles
 from gesturebank.skeletons import COCO17, to_coco17
 
 if TYPE_CHECKING:
-    from gesturebank.geometry import Camera
     from gesturebank.poses import Pose3D
 
 F64 = NDArray[np.float64]
@@ -168,9 +168,17 @@ def swap_events(points: np.ndarray, *, ratio: float = 0.5, min_move: float = 0.5
     the arms moved more than `min_move` shoulder widths (`same`) but exchanging the sides explains
     the step (`cross < ratio · same`). Swapping back counts as another event.
     """
+    return int(np.sum(swap_steps(points, ratio=ratio, min_move=min_move)))
+
+
+def swap_steps(
+    points: np.ndarray, *, ratio: float = 0.5, min_move: float = 0.5
+) -> NDArray[np.bool_]:
+    """`(T − 1,)` the steps between consecutive frames of `points (T, 17, D)` that are
+    left/right exchanges of the arms (`swap_events` counts them)."""
     p = np.asarray(points, dtype=np.float64)
     if len(p) < 2:
-        return 0
+        return np.zeros(max(len(p) - 1, 0), dtype=bool)
     left = p[:, [_I["left_elbow"], _I["left_wrist"]]]
     right = p[:, [_I["right_elbow"], _I["right_wrist"]]]
 
@@ -180,8 +188,7 @@ def swap_events(points: np.ndarray, *, ratio: float = 0.5, min_move: float = 0.5
     same = dist(left[1:], left[:-1]) + dist(right[1:], right[:-1])
     cross = dist(left[1:], right[:-1]) + dist(right[1:], left[:-1])
     with np.errstate(invalid="ignore"):
-        events = (same > min_move * _scale(p)) & (cross < ratio * same)
-    return int(np.sum(events))
+        return np.asarray((same > min_move * _scale(p)) & (cross < ratio * same))
 
 
 def frozen_fraction(points: np.ndarray, *, tol: float = 1e-6) -> float:
@@ -415,20 +422,16 @@ class ReachMetrics(NamedTuple):
     frozen_at_limit_s: float
 
 
-def reach_metrics(
+def reach_frames(
     clip: Clip, *, profile: RobotProfile, qc: QCConfig, rate_hz: float
-) -> ReachMetrics:
-    """Motion beyond the robot's reach, reported: per joint (`out_of_reach/<Joint>`) the share
-    of its known frames in which the person's low-passed angle lies beyond its limits, and
-    `out_of_reach_fraction` (frames with any joint beyond); per joint the longest time frozen at
-    a limit (`frozen_at_limit_s/<Joint>`) and its maximum `frozen_at_limit_s` (`frozen_spans_s`:
-    the robot held within qc.frozen_limit_tol of a limit while the person's angle moves more
-    than qc.frozen_min_motion)."""
-    nan = float("nan")
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], F64]:
+    """On the clip's 100 Hz clock `(N, 11)`: the person's angle beyond the robot's reach, the
+    robot's joint held within qc.frozen_limit_tol of a limit (both where the joint is known),
+    and the person's (unlimited, low-passed) angle."""
     n = len(clip.times)
     known = np.asarray(clip.mask, dtype=bool)
     if n < 2 or len(clip.raw_angles) < 2:
-        person = np.full((n, len(JOINTS)), nan)
+        person = np.full((n, len(JOINTS)), np.nan)
     else:
         processing = ProcessingConfig(rate_hz=rate_hz, cutoff_hz=min(4.0, rate_hz / 4))
         person, _ = unlimited_angles(
@@ -441,6 +444,22 @@ def reach_metrics(
     beyond = out_of_reach(person, profile) & known
     a = np.asarray(clip.angles, dtype=np.float64)
     held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
+    return beyond, held, np.asarray(person, dtype=np.float64)
+
+
+def reach_metrics(
+    clip: Clip, *, profile: RobotProfile, qc: QCConfig, rate_hz: float
+) -> ReachMetrics:
+    """Motion beyond the robot's reach, reported: per joint (`out_of_reach/<Joint>`) the share
+    of its known frames in which the person's low-passed angle lies beyond its limits, and
+    `out_of_reach_fraction` (frames with any joint beyond); per joint the longest time frozen at
+    a limit (`frozen_at_limit_s/<Joint>`) and its maximum `frozen_at_limit_s` (`frozen_spans_s`:
+    the robot held within qc.frozen_limit_tol of a limit while the person's angle moves more
+    than qc.frozen_min_motion)."""
+    nan = float("nan")
+    n = len(clip.times)
+    beyond, held, person = reach_frames(clip, profile=profile, qc=qc, rate_hz=rate_hz)
+    known = np.asarray(clip.mask, dtype=bool)
     frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
     return ReachMetrics(
         out_of_reach_fraction=float(beyond.any(axis=1).mean()) if n else nan,
@@ -467,6 +486,57 @@ def _part_unknown(known: np.ndarray, part: str) -> float:
     return float(np.mean(~known[:, part_columns(part)].any(axis=1))) if len(known) else math.nan
 
 
+def analysis_angles(clip: Clip, qc: QCConfig) -> F64:
+    """The clip's raw angles `(N, 11)` on the uniform analysis clock (qc.analysis_rate_hz, from
+    the first video frame), unwrapped; those of a part masked whole (issue 32) are glimpses the
+    clip does not keep (a hand rising into a head-and-shoulders frame now and then): NaN."""
+    raw = np.where(part_mask(parts_of(np.asarray(clip.mask, bool))), clip.raw_angles, np.nan)
+    if len(raw) < 2:
+        return np.empty((0, len(JOINTS)))
+    # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
+    return uniform(unwrap_angles(raw), clip.timestamps, qc.analysis_rate_hz, max_gap_s=_MAX_GAP_S)
+
+
+class JudgedPoints(NamedTuple):
+    """The keypoints a clip is judged by (`judged_points`), per video frame."""
+
+    valid: NDArray[np.bool_]  # (T, 17) seen, and of a body part the clip keeps
+    xy: F64  # (T, 17, 2) the stored 2D, COCO-17 pixels
+    seen_xy: F64  # (T, 17, 2) the same, NaN where not valid
+    joints: F64  # (T, 17, 3) the 3D, NaN where not valid
+    cameras: list[Camera]  # a multi-camera take's cameras ([] for one camera)
+    shoulders: NDArray[np.bool_]  # (T,) both shoulders seen
+
+    @property
+    def shapes(self) -> list[F64]:
+        """What spikes, swaps and freezes are looked for in: one camera's 2D and its 3D, or the
+        triangulated 3D alone (one camera's 2D glitch is outvoted by the others)."""
+        return [self.joints] if self.cameras else [self.seen_xy, self.joints]
+
+
+def judged_points(clip: Clip) -> JudgedPoints:
+    """The clip's keypoints as the QC judges them: those of a part masked whole (issue 32) are
+    left out, as if unseen (the clip does not keep them)."""
+    known = np.asarray(clip.mask, dtype=bool)
+    valid = np.asarray(clip.valid, dtype=bool).copy()
+    for part in set(PARTS) - parts_of(known):
+        valid[:, [_I[k] for k in PART_KEYPOINTS[part]]] = False
+    xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
+    seen_xy = np.where(valid[..., None], xy, np.nan)
+    joints = np.where(valid[..., None], np.asarray(clip.pose3d.joints, np.float64), np.nan)
+    shoulders = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
+    return JudgedPoints(valid, xy, seen_xy, joints, take_cameras(clip.pose3d), shoulders)
+
+
+def view_flags(points: JudgedPoints) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """`(T,)` frames facing away and seen from the side: by the clip's own 2D, or for a
+    multi-camera take by its 3D as every camera sees it (`facing_away_from_all`)."""
+    if points.cameras:
+        views = [c.project(points.joints) for c in points.cameras]
+        return facing_away_from_all(views, points.valid), sideways_from_all(views, points.valid)
+    return facing_away(points.xy, points.valid), sideways(points.xy, points.valid)
+
+
 def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetrics:
     """All QC metrics of one clip, as plain floats (NaN where a metric has nothing to measure;
     `ClipMetrics` says what each is). trimmed_fraction, of the whole take, is left to the build.
@@ -482,13 +552,7 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     rate = 1.0 / float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 100.0
     hz = qc.analysis_rate_hz
     known = np.asarray(clip.mask, dtype=bool)
-    # the raw angles of a part masked whole (issue 32) are glimpses the clip does not keep (a
-    # hand rising into a head-and-shoulders frame now and then): not its motion, not judged
-    raw = np.where(part_mask(parts_of(known)), clip.raw_angles, np.nan)
-    raw_u = np.empty((0, len(JOINTS)))
-    if len(raw) >= 2:
-        # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
-        raw_u = uniform(unwrap_angles(raw), clip.timestamps, hz, max_gap_s=_MAX_GAP_S)
+    raw_u = analysis_angles(clip, qc)
     j_raw = jerkiness_per_joint(raw_u, hz) if len(raw_u) else np.full(len(JOINTS), nan)
     j_proc = jerkiness_per_joint(clip.angles, rate)
     jerk_raw = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
@@ -497,33 +561,21 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     head = known[:, [INDEX["HeadPitch"], INDEX["HeadYaw"]]].any(axis=1)
     arms = known[:, [INDEX["LShoulderPitch"], INDEX["RShoulderPitch"]]].any(axis=1)
 
-    # keypoints of a part masked whole (issue 32) are not judged: the clip does not keep them
-    valid = np.asarray(clip.valid, dtype=bool).copy()
-    for part in set(PARTS) - parts_of(known):
-        valid[:, [_I[k] for k in PART_KEYPOINTS[part]]] = False
-    torso = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
-    xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
-    seen_xy = np.where(valid[..., None], xy, np.nan)
-    joints = np.where(valid[..., None], np.asarray(clip.pose3d.joints, np.float64), np.nan)
+    pts = judged_points(clip)
+    valid, xy, joints, shoulders = pts.valid, pts.xy, pts.joints, pts.shoulders
     cv = bone_cv(joints)
-    cameras = take_cameras(clip.pose3d)
-    # One camera: its own 2D and the 3D lifted from it. Several: the triangulated 3D only (one
-    # camera's 2D glitch is outvoted by the others, and the 3D is what the dataset keeps).
-    shapes = [joints] if cameras else [seen_xy, joints]
+    shapes = pts.shapes
     upper = [_I[j] for j in MOTION_KEYPOINTS]
-
-    shoulders = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
-    if cameras:  # the 3D as every camera sees it; the person's size in the best camera
-        views = [c.project(joints) for c in cameras]
+    away, side = view_flags(pts)
+    if pts.cameras:  # the person's size in the best camera
+        views = [c.project(joints) for c in pts.cameras]
         both = [_I["left_shoulder"], _I["right_shoulder"]]  # a camera they lie behind: unseen
-        away, side = facing_away_from_all(views, valid), sideways_from_all(views, valid)
         sizes = [
             _shoulder_width(v, shoulders & np.isfinite(v[:, both, 0]).all(axis=1), c.size[1])
-            for v, c in zip(views, cameras, strict=True)
+            for v, c in zip(views, pts.cameras, strict=True)
         ]
         width_share = max(sizes, key=lambda w: w if np.isfinite(w) else -np.inf)
     else:
-        away, side = facing_away(xy, valid), sideways(xy, valid)
         width_share = _shoulder_width(xy, shoulders, clip.pose2d.image_size[1])
     change = np.asarray(clip.change, dtype=np.float64)
     reach = reach_metrics(clip, profile=profile, qc=qc, rate_hz=rate)
@@ -537,7 +589,7 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         arms_unknown_fraction=float(np.mean(~arms)) if len(known) else nan,
         left_arm_unknown_fraction=_part_unknown(known, "left_arm"),
         right_arm_unknown_fraction=_part_unknown(known, "right_arm"),
-        torso_gap_s=longest_run_s(~torso, clip.timestamps),
+        torso_gap_s=longest_run_s(~shoulders, clip.timestamps),
         bone_cv_max=float(np.nanmax(cv)) if np.isfinite(cv).any() else nan,
         swap_events=float(max(swap_events(p) for p in shapes)),
         frozen_fraction=max(frozen_fraction(p[:, upper]) for p in shapes),
@@ -561,4 +613,5 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
             float(np.mean(clip.depth_confidence)) if len(clip.depth_confidence) else nan
         ),
         expected_hand_error_cm=clip_hand_error_cm(clip),
+        extra={c.metric: float(c.measure(clip, qc, profile)) for c in CHECKS if c.measure},
     )
