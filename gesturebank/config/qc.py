@@ -207,6 +207,23 @@ class QCConfig(Section):
         description="Absolute ceiling on the raw jerk J (Eq. 3.21, rad² s⁻⁵); none = only the "
         "dataset-relative check.",
     )
+    # Issue 41: a check of scope "stretch" (qc.table) cuts the clip around the stretch that
+    # fails it. The margin covers the frames either side of a glitch that the filters smear it
+    # into (the 100 Hz low-pass's step response settles within ~0.15 s at 4 Hz); more only
+    # costs footage.
+    stretch_margin_s: float = Field(
+        0.2,
+        ge=0,
+        description="Seconds dropped either side of a stretch cut out by a stretch check "
+        "(frozen at a limit, sideways, facing away, depth uncertain, jitter, glitches, no "
+        "speech); the pieces left become clips again when they last clips.min_s.",
+    )
+    stretch_rounds: int = Field(
+        3,
+        ge=0,
+        description="How often a piece that fails again is cut again before it is rejected "
+        "whole. 0 = the old rule: a clip failing any check is rejected whole.",
+    )
     outlier_metrics: list[MetricName] = Field(
         ["jerk_raw", "jerk"],
         description="Metrics checked for dataset-relative outliers (robust z of their log).",

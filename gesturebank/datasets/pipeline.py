@@ -12,6 +12,7 @@ Raises on failure; the builder turns that into a `failed` record.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 import logging
 import math
@@ -25,6 +26,7 @@ import numpy as np
 from gesturebank.clip import Clip, kept_parts, part_mask
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
+from gesturebank.datasets.judging import judged_records
 from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.store import ClipRecord, TakeRecord
@@ -35,8 +37,7 @@ from gesturebank.extract.vad import RATE_HZ, SpeechActivity, silences, speech_ac
 from gesturebank.filters import butter_lowpass, interpolate_at
 from gesturebank.lift.depth_confidence import pose_confidence
 from gesturebank.poses import Pose2D, Pose3D
-from gesturebank.qc.checks import absolute_reasons
-from gesturebank.qc.metrics import clip_metrics, measure_settings, spike_sizes
+from gesturebank.qc.metrics import measure_settings, spike_sizes
 from gesturebank.repair import repair_pose2d, repair_pose3d, validity
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
@@ -604,11 +605,10 @@ def build_take(
             config=config.clips,
         )
         for span in cutting.clips:
-            clip_id = f"{take.take_id}__c{len(clips):03d}"
-            clip = _clip(
+            whole = _clip(
                 person_view,
                 span,
-                clip_id,
+                f"{take.take_id}__whole",
                 take.take_id,
                 feats,
                 heard.start_s,
@@ -616,17 +616,20 @@ def build_take(
                 config,
                 profile,
             )
-            # trimmed_fraction: of the whole take, so each of its clips carries it
-            metrics = replace(
-                clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
+            # judged, and cut around the stretches that fail (issue 41); trimmed_fraction is of
+            # the whole take, so each of its clips carries it
+            kept, judged = judged_records(
+                whole,
+                config=config,
+                profile=profile,
+                measured=measured,
+                trimmed=trimmed,
+                clip_ids=(f"{take.take_id}__c{len(clips) + k:03d}" for k in itertools.count()),
+                span_ids=(f"{take.take_id}__s{n_spans + k:03d}" for k in itertools.count()),
             )
-            reasons = absolute_reasons(metrics, config.qc)
-            clips.append(clip)
-            rows.append(
-                ClipRecord.of_clip(
-                    clip, metrics=metrics.to_dict(), reasons=reasons, measured=measured
-                )
-            )
+            clips += kept
+            rows += judged
+            n_spans += sum(r.kind == "span" for r in judged)
         for span in cutting.dropped:
             rows.append(
                 ClipRecord(

@@ -1,0 +1,175 @@
+"""Issue 41: a check of scope "stretch" cuts the clip around the stretch that fails it (pieces of
+at least clips.min_s, each judged again); a check of scope "take" rejects the clip whole. Issue
+42: one table of checks, and a check added from outside with its entry and metric function."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from pydantic import Field
+
+from gesturebank.clip import Clip
+from gesturebank.config import QCConfig
+from gesturebank.qc import table
+from gesturebank.qc.checks import absolute_reasons, failures
+from gesturebank.qc.metrics import clip_metrics
+from gesturebank.qc.stretches import Judged, Signal, judge, piece
+from gesturebank.robot import pepper
+from gesturebank.skeletons import COCO17
+from gesturebank.testing.clips import synthetic_clip
+
+PROFILE = pepper.load_profile()
+MIN_S = 3.0
+
+
+def _judge(clip: Clip, qc: QCConfig) -> list[Judged]:
+    return judge(
+        clip,
+        measure=lambda c: clip_metrics(c, profile=PROFILE, qc=qc),
+        config=qc,
+        profile=PROFILE,
+        min_s=MIN_S,
+    )
+
+
+def _kept_s(outcomes: list[Judged]) -> float:
+    return sum(j.end_s - j.start_s for j in outcomes if j.clip is not None and not j.reasons)
+
+
+def _with_spike(clip: Clip, frame: int) -> Clip:
+    """The right wrist thrown 3 shoulder widths away in the 2D for one frame (the 3D, lifted
+    and repaired, did not follow: its bones stay rigid)."""
+    kp = np.array(clip.pose2d.keypoints, copy=True)
+    w = COCO17.index["right_wrist"]
+    ls, rs = COCO17.index["left_shoulder"], COCO17.index["right_shoulder"]
+    kp[frame, w, 0] += 3 * np.linalg.norm(kp[frame, ls, :2] - kp[frame, rs, :2])
+    return replace(clip, pose2d=replace(clip.pose2d, keypoints=kp))
+
+
+def test_the_table_holds_every_threshold_once_and_names_config_fields() -> None:
+    names = [c.name for c in table.CHECKS]
+    assert len(names) == len(set(names))
+    for check in table.CHECKS:
+        assert check.field is None or check.field in QCConfig.model_fields, check.name
+        assert check.unit in table.UNITS, check.name
+        assert (check.scope == "stretch") == (check.stretch is not None), check.name
+    stretch = {c.name for c in table.CHECKS if c.scope == "stretch"}
+    # the issue's list: frozen at a limit, sideways or facing away, depth uncertain, jitter and
+    # glitch runs, low visibility, no speech
+    assert {"frozen_at_limit", "sideways", "facing_away", "depth_uncertain", "jitter"} <= stretch
+    assert {"spike", "swaps", "head_unseen", "arms_unseen", "no_speech"} <= stretch
+    take = {c.name for c in table.CHECKS if c.scope == "take"}
+    assert {"still_picture", "bones_drift", "frozen_pose", "audio_mismatch", "static"} <= take
+
+
+def test_a_one_frame_glitch_costs_its_stretch_not_the_clip() -> None:
+    clip = _with_spike(synthetic_clip(seconds=12.0, seed=3), frame=180)
+    qc = QCConfig()
+    reasons = absolute_reasons(clip_metrics(clip, profile=PROFILE, qc=qc), qc)
+    assert any("keypoint jumps" in r for r in reasons)
+    old = _judge(clip, qc.model_copy(update={"stretch_rounds": 0}))
+    assert len(old) == 1 and old[0].reasons  # the old rule: rejected whole
+    outcomes = _judge(clip, qc)
+    dropped = [j for j in outcomes if j.clip is None]
+    assert len(dropped) == 1 and dropped[0].reasons[0].startswith("cut: keypoint jumps")
+    assert 6.0 - 0.05 <= dropped[0].start_s + 0.2 <= 6.0 + 0.05  # the glitch's frame, 0.2 s margin
+    assert dropped[0].end_s - dropped[0].start_s < 0.6
+    pieces = [j for j in outcomes if j.clip is not None]
+    assert len(pieces) == 2 and all(not j.reasons for j in pieces)
+    assert _kept_s(outcomes) > 11.0
+    for j in pieces:  # a piece is a clip: judged again, on its own clock
+        assert j.clip is not None
+        assert j.clip.times[0] == 0.0 and len(j.clip.timestamps) == len(j.clip.pose2d)
+
+
+def test_a_sideways_stretch_is_cut_until_the_rest_passes() -> None:
+    clip = synthetic_clip(seconds=20.0, seed=1)
+    kp = np.array(clip.pose2d.keypoints, copy=True)
+    nose, ls = COCO17.index["nose"], COCO17.index["left_shoulder"]
+    side = (clip.timestamps >= 8.0) & (clip.timestamps < 12.0)  # 4 s of 20 seen from the side
+    kp[side, nose, :2] = kp[side, ls, :2] + (kp[side, ls, :2] - kp[side, nose, :2]) * 0.1
+    clip = replace(clip, pose2d=replace(clip.pose2d, keypoints=kp))
+    qc = QCConfig(max_sideways_fraction=0.1)  # 20 % fails it
+    metrics = clip_metrics(clip, profile=PROFILE, qc=qc)
+    assert metrics.sideways_fraction == pytest.approx(0.2, abs=0.02)
+    outcomes = _judge(clip, qc)
+    kept = [j for j in outcomes if j.clip is not None and not j.reasons]
+    assert kept, outcomes
+    for j in kept:
+        assert j.metrics is not None and j.metrics.sideways_fraction <= 0.1
+    cut = [j for j in outcomes if j.clip is None and j.reasons[0].startswith("cut: seen from")]
+    assert cut and all(7.5 <= j.start_s and j.end_s <= 12.5 for j in cut)
+    # the least footage that passes: about the side view's excess, not the whole 4 s, is cut
+    assert _kept_s(outcomes) >= 15.0
+
+
+def test_a_whole_take_fault_still_rejects_the_clip_whole() -> None:
+    clip = _with_spike(synthetic_clip(seconds=12.0, seed=3), frame=180)
+    still = replace(clip, change=np.zeros_like(clip.change))  # a still picture, and a glitch
+    qc = QCConfig()
+    outcomes = _judge(still, qc)
+    assert len(outcomes) == 1 and outcomes[0].clip is still
+    assert any(r.startswith("still picture") for r in outcomes[0].reasons)
+
+
+def test_a_piece_keeps_the_clip_arrays_of_its_frames() -> None:
+    clip = synthetic_clip(seconds=6.0, seed=2)
+    part = piece(clip, 30, 120, "x__c001")
+    assert part.start_s == pytest.approx(clip.start_s + 1.0, abs=0.011)
+    i0 = int(np.searchsorted(clip.times, clip.timestamps[30] - 1e-9))
+    np.testing.assert_array_equal(part.angles, clip.angles[i0 : i0 + len(part.times)])
+    np.testing.assert_array_equal(part.pose2d.keypoints, clip.pose2d.keypoints[30:120])
+    assert part.timestamps[0] == pytest.approx(clip.timestamps[30] - clip.times[i0])
+
+
+class ToyQC(QCConfig):
+    """A plug-in's config: its check's threshold beside the built-in ones."""
+
+    max_wrist_above_nose: float = Field(0.2, ge=0, le=1)
+
+
+def _wrist_above(clip: Clip) -> np.ndarray:
+    xy = np.asarray(clip.pose2d.to_coco17().keypoints)[..., 1]
+    return np.asarray(xy[:, COCO17.index["right_wrist"]] < xy[:, COCO17.index["nose"]])
+
+
+def test_a_check_added_from_outside_is_judged_cut_and_listed() -> None:
+    """Adding a check is one entry plus its metric function (and its signal, for a stretch)."""
+    toy = table.Check(
+        name="wrist_above_nose",
+        metric="wrist_above_nose_fraction",
+        field="max_wrist_above_nose",
+        side="max",
+        unit="share",
+        scope="stretch",
+        label="right wrist above the nose",
+        reason="right wrist above the nose in {v:.0%} of frames (max {lim:.0%})",
+        measure=lambda clip, qc, profile: float(np.mean(_wrist_above(clip))),
+        stretch=lambda clip, qc, profile: Signal(
+            _wrist_above(clip).astype(float), np.ones(len(clip.timestamps)), 0.2
+        ),
+    )
+    clip = synthetic_clip(seconds=15.0, seed=4)
+    kp = np.array(clip.pose2d.keypoints, copy=True)
+    up = (clip.timestamps >= 5.0) & (clip.timestamps < 10.0)
+    kp[up, COCO17.index["right_wrist"], 1] = kp[up, COCO17.index["nose"], 1] - 50
+    clip = replace(clip, pose2d=replace(clip.pose2d, keypoints=kp))
+    qc = ToyQC()
+    table.register(toy)
+    try:
+        metrics = clip_metrics(clip, profile=PROFILE, qc=qc)
+        assert metrics.value("wrist_above_nose_fraction") == pytest.approx(1 / 3, abs=0.02)
+        assert metrics.to_dict()["wrist_above_nose_fraction"] == pytest.approx(1 / 3, abs=0.02)
+        failed = failures(metrics, qc)
+        assert [f.check for f in failed] == [toy]
+        outcomes = _judge(clip, qc)
+        cut = [j for j in outcomes if j.clip is None]
+        assert cut and cut[0].reasons[0].startswith("cut: right wrist above the nose")
+        assert all(not j.reasons for j in outcomes if j.clip is not None)
+        assert _kept_s(outcomes) >= 9.0
+    finally:
+        table.unregister("wrist_above_nose")
+    assert "wrist_above_nose" not in {c.name for c in table.CHECKS}
+    assert failures(clip_metrics(clip, profile=PROFILE, qc=qc), qc) == []
