@@ -7,10 +7,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
 
 from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets.store import ClipRecord
+from gesturebank.fileio import atomic_open
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.qc.stretches import judge
@@ -53,3 +57,9 @@ def judged_records(
         metrics, reasons = j.metrics.to_dict(), j.reasons
         rows.append(ClipRecord.of_clip(piece, metrics=metrics, reasons=reasons, measured=measured))
     return clips, rows
+
+
+def write_clip(path: Path, clip: Clip) -> None:
+    """Write one clip's arrays to `path` atomically (a piece cut out when re-judging)."""
+    with atomic_open(path) as f:
+        np.savez_compressed(f, allow_pickle=False, **clip.to_arrays())

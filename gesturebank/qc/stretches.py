@@ -38,6 +38,13 @@ from gesturebank.skeletons import COCO17
 
 F64 = NDArray[np.float64]
 WINDOW_S = 1.0  # the aggregate cut's step: one second at a time
+CUT = "cut: "  # the reason of a stretch cut out starts so, then the failed check's reason
+BETWEEN_CUTS = "too short between cut stretches"
+
+
+def is_cut_reason(reason: str) -> bool:
+    """Whether `reason` is that of a stretch the QC cut out (or left too short between cuts)."""
+    return reason.startswith((CUT, BETWEEN_CUTS))
 
 
 @dataclass(frozen=True)
@@ -295,7 +302,7 @@ def plan_cut(
             lo = np.searchsorted(t, t[a] - config.stretch_margin_s, side="left")
             hi = np.searchsorted(t, ends[b - 1] + config.stretch_margin_s, side="left")
             free = reason[lo:hi] == ""
-            reason[lo:hi][free] = f"cut: {f.reason}"
+            reason[lo:hi][free] = f"{CUT}{f.reason}"
     dropped = [(a, b, str(reason[a])) for a, b in _runs(reason != "")]
     # runs of one reason only: split where the reason changes
     dropped = [
@@ -307,7 +314,7 @@ def plan_cut(
         if seconds >= min_s:
             kept.append((a, b))
         else:
-            why = f"too short between cut stretches: {seconds:.2f} s < {min_s:g} s"
+            why = f"{BETWEEN_CUTS}: {seconds:.2f} s < {min_s:g} s"
             dropped.append((a, b, why))
     return Plan(kept, sorted(dropped))
 
@@ -401,7 +408,7 @@ def judge(
     if not failed or rounds <= 0 or any(f.scope == "take" for f in failed):
         return [whole]
     plan = plan_cut(clip, failed, config=config, profile=profile, min_s=min_s)
-    if not any(r.startswith("cut: ") for _, _, r in plan.dropped):
+    if not any(r.startswith(CUT) for _, _, r in plan.dropped):
         return [whole]  # no stretch stands out: the clip fails as a whole
     out = [
         Judged(clip.start_s + float(t[a]), clip.start_s + float(ends[b - 1]), None, None, (r,))

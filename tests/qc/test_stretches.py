@@ -5,20 +5,24 @@ at least clips.min_s, each judged again); a check of scope "take" rejects the cl
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 from pydantic import Field
 
 from gesturebank.clip import Clip
-from gesturebank.config import QCConfig
+from gesturebank.config import Config, QCConfig
+from gesturebank.datasets import open as open_dataset
+from gesturebank.datasets.listing import list_clips
+from gesturebank.datasets.refresh import refresh
 from gesturebank.qc import table
 from gesturebank.qc.checks import absolute_reasons, failures
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.qc.stretches import Judged, Signal, judge, piece
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
-from gesturebank.testing.clips import synthetic_clip
+from gesturebank.testing.clips import synthetic_clip, write_dataset
 
 PROFILE = pepper.load_profile()
 MIN_S = 3.0
@@ -173,3 +177,30 @@ def test_a_check_added_from_outside_is_judged_cut_and_listed() -> None:
         table.unregister("wrist_above_nose")
     assert "wrist_above_nose" not in {c.name for c in table.CHECKS}
     assert failures(clip_metrics(clip, profile=PROFILE, qc=qc), qc) == []
+
+
+def test_stretches_cut_when_rejudging(tmp_path: Path) -> None:
+    """`gesturebank qc OUT` cuts as the build does: a clip stored whole (judged with
+    qc.stretch_rounds = 0) with a one-frame glitch becomes two accepted pieces and a dropped
+    stretch, which `clips --status rejected` lists."""
+    clips = {
+        f"s{i}_take": [synthetic_clip(seconds=4.0, seed=10 + i, clip_id=f"s{i}_take__c000")]
+        for i in range(3)
+    }
+    glitch = replace(_with_spike(synthetic_clip(seconds=12.0, seed=3), 180), clip_id="g_take__c000")
+    whole = Config.model_validate({"qc": {"stretch_rounds": 0}})
+    out = write_dataset(tmp_path, {**clips, "g_take": [glitch]}, config=whole)
+    assert open_dataset(out).clip_ids("rejected") == ["g_take__c000"]
+    refresh(out, Config())
+    ds = open_dataset(out)
+    assert "g_take__c000" not in ds.clip_ids(None)
+    pieces = [c for c in ds.clip_ids("accepted") if c.startswith("g_take")]
+    assert pieces == ["g_take__c000p0", "g_take__c000p1"]
+    assert sum(ds.load(c).duration_s for c in pieces) > 11.0
+    assert not (out / "takes" / "g_take" / "g_take__c000.npz").exists()
+    rejected = list_clips(ds, status="rejected")
+    assert [r.clip_id for r in rejected] == ["g_take__c000s0"]
+    assert rejected[0].reasons[0].startswith("cut: keypoint jumps")
+    assert 5.7 < rejected[0].start_s < rejected[0].end_s < 6.3
+    refresh(out, Config())  # judging again changes nothing
+    assert open_dataset(out).clip_ids(None) == ds.clip_ids(None)
