@@ -390,9 +390,9 @@ def judge(
     rounds: int | None = None,
 ) -> list[Judged]:
     """`clip` judged by the absolute checks: accepted; rejected whole (a check of scope "take"
-    failed, or cutting would not mend it); or cut around the stretches that fail (`plan_cut`)
-    and its pieces judged the same way, `rounds` (qc.stretch_rounds) times at most. Pieces are
-    named `<clip_id>.<k>`; the caller renames them. In the take's time order."""
+    failed, or cutting would leave no piece of min_s); or cut around the stretches that fail
+    (`plan_cut`) and its pieces judged the same way, `rounds` (qc.stretch_rounds) times at
+    most. Pieces are named `<clip_id>.<k>`; the caller renames them. In the take's time order."""
     rounds = config.stretch_rounds if rounds is None else rounds
     metrics = measure(clip)
     failed = failures(metrics, config)
@@ -408,8 +408,10 @@ def judge(
     if not failed or rounds <= 0 or any(f.scope == "take" for f in failed):
         return [whole]
     plan = plan_cut(clip, failed, config=config, profile=profile, min_s=min_s)
-    if not any(r.startswith(CUT) for _, _, r in plan.dropped):
-        return [whole]  # no stretch stands out: the clip fails as a whole
+    if not plan.kept or not any(r.startswith(CUT) for _, _, r in plan.dropped):
+        # no stretch stands out, or nothing of min_s is left: the clip fails as a whole (kept,
+        # rejected, so looser thresholds can admit it again)
+        return [whole]
     out = [
         Judged(clip.start_s + float(t[a]), clip.start_s + float(ends[b - 1]), None, None, (r,))
         for a, b, r in plan.dropped

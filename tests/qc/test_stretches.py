@@ -4,6 +4,7 @@ at least clips.min_s, each judged again); a check of scope "take" rejects the cl
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,6 +21,7 @@ from gesturebank.qc import table
 from gesturebank.qc.checks import absolute_reasons, failures
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.qc.stretches import Judged, Signal, judge, piece
+from gesturebank.report import write_dashboard
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
 from gesturebank.testing.clips import synthetic_clip, write_dataset
@@ -204,3 +206,9 @@ def test_stretches_cut_when_rejudging(tmp_path: Path) -> None:
     assert 5.7 < rejected[0].start_s < rejected[0].end_s < 6.3
     refresh(out, Config())  # judging again changes nothing
     assert open_dataset(out).clip_ids(None) == ds.clip_ids(None)
+    write_dashboard(out)  # the take's timeline shows the stretch cut out, with its reason
+    page = (out / "qc" / "takes" / "g_take.html").read_text(encoding="utf-8")
+    data = json.loads(page.split("id='data'>", 1)[1].split("</script>", 1)[0])
+    cut = [s for s in data["timeline"]["segments"] if s["kind"] == "cut"]
+    assert [s["id"] for s in cut] == ["g_take__c000s0"]
+    assert cut[0]["reasons"][0].startswith("cut: keypoint jumps")
