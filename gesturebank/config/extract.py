@@ -163,3 +163,22 @@ class TrackingConfig(Section):
         description="A track appearing within this many seconds of another vanishing is "
         "reported as an identity switch.",
     )
+    # Issue 41: when no mouth decides who speaks (blurred, too small, turned away, dubbed), a
+    # person much smaller than the biggest candidate, or at the edge of the picture, is a
+    # bystander who does not veto the dominant one (set from the measured scenes, see
+    # extract.tracking: a waist-up speaker with a person far behind, the dubbed pair, Pose2Sim).
+    veto_min_size: float = Field(
+        0.6,
+        ge=0,
+        le=1,
+        description="Where no mouth follows the speech, a candidate whose upper body is smaller "
+        "than this share of the biggest candidate's (median extent) does not stop the biggest "
+        "from being the speaker (role unknown). 0 = everybody vetoes (the rule before).",
+    )
+    veto_min_centrality: float = Field(
+        0.3,
+        ge=0,
+        le=1,
+        description="…nor does one whose upper body's centre lies at the edge of the picture "
+        "(centrality: 1 at the centre, 0 at a corner) below this.",
+    )

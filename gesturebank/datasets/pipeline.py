@@ -39,6 +39,7 @@ from gesturebank.lift.depth_confidence import pose_confidence
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.metrics import measure_settings, spike_sizes
 from gesturebank.repair import repair_pose2d, repair_pose3d, validity
+from gesturebank.repair.snaps import others_of, unsnap
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
@@ -171,7 +172,11 @@ def _single_views(take: Take, config: Config, chunks: DetectionCache | None) -> 
         tracks = [ext.tracked.report.main_ids]
     views = []
     for track in tracks:
-        pose, report = repair_pose2d(gather(ext.multi, ids, track), config=config.repair)
+        # a joint snapped onto another person for 1-3 frames is set missing first (issue 41)
+        own, snapped = unsnap(
+            gather(ext.multi, ids, track), others_of(ext.multi, ids, track), config=config.repair
+        )
+        pose, report = repair_pose2d(own, config=config.repair)
         valid = _coco17_mask(
             validity(pose, visible_confidence=config.repair.visible_confidence), pose.skeleton
         )
@@ -181,8 +186,8 @@ def _single_views(take: Take, config: Config, chunks: DetectionCache | None) -> 
             _View(
                 pose2d=pose,
                 valid=valid,
-                repaired=_coco17_mask(report.repaired, pose.skeleton),
-                repairs=report.counts(),
+                repaired=_coco17_mask(report.repaired | snapped, pose.skeleton),
+                repairs={**report.counts(), "snaps": int(snapped.sum())},
                 cuts=ext.shots.cuts,
                 speaker=track,
                 role=ext.tracked.role_of(track),

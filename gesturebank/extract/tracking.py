@@ -415,10 +415,11 @@ def _by_roles(
 
     A track speaks in the shot when its role is "speaking" for at least min_speaking_s; then
     the speaker at each frame is whoever of those speaks (ties: the best total score), held
-    through pauses (`turns`). Nobody speaks: alone (no two candidates in one frame), the
-    candidates are chosen among as before; among several at once, the one candidate seen
-    facing the camera (FACING_SHARE of its frames), and with none or several of them nobody
-    (main_id -1, reason "nobody")."""
+    through pauses (`turns`). Nobody speaks: bystanders (much smaller than the biggest
+    candidate, or at the edge of the picture: `bystanders_left_out`) are left out; alone (no
+    two of the rest in one frame), the dominant one is chosen (role unknown); among several at
+    once, the one seen facing the camera (FACING_SHARE of its frames), and with none or several
+    of them nobody (main_id -1, reason "nobody")."""
     min_s = (speech or SpeechConfig()).min_speaking_s
     ts = scene.ts[start:stop]
     step = frame_step(scene.ts)
@@ -449,12 +450,15 @@ def _by_roles(
             )
         return out, True
     cands = _candidates(scores)
-    together = [(scene.ids[start:stop] == k).any(axis=1) for k in cands]
+    # small, far or edge-of-frame people are bystanders: they never veto (issue 41)
+    rivals = bystanders_left_out(cands, scene.config)
+    together = [(scene.ids[start:stop] == k).any(axis=1) for k in rivals]
     # one person is alone even when the tracker broke them into several tracks one after another
-    if len(cands) <= 1 or int(np.sum(together, axis=0).max()) <= 1:
-        return _choose(scene, start, stop, shot=shot, reason="shot", exclude=frozenset()), False
+    if len(rivals) <= 1 or int(np.sum(together, axis=0).max()) <= 1:
+        exclude = frozenset(cands) - frozenset(rivals) if len(rivals) < len(cands) else frozenset()
+        return _choose(scene, start, stop, shot=shot, reason="shot", exclude=exclude), False
     facing = []
-    for k in cands:
+    for k in rivals:
         m = roles.column(k)
         seen = (scene.ids[start:stop] == k).any(axis=1)
         if (
@@ -467,6 +471,20 @@ def _by_roles(
         rest = frozenset(int(k) for k in np.unique(scene.ids[start:stop]) if k >= 0) - {facing[0]}
         return _choose(scene, start, stop, shot=shot, reason="shot", exclude=rest), False
     return [(start, stop, _segment(scene, start, stop, shot, "nobody", -1, None, cands))], False
+
+
+def bystanders_left_out(
+    cands: dict[int, dict[str, float]], config: TrackingConfig
+) -> dict[int, dict[str, float]]:
+    """The candidates who can veto the choice where no mouth decides: those at least
+    `veto_min_size` of the biggest (their "size" term) and not at the edge of the picture
+    (their "centrality" at least `veto_min_centrality`). When that leaves nobody, all of them."""
+    rivals = {
+        k: v
+        for k, v in cands.items()
+        if v["size"] >= config.veto_min_size and v["centrality"] >= config.veto_min_centrality
+    }
+    return rivals or cands
 
 
 def track_ids(multi: MultiPose2D, config: TrackingConfig, *, cuts: np.ndarray | None) -> np.ndarray:

@@ -33,6 +33,7 @@ from gesturebank.lift.depth_confidence import expected_hand_error_cm
 from gesturebank.qc import metrics as M
 from gesturebank.qc.checks import Failure, failures
 from gesturebank.qc.clip_metrics import ClipMetrics
+from gesturebank.qc.table import CHECKS
 from gesturebank.robot.pepper import INDEX, RobotProfile
 from gesturebank.skeletons import COCO17
 
@@ -240,24 +241,56 @@ SIGNALS: dict[str, Callable[[Clip, QCConfig, RobotProfile], Signal]] = {
 # Where to cut
 
 
-def failing_frames(signal: Signal, timestamps: np.ndarray) -> NDArray[np.bool_]:
-    """`(T,)` the frames to drop so that what is left passes `signal` (module docstring)."""
+def event_frames(signal: Signal) -> NDArray[np.bool_]:
+    """`(T,)` the frames of an events signal that fail by themselves."""
     v, w = np.asarray(signal.values, float), np.asarray(signal.weights, float)
-    if signal.events:
-        return np.asarray((v > signal.limit) & (w > 0))
-    t = np.asarray(timestamps, float)
-    excess = w * (v - signal.limit)  # the rest passes when its sum is ≤ 0
-    bad = np.zeros(len(v), bool)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
-    n = max(1, round(WINDOW_S / dt))
-    while excess[~bad].sum() > 1e-12 and not bad.all():
-        kept = np.where(bad, 0.0, excess)
-        sums = np.convolve(kept, np.ones(n), mode="valid") if len(kept) >= n else kept.sum()[None]
-        i = int(np.argmax(sums))
-        if sums[i] <= 0:  # no window makes it better: nothing a cut can mend
-            break
-        bad[i : i + n] = True
-    return bad
+    return np.asarray((v > signal.limit) & (w > 0))
+
+
+def excess(signal: Signal) -> F64:
+    """`(T,)` each frame's part of an aggregate signal's excess: a run of frames passes the
+    signal when their sum is at most 0."""
+    v, w = np.asarray(signal.values, float), np.asarray(signal.weights, float)
+    return np.asarray(w * (v - signal.limit))
+
+
+def best_pieces(
+    *, excesses: Sequence[np.ndarray], forbidden: np.ndarray, starts: np.ndarray,
+    ends: np.ndarray, min_s: float,
+) -> list[tuple[int, int]]:  # fmt: skip
+    """The runs of frames [a, b) to keep that keep the most seconds, each at least `min_s`
+    long (`ends[b − 1] − starts[a]`), holding no `forbidden` frame, and passing every signal
+    whose per-frame `excesses` are given (their sum over the run at most 0). Dynamic
+    programming over the frames: K[i] the most kept before frame i with frame i − 1 dropped,
+    P[b] the most kept with a run ending at b."""
+    n = len(starts)
+    sums = [np.concatenate([[0.0], np.cumsum(e)]) for e in excesses]
+    bad = np.concatenate([[0], np.cumsum(np.asarray(forbidden, np.int64))])
+    dropped_best = np.zeros(n + 1)  # K[b]: frame b − 1 dropped (or b = 0)
+    run_best = np.full(n + 1, -np.inf)  # P[b]: a run ends at b
+    run_from = np.full(n + 1, -1, np.int64)
+    for b in range(1, n + 1):
+        dropped_best[b] = max(dropped_best[b - 1], run_best[b - 1])
+        first = np.arange(b)
+        seconds = ends[b - 1] - starts[first]
+        ok = (seconds >= min_s - 1e-9) & (bad[b] - bad[first] == 0)
+        for c in sums:
+            ok &= c[b] - c[first] <= 1e-9
+        if ok.any():
+            value = np.where(ok, dropped_best[first] + seconds, -np.inf)
+            i = int(np.argmax(value))
+            run_best[b], run_from[b] = value[i], i
+    pieces: list[tuple[int, int]] = []
+    b, in_run = n, bool(run_best[n] > dropped_best[n])
+    while b > 0:
+        if in_run:
+            a = int(run_from[b])
+            pieces.append((a, b))
+            b, in_run = a, False
+        else:
+            in_run = bool(run_best[b - 1] > dropped_best[b - 1])
+            b -= 1
+    return sorted(pieces)
 
 
 class Plan(NamedTuple):
@@ -288,35 +321,49 @@ def plan_cut(
     profile: RobotProfile,
     min_s: float,
 ) -> Plan:
-    """Where to cut `clip` around the stretches that fail the stretch checks of `failed` (each
-    dropped run named by the first check that wants it; a margin of qc.stretch_margin_s either
-    side; pieces left shorter than `min_s` dropped as too short)."""
+    """Where to cut `clip`: the most seconds in pieces of at least `min_s` that hold none of
+    the failing frames of the event checks of `failed` (with qc.stretch_margin_s either side)
+    and pass every stretch check whose limit is set (`best_pieces`, so a piece does not pass
+    one check only to fail another). Each dropped run is named by the failed check that wants
+    it most (events first)."""
     t = np.asarray(clip.timestamps, float)
     ends = _ends(t)
-    reason = np.full(len(t), "", dtype=object)
-    for f in failed:
-        if f.check is None or f.check.stretch is None:
+    forbidden = np.zeros(len(t), bool)
+    why = np.full(len(t), "", dtype=object)
+    failing = {f.check.name: f for f in failed if f.check is not None and f.check.stretch}
+    shares: list[tuple[Failure | None, F64]] = []
+    for check in CHECKS:
+        if check.stretch is None or check.limit(config) is None:
             continue
-        bad = failing_frames(f.check.stretch(clip, config, profile), t)
-        for a, b in _runs(bad):
+        signal = check.stretch(clip, config, profile)
+        failure = failing.get(check.name)
+        if not signal.events:
+            shares.append((failure, excess(signal)))
+            continue
+        if failure is None:
+            continue
+        for a, b in _runs(event_frames(signal)):
             lo = np.searchsorted(t, t[a] - config.stretch_margin_s, side="left")
             hi = np.searchsorted(t, ends[b - 1] + config.stretch_margin_s, side="left")
-            free = reason[lo:hi] == ""
-            reason[lo:hi][free] = f"{CUT}{f.reason}"
-    dropped = [(a, b, str(reason[a])) for a, b in _runs(reason != "")]
-    # runs of one reason only: split where the reason changes
-    dropped = [
-        (a + p, a + q, str(reason[a + p])) for a, b, _ in dropped for p, q in _same(reason[a:b])
-    ]
-    kept = []
-    for a, b in _runs(reason == ""):
-        seconds = float(ends[b - 1] - t[a])
-        if seconds >= min_s:
-            kept.append((a, b))
-        else:
-            why = f"{BETWEEN_CUTS}: {seconds:.2f} s < {min_s:g} s"
-            dropped.append((a, b, why))
-    return Plan(kept, sorted(dropped))
+            forbidden[lo:hi] = True
+            free = why[lo:hi] == ""
+            why[lo:hi][free] = f"{CUT}{failure.reason}"
+    kept = best_pieces(
+        excesses=[e for _, e in shares], forbidden=forbidden, starts=t, ends=ends, min_s=min_s
+    )
+    keep = np.zeros(len(t), bool)
+    for a, b in kept:
+        keep[a:b] = True
+    dropped = []
+    for a, b in _runs(~keep):
+        for p, q in _same(why[a:b]):
+            reason = str(why[a + p])
+            if not reason:  # the share check most over its limit there
+                worst = max(shares, key=lambda fe: float(fe[1][a + p : a + q].sum()))
+                f = worst[0] or next(iter(failing.values()), None)
+                reason = f"{CUT}{f.reason}" if f is not None else f"{BETWEEN_CUTS}"
+            dropped.append((a + p, a + q, reason))
+    return Plan(kept, dropped)
 
 
 def _same(values: np.ndarray) -> list[tuple[int, int]]:

@@ -20,7 +20,7 @@ from gesturebank.datasets.refresh import refresh
 from gesturebank.qc import table
 from gesturebank.qc.checks import absolute_reasons, failures
 from gesturebank.qc.metrics import clip_metrics
-from gesturebank.qc.stretches import Judged, Signal, judge, piece
+from gesturebank.qc.stretches import Judged, Signal, best_pieces, judge, piece
 from gesturebank.report import write_dashboard
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
@@ -212,3 +212,26 @@ def test_stretches_cut_when_rejudging(tmp_path: Path) -> None:
     cut = [s for s in data["timeline"]["segments"] if s["kind"] == "cut"]
     assert [s["id"] for s in cut] == ["g_take__c000s0"]
     assert cut[0]["reasons"][0].startswith("cut: keypoint jumps")
+
+
+def test_the_pieces_kept_are_the_most_seconds_that_pass() -> None:
+    """1 s frames: 4 bad frames in the middle of 12 with a limit of 25 % (excess 0.75 per bad
+    frame, −0.25 per good one) and pieces of 3 s at least: keeping 3 good frames per bad one
+    is allowed, so the best is frames 0–7 (1 bad) or similar, not the good frames alone."""
+    bad = np.zeros(12)
+    bad[5:9] = 1.0
+    starts = np.arange(12.0)
+    pieces = best_pieces(
+        excesses=[bad - 0.25], forbidden=np.zeros(12, bool), starts=starts, ends=starts + 1,
+        min_s=3.0,
+    )  # fmt: skip
+    kept = sum(b - a for a, b in pieces)
+    assert all(bad[a:b].sum() <= 0.25 * (b - a) for a, b in pieces)
+    assert all(b - a >= 3 for a, b in pieces)
+    assert kept == 10  # e.g. [0, 6) with one bad frame... and [8, 12) with one
+    forbidden = np.zeros(12, bool)
+    forbidden[5] = True  # a glitch: no piece may hold it
+    pieces = best_pieces(
+        excesses=[], forbidden=forbidden, starts=starts, ends=starts + 1, min_s=3.0
+    )
+    assert pieces == [(0, 5), (6, 12)]
