@@ -188,13 +188,14 @@ def spike(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
 def facing_away(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
     pts = M.judged_points(clip)
     away, _ = M.view_flags(pts)
-    return _share(away, pts.shoulders, config.max_facing_away_fraction)
+    counted = pts.shoulders & ~M.is_mocap(clip)  # motion capture: no view to judge
+    return _share(away, counted, config.max_facing_away_fraction)
 
 
 def sideways(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
     pts = M.judged_points(clip)
     _, side = M.view_flags(pts)
-    counted = pts.shoulders & pts.valid[:, COCO17.index["nose"]]
+    counted = pts.shoulders & pts.valid[:, COCO17.index["nose"]] & ~M.is_mocap(clip)
     return _share(side, counted, config.max_sideways_fraction)
 
 
@@ -208,7 +209,7 @@ def no_speech(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
 def depth_uncertain(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
     """Each frame's expected Pepper hand error (the clip's is their mean)."""
     t = len(clip.timestamps)
-    if clip.pose3d.meta.get("source") == "bvh":
+    if M.is_mocap(clip):
         values = np.zeros(t)
     else:
         lifter = clip.pose3d.meta.get("lifter", "")

@@ -235,3 +235,19 @@ def test_the_pieces_kept_are_the_most_seconds_that_pass() -> None:
         excesses=[], forbidden=forbidden, starts=starts, ends=starts + 1, min_s=3.0
     )
     assert pieces == [(0, 5), (6, 12)]
+
+
+def test_motion_capture_has_no_view_to_judge() -> None:
+    """Issue 41: the view limits were set by what a view costs a lift; measured 3D has no
+    camera, so a mocap clip turned sideways is not judged by them (a video's still is)."""
+    clip = synthetic_clip(seconds=6.0, seed=5)
+    kp = np.array(clip.pose2d.keypoints, copy=True)
+    nose, ls = COCO17.index["nose"], COCO17.index["left_shoulder"]
+    kp[:, nose, :2] = kp[:, ls, :2] + (kp[:, ls, :2] - kp[:, nose, :2]) * 0.1  # all from the side
+    side = replace(clip, pose2d=replace(clip.pose2d, keypoints=kp))
+    video = clip_metrics(side, profile=PROFILE, qc=QCConfig())
+    assert video.sideways_fraction > 0.9
+    mocap = replace(side, pose3d=replace(side.pose3d, meta={"source": "bvh"}))
+    measured = clip_metrics(mocap, profile=PROFILE, qc=QCConfig())
+    assert np.isnan(measured.sideways_fraction) and np.isnan(measured.facing_away_fraction)
+    assert not [f for f in failures(measured, QCConfig()) if f.check and f.check.name == "sideways"]
