@@ -212,27 +212,34 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="short takes, three of them")
     ap.add_argument("--renders", action="store_true", help="the rendered takes too (slow once)")
     ap.add_argument("--no-round1", action="store_true", help="skip the round-1 build")
+    ap.add_argument("--mocap-only", action="store_true", help="the motion-capture takes only")
     ap.add_argument("--out", type=Path, help="work folder (kept; default: a temporary one)")
     args = ap.parse_args()
     tmp = None if args.out else tempfile.TemporaryDirectory()
     root = Path(args.out or tmp.name)  # type: ignore[union-attr]
     root.mkdir(parents=True, exist_ok=True)
-    videos = footage(root, args.quick)
+    videos = root / "videos"
+    videos.mkdir(parents=True, exist_ok=True)
+    if not args.mocap_only:
+        footage(root, args.quick)
     real = {p.name for p in videos.iterdir()}
-    if args.renders:
+    if args.renders and not args.mocap_only:
         rendered_takes(videos)
     mocap = root / "mocap"  # a dataset of its own: smooth measured motion would move the
     mocap_takes(mocap, args.quick)  # dataset-relative jerk check of the videos' clips
-    before, out, build_s = judged(videos, root / "video")
-    mocap_before, mocap_out, mocap_s = judged(mocap, root / "mocap-built")
-    before.update(mocap_before)
-    summary = dashboard_after_build(BuildSummary(out))
-    records = store.take_records(out) + store.take_records(mocap_out)
+    mocap_before, mocap_out, build_s = judged(mocap, root / "mocap-built")
+    before, records, kept = mocap_before, store.take_records(mocap_out), kept_checks(mocap_out)
+    summary = dashboard_after_build(BuildSummary(mocap_out))
+    if not args.mocap_only:
+        video_before, out, video_s = judged(videos, root / "video")
+        before.update(video_before)
+        summary = dashboard_after_build(BuildSummary(out))
+        records = store.take_records(out) + records
+        kept.update(kept_checks(out))
+        build_s += video_s
     cut = cut_reasons(records)
-    old = {} if args.no_round1 else round1(real_videos(videos, real, root), root)
-    kept = {**kept_checks(out), **kept_checks(mocap_out)}
+    old = {} if args.no_round1 or args.mocap_only else round1(real_videos(videos, real, root), root)
     max_spike = Config().qc.max_spike
-    build_s += mocap_s
 
     table = Table(
         title=f"usable seconds: clips cut around bad stretches vs whole clips ({build_s:.0f} s "
