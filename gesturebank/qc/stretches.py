@@ -109,11 +109,11 @@ def beyond_reach(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
 
 def frozen_at_limit(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
     """Events: of each run held at a limit while the person moves (`metrics.frozen_spans_s`)
-    longer than qc.max_frozen_at_limit_s, its middle beyond that limit; what is kept of the run
-    either side is at most the limit together."""
+    longer than qc.max_frozen_at_limit_s, its middle: what is left of the run either side is
+    less than the limit, so each of the pieces it ends or starts passes."""
     rate = _rate(clip)
     _, held, person = M.reach_frames(clip, profile=profile, qc=config, rate_hz=rate)
-    limit_s = _limit(config, "max_frozen_at_limit_s")
+    limit = math.floor(_limit(config, "max_frozen_at_limit_s") * rate) - 1  # samples, strictly
     bad = np.zeros(len(clip.times), bool)
     for j in range(held.shape[1]):
         edges = np.flatnonzero(np.diff(np.concatenate([[0], held[:, j].astype(np.int8), [0]])))
@@ -122,10 +122,8 @@ def frozen_at_limit(clip: Clip, config: QCConfig, profile: RobotProfile) -> Sign
             span = span[np.isfinite(span)]
             if not (len(span) and span.max() - span.min() > config.frozen_min_motion):
                 continue
-            excess = (stop - start) - math.floor(limit_s * rate)
-            if excess > 0:  # drop the middle `excess` samples (and one more: strictly under)
-                a = start + ((stop - start) - excess) // 2
-                bad[max(start, a - 1) : min(stop, a + excess + 1)] = True
+            if stop - start > limit + 1:  # fails: keep at most `limit` samples at each end
+                bad[start + limit : max(stop - limit, start + limit + 1)] = True
     return _events(_at_frames(bad, clip))
 
 
