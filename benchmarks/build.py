@@ -35,10 +35,9 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.app.build import build_dataset, dashboard_after_build
 from gesturebank.config import Config
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
-from gesturebank.report import dashboard_after_build
 from gesturebank.samples import default_samples_dir, fetch_samples
 
 

@@ -65,10 +65,10 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.extract.detectors import DETECTORS
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.extract.video import iter_frames
 from gesturebank.fileio import sha256_file
 from gesturebank.footage import SPEECH

@@ -20,7 +20,8 @@ from rich.console import Console
 from rich.table import Table
 from scipy.io import wavfile
 
-from gesturebank.cli.robot import live_command, load_frame_model
+from gesturebank.app.robot import load_frame_model
+from gesturebank.cli.robot import live_command
 from gesturebank.config import AudioConfig
 from gesturebank.extract.audio_features import apply_znorm, features
 from gesturebank.extract.audio_io import read_audio

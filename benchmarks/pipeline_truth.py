@@ -38,9 +38,9 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH

@@ -60,7 +60,7 @@ MIN_SEEN = 0.95  # share of a whole clean clip's frames with the head and both a
 
 def build(root: Path, quick: bool) -> Path:
     """The real dataset (see the module docstring) in `root/dataset`; returns it."""
-    from gesturebank.datasets.build import build_dataset
+    from gesturebank.app.build import build_dataset
     from gesturebank.datasets.takes import discover_takes
     from gesturebank.footage import make_footage
     from gesturebank.samples import default_samples_dir, fetch_samples

@@ -35,9 +35,9 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank import footage
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config
 from gesturebank.datasets import store
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.samples import default_samples_dir, fetch_samples
 

@@ -45,14 +45,13 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.app.build import BuildSummary, build_dataset, dashboard_after_build
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets import store
-from gesturebank.datasets.build import BuildSummary, build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import make_footage
 from gesturebank.qc.metrics import frozen_fraction, spike_sizes, swap_events
-from gesturebank.report import dashboard_after_build
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.skeletons import to_coco17
 

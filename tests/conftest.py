@@ -37,8 +37,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 def demo_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A dataset built once per session from the real talking demo clips (local pool), with its
     QC dashboard."""
+    from gesturebank.app.build import build_dataset
     from gesturebank.config import Config
-    from gesturebank.datasets.build import build_dataset
     from gesturebank.datasets.takes import discover_takes
     from gesturebank.report import write_dashboard
 

@@ -18,7 +18,7 @@ from gesturebank import config
 
 # Same name, another meaning (not a mirror of the field): (function, parameter) → why.
 UNRELATED = {
-    ("gesturebank.datasets.store.TakeRecord.__init__", "detector"): "the take's 2D detector name",
+    ("gesturebank.datasets.records.TakeRecord.__init__", "detector"): "the take's 2D detector name",
     ("gesturebank.poses.Pose3D.__init__", "units"): "the pose's own unit, not a lifter choice",
     ("gesturebank.extract.detectors.blazepose.postprocess.refine_from_heatmap", "min_confidence"): (
         "BlazePose's heatmap-refinement threshold, not a lifter's keypoint confidence"

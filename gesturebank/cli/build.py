@@ -18,7 +18,7 @@ from gesturebank.extract.detectors import DETECTORS
 from gesturebank.lift import LIFTERS
 
 if TYPE_CHECKING:
-    from gesturebank.datasets.build import BuildSummary
+    from gesturebank.app.build import BuildSummary
 
 
 def build_dataset(
@@ -64,7 +64,7 @@ def build_dataset(
     Exit code 0 when every take built, 1 when some failed (see the summary), 2 on a usage or
     configuration error.
     """
-    from gesturebank.datasets.pipeline import check_names
+    from gesturebank.app.take import check_names
     from gesturebank.datasets.refresh import judged_with
     from gesturebank.datasets.takes import find_inputs
 
@@ -90,9 +90,9 @@ def build_dataset(
             exts = ", ".join(config.build.video_extensions)
             raise InputError(f"{videos_dir}: no videos found ({exts})")
         ensure_writable(out_dir)
-    from gesturebank.datasets.build import build_dataset as build
-    from gesturebank.datasets.progress import BuildProgress
-    from gesturebank.report import dashboard_after_build
+    from gesturebank.app.build import build_dataset as build
+    from gesturebank.app.build import dashboard_after_build
+    from gesturebank.app.progress import BuildProgress
 
     console = Console(quiet=quiet)
     with BuildProgress(takes, console) as progress, user_errors():

@@ -20,10 +20,10 @@ def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOptio
     per take. The dataset's own configuration is the base: only what --config and --set change
     differs (the [qc] and [splits] sections; the clips stay as built).
     """
+    from gesturebank.app.build import BuildSummary
     from gesturebank.datasets import store
-    from gesturebank.datasets.build import BuildSummary
+    from gesturebank.datasets.digest import CONTENT_SECTIONS
     from gesturebank.datasets.lock import dataset_lock
-    from gesturebank.datasets.pipeline import CONTENT_SECTIONS
     from gesturebank.datasets.refresh import refresh
     from gesturebank.fileio import output_errors
     from gesturebank.report import write_dashboard

@@ -1,5 +1,6 @@
 """`gesturebank replay` and `live`: their options, and their work as plain functions
-(`replay_command`, `live_command`; `load_frame_model` readies a model folder for live mode)."""
+(`replay_command`, `live_command`; `app.robot.load_frame_model` readies a model folder for live
+mode)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from typing import TYPE_CHECKING, Annotated
 import numpy as np
 import typer
 
+from gesturebank.app.robot import load_frame_model, side_by_side
 from gesturebank.cli.options import (
     BackendOption,
     ConfigOption,
@@ -35,9 +37,8 @@ from gesturebank.robot import pepper
 from gesturebank.robot.backends import create
 
 if TYPE_CHECKING:
-    from gesturebank.robot.online import Chunks, LiveModel, LiveResult
+    from gesturebank.robot.online import Chunks, LiveResult
     from gesturebank.robot.playback import PlaybackResult
-    from gesturebank.robot.timeline import Timeline
 
 log = logging.getLogger(__name__)
 
@@ -140,45 +141,6 @@ def replay_command(
     return result
 
 
-def side_by_side(
-    timelines: list[Timeline],
-    labels: list[str],
-    out: PathLike,
-    *,
-    profile: pepper.RobotProfile,
-    audio: PathLike | None,
-    config: PlaybackConfig,
-    render: RenderConfig | None = None,
-) -> Path:
-    """The timelines played as replay plays them (start move, safe timeline, return move — on
-    the sim backend's virtual clock), rendered next to each other with their labels for as long
-    as the longest; without `render.ramps` only the timelines, from 0 s."""
-    from gesturebank.robot.backends.sim import SimBackend
-    from gesturebank.robot.playback import play
-    from gesturebank.robot.render import write_video  # PyAV and OpenCV: only when rendering
-
-    cfg = render or RenderConfig()
-    tracks, starts, ends = [], [], []
-    for tl, lab in zip(timelines, labels, strict=True):
-        collector = SimBackend(Path(out), render=cfg)  # collects the commands; never closed
-        play(tl, collector, config=config, profile=profile)
-        shown = [c for c in collector.commands if cfg.ramps or c.phase == "timeline"]
-        times = np.array([c.t for c in shown])
-        tracks.append((lab, times, np.stack([c.angles for c in shown])))
-        starts.append(min(float(times[0]), 0.0))
-        ends.append(float(times[-1]) + tl.period)
-    start = min(starts)
-    return write_video(
-        tracks,
-        out,
-        duration=max(ends) - start,
-        audio=audio,
-        render=cfg,
-        start=start,
-        timeline_end=max(tl.end for tl in timelines),
-    )
-
-
 def live_command(
     model_dir: PathLike,
     backend: str,
@@ -251,39 +213,6 @@ def live_command(
         p99,
     )
     return result
-
-
-def load_frame_model(model_dir: PathLike, znorm: str = "*") -> LiveModel:
-    """The model folder written by `gesturebank train` (`train.model_folder`), ready for live use:
-    its ONNX graph stepped one frame at a time (`train.model_folder.OnnxFrameModel`). Only
-    causal models run live (model.json's "causal"); the others need future audio and are refused
-    in one line (offline `synthesize` plays them).
-
-    znorm: whose audio statistics normalise the live features — "*" (the whole dataset) or a
-    subject of the training data.
-    """
-    from gesturebank.robot.online import LiveModel
-    from gesturebank.train import model_folder
-
-    folder = model_folder.load(model_dir)
-    if not folder.causal:
-        kind = (folder.info.architecture or {}).get("kind", "?")
-        raise InputError(
-            f"{folder.path}: model {kind!r} is not causal (it needs future audio), so it cannot "
-            "run live; play it offline with `gesturebank synthesize`"
-        )
-    mean, std = folder.znorm(znorm)
-    model = model_folder.OnnxFrameModel(folder.graph)
-    target = folder.info.target
-    flag = 1 if target == "listener" else 0  # a listener also takes the speaking flag
-    if model.n_features is not None and model.n_features != len(mean) + flag:
-        raise InputError(
-            f"{folder.graph}: model takes {model.n_features} features, normalisers have {len(mean)}"
-            + (" (+ the speaking flag)" if flag else "")
-        )
-    return LiveModel(
-        model, mean, std, folder.profile, folder.audio, folder.info.reach, listener=bool(flag)
-    )
 
 
 def _prepend(first: tuple[np.ndarray, float], rest: Chunks) -> Chunks:

@@ -6,7 +6,7 @@ import os
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from gesturebank.datasets.store import Dataset
+    from gesturebank.datasets.reader import Dataset
 
 
 def open(  # shadows builtins.open on purpose
@@ -15,6 +15,6 @@ def open(  # shadows builtins.open on purpose
     """Open a dataset folder written by `build-dataset`; takes are loaded lazily. `require`:
     body parts every listed clip must have ("head", "arms", "head+left_arm", ...; see
     `clip.PART_LABELS`), e.g. "arms" for an arm model; None lists every clip."""
-    from gesturebank.datasets.store import Dataset
+    from gesturebank.datasets.reader import Dataset
 
     return Dataset(path, require=require)

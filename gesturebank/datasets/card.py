@@ -23,7 +23,7 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from gesturebank.datasets.listing import PARTS
-from gesturebank.datasets.store import DatasetInfo, TakeRecord
+from gesturebank.datasets.records import DatasetInfo, TakeRecord
 from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 

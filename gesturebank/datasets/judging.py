@@ -1,6 +1,6 @@
 """A clip judged into records (issue 41): accepted, rejected whole, or cut around the stretches
 that fail (`qc.stretches.judge`) into pieces and dropped spans — the same for the build
-(`datasets.pipeline.build_take`) and for re-judging (`datasets.refresh`, `gesturebank qc`).
+(`app.take.build_take`) and for re-judging (`datasets.refresh`, `gesturebank qc`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from gesturebank.clip import Clip
 from gesturebank.config import Config
-from gesturebank.datasets.store import ClipRecord
+from gesturebank.datasets.records import ClipRecord
 from gesturebank.fileio import atomic_open
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.metrics import clip_metrics

@@ -20,8 +20,9 @@ import numpy as np
 from rich import box
 from rich.table import Table
 
-from gesturebank.datasets import store
-from gesturebank.datasets.store import STATUSES, Dataset, ManifestRow, Status
+from gesturebank.datasets.manifest import take_records
+from gesturebank.datasets.reader import Dataset, ManifestRow
+from gesturebank.datasets.records import STATUSES, Status
 from gesturebank.errors import InputError
 from gesturebank.qc.stretches import is_cut_reason
 
@@ -131,7 +132,7 @@ def cut_stretches(data: Dataset) -> list[ClipRow]:
     """The stretches the QC cut out of clips (issue 41: spans of the take records whose reason
     is `qc.stretches.is_cut_reason`), as rows with status "rejected" and no arrays."""
     rows = []
-    for record in store.take_records(data.path):
+    for record in take_records(data.path):
         for c in record.clips:
             if c.kind == "span" and c.qc_reasons and is_cut_reason(c.qc_reasons[0]):
                 rows.append(

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gesturebank.config import ProcessingConfig, RetargetConfig
-from gesturebank.filters import GapReport
+from gesturebank.filters import GapReport, butter_lowpass, interpolate_at
 from gesturebank.robot import pepper
 from gesturebank.robot.reach import out_of_reach, reach_map, speed_limit, unlimited_angles
 
@@ -61,3 +61,21 @@ def process_angles(
         gaps=gaps,
         out_of_reach_fraction=float(beyond.sum() / max(1, finite.sum())),
     )
+
+
+def head_roll_at(
+    roll: np.ndarray,
+    *,
+    timestamps: np.ndarray,
+    clock: np.ndarray,
+    known: np.ndarray,
+    processing: ProcessingConfig,
+) -> np.ndarray:
+    """`roll (T,)` rad at the video's `timestamps` → `(N,)` float32 on the 100 Hz `clock`, as
+    the head's angles are processed (short gaps interpolated, the same low-pass; no robot
+    limits: Pepper has no roll joint), NaN where the head is not `known (N,)`."""
+    values, _ = interpolate_at(roll[:, None], timestamps, clock, max_gap_s=processing.max_gap_s)
+    smooth = butter_lowpass(
+        values, processing.rate_hz, cutoff_hz=processing.cutoff_hz, order=processing.butter_order
+    )[:, 0]
+    return np.where(known, smooth, np.nan).astype(np.float32)

@@ -23,8 +23,8 @@ from gesturebank import __version__
 from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.card import read_takes_toml, write_card
+from gesturebank.datasets.digest import content_digest, measure_digest
 from gesturebank.datasets.judging import judged_records, write_clip
-from gesturebank.datasets.pipeline import content_digest, measure_digest
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
 from gesturebank.qc.checks import failures, verdicts

@@ -34,8 +34,8 @@ from torch.utils.data import Dataset as TorchDataset
 
 from gesturebank.config import Target
 from gesturebank.datasets.listener import listener_inputs, listener_mask
+from gesturebank.datasets.reader import Dataset
 from gesturebank.datasets.splits import SPLITS_DIR, subject_independent
-from gesturebank.datasets.store import Dataset
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import apply_znorm
 

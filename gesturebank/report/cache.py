@@ -20,8 +20,6 @@ import re
 from pathlib import Path
 
 from gesturebank.datasets import store
-from gesturebank.datasets.build import BuildSummary, cannot_write
-from gesturebank.datasets.lock import dataset_lock
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.report import data, render
 from gesturebank.report.data import PAGES_DIR
@@ -108,17 +106,3 @@ def write_dashboard(out: Path) -> Path:
     index = out / QC_DIR / "index.html"
     _write_if_changed(index, index_page(out, info, records))
     return index
-
-
-def dashboard_after_build(summary: BuildSummary) -> BuildSummary:
-    """`summary` of a finished `build-dataset`, with its dataset's dashboard written
-    (`summary.dashboard`) under the dataset's lock, or with the one line why it could not be
-    (`summary.error`). Nothing is written when the build could not write the shared files."""
-    if summary.error:
-        return summary
-    with dataset_lock(summary.out):
-        try:
-            summary.dashboard = write_dashboard(summary.out)
-        except OSError as exc:  # a full disk: the finished takes are kept, a re-run completes it
-            summary.error = cannot_write(summary.out, exc)
-    return summary

@@ -15,7 +15,7 @@ joint holds the start pose through the same Kalman filter and safety limits.
 The model is any `FrameModel` with what it needs around it (`LiveModel`): the audio config it
 was trained with, z-norm stats (the dissertation's online mode used the whole dataset's) and the
 robot profile. The caller builds it: `gesturebank live` from the model folder `gesturebank train`
-writes (`gesturebank.cli.robot.load_frame_model`, which runs its ONNX graph one frame at a time
+writes (`gesturebank.app.robot.load_frame_model`, which runs its ONNX graph one frame at a time
 with `gesturebank.train.model_folder.OnnxFrameModel`).
 """
 

@@ -17,7 +17,7 @@ import numpy as np
 from gesturebank.clip import Clip, part_columns
 from gesturebank.config import Config, ProcessingConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.pipeline import CONTENT_SECTIONS, measure_digest
+from gesturebank.datasets.digest import CONTENT_SECTIONS, measure_digest
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.refresh import refresh
 from gesturebank.poses import Pose2D, Pose3D

@@ -12,9 +12,9 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
+from gesturebank.app.build import build_dataset, content_digest, with_threads
+from gesturebank.app.clip import audio_clock
 from gesturebank.config import Config
-from gesturebank.datasets.build import build_dataset, content_digest, with_threads
-from gesturebank.datasets.pipeline import audio_clock
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.errors import InputError
 
@@ -96,7 +96,7 @@ def test_audio_clock_is_the_common_span() -> None:
 
 def test_every_config_section_is_content_or_not() -> None:
     """A new section must be classified: content (a change rebuilds the built takes) or not."""
-    from gesturebank.datasets.pipeline import CONTENT_SECTIONS, NOT_CONTENT_SECTIONS
+    from gesturebank.datasets.digest import CONTENT_SECTIONS, NOT_CONTENT_SECTIONS
 
     sections = set(Config.model_fields)
     assert sections == set(CONTENT_SECTIONS) | set(NOT_CONTENT_SECTIONS)

@@ -107,7 +107,7 @@ def test_no_takes_toml_says_not_stated() -> None:
 
 
 def test_a_bad_takes_toml_stops_the_build_before_any_take(tmp_path: Path) -> None:
-    from gesturebank.datasets.build import build_dataset
+    from gesturebank.app.build import build_dataset
 
     videos = tmp_path / "videos"
     videos.mkdir()

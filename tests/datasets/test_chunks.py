@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from gesturebank import footage
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config
 from gesturebank.datasets import store
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 
 pytestmark = pytest.mark.slow

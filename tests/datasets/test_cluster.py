@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.app.build import build_dataset
+from gesturebank.app.cluster import connected, is_this_machine, memory_estimate_mb
 from gesturebank.config import Config
 from gesturebank.datasets import store
-from gesturebank.datasets.build import build_dataset
-from gesturebank.datasets.cluster import connected, is_this_machine, memory_estimate_mb
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.errors import InputError
 from tests.datasets.test_build import assert_same_dataset

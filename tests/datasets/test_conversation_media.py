@@ -13,14 +13,14 @@ import pytest
 from typer.testing import CliRunner
 
 from gesturebank import footage
+from gesturebank.app.extract import extract_take
+from gesturebank.app.take import NOBODY_SPEAKS
 from gesturebank.cli import app
 from gesturebank.clip import ROLES
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
-from gesturebank.datasets.pipeline import NOBODY_SPEAKS
 from gesturebank.datasets.store import read_record
 from gesturebank.extract import roles as R
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.synth.take import render_cache
 from gesturebank.testing import conversation
 from tests.datasets.test_real_footage import build

@@ -134,7 +134,7 @@ def test_a_long_silence_cuts_the_clip_with_its_reason() -> None:
 def test_missing_audio_is_padded_with_silence() -> None:
     """The build's features cover every frame: a track 0.5 s late (and short at the end) is
     padded with digital silence, its samples kept where they were."""
-    from gesturebank.datasets.pipeline import covering
+    from gesturebank.app.clip import covering
     from gesturebank.extract.audio_io import Audio
 
     t = np.arange(0, 3.0, 1 / 30)

@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 
+from gesturebank.app.build import build_dataset
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.takes import discover_takes, find_calibration
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos

@@ -19,8 +19,8 @@ import pytest
 from scipy.io import wavfile
 
 from gesturebank import footage
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 
 DEMO = "pose2sim/Demo_SinglePerson"

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
-from gesturebank.datasets import frame_board
-from gesturebank.datasets.frame_board import FrameBoard
-from gesturebank.datasets.progress import BuildProgress, take_frames, take_video
-from gesturebank.datasets.take_job import TakeResult
+from gesturebank.app import frame_board
+from gesturebank.app.frame_board import FrameBoard
+from gesturebank.app.progress import BuildProgress, take_frames, take_video
+from gesturebank.app.take_job import TakeResult
 from gesturebank.datasets.takes import Take
 from gesturebank.extract.frame_watch import watcher
 from gesturebank.extract.video import probe

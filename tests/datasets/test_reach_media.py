@@ -12,8 +12,8 @@ import pytest
 from scipy.io import wavfile
 
 from gesturebank import footage
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.mocap.bvh import read_bvh, write_bvh
 from gesturebank.robot import pepper

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from gesturebank import footage
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.store import ManifestRow
 from gesturebank.datasets.takes import discover_takes
 

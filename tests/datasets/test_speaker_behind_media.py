@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from gesturebank import footage
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.extract import roles as R
-from gesturebank.extract.pipeline import extract_take
 from tests.datasets.test_real_footage import build
 
 

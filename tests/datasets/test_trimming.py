@@ -9,8 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 from scipy.io import wavfile
 
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.cut import trimmed_share
 from gesturebank.datasets.refresh import refresh
 from gesturebank.datasets.store import read_record
@@ -37,7 +37,7 @@ def test_short_wav_warns_and_rejects_what_is_kept(
     wavfile.write(wav, rate, speech[: int(1.5 * rate)])  # 1.5 s of studio audio
     settings = {"clips": {"min_s": 1.0}, "build": {"workers": 1}}
     config = Config.model_validate(settings)
-    with caplog.at_level(logging.WARNING, logger="gesturebank.datasets.pipeline"):
+    with caplog.at_level(logging.WARNING, logger="gesturebank.app.take"):
         summary = build_dataset(discover_takes(videos), videos, out, config)
     assert not summary.failed
     record = read_record(out, "s1__talk")

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 
 from gesturebank import datasets
+from gesturebank.app.build import build_dataset
 from gesturebank.config import Config, SynthConfig
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from gesturebank import datasets
-from gesturebank.cli.export import export_command, upright
+from gesturebank.app.build import build_dataset
+from gesturebank.app.export import upright
+from gesturebank.cli.export import export_command
 from gesturebank.config import Config
 from gesturebank.datasets import store
-from gesturebank.datasets.build import build_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.export.pepper_bvh import pepper_motion
 from gesturebank.export.person_bvh import person_motion

@@ -11,10 +11,10 @@ import av
 import numpy as np
 import pytest
 
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config
 from gesturebank.errors import DetectionError, GesturebankError, InputError
 from gesturebank.extract.cache import DetectionCache
-from gesturebank.extract.pipeline import extract_take
 
 
 def run(path: Path, tmp_path: Path, config: Config | None = None):
@@ -81,8 +81,8 @@ def test_a_damaged_middle_keeps_the_stretches_that_decode(
     """128 KiB overwritten in the middle of cam01's media data: 70 of its 100 frames still
     decode. The take builds; each intact stretch is judged on its own and the one long enough
     is a clip; the damaged span is named in the take's record."""
+    from gesturebank.app.build import build_dataset
     from gesturebank.config import ClipsConfig
-    from gesturebank.datasets.build import build_dataset
     from gesturebank.datasets.takes import discover_takes
 
     data = bytearray(cam01.read_bytes())

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from platformdirs import user_cache_dir
 
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config, DetectorConfig
 from gesturebank.extract import cache as cache_mod
 from gesturebank.extract.cache import DetectionCache, cache_key, default_cache_dir, video_digest
 from gesturebank.extract.detectors import DETECTORS
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.extract.shots import Shots
 from gesturebank.poses import MultiPose2D, Pose2D
 

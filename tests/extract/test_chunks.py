@@ -128,8 +128,8 @@ def test_a_chunked_detection_has_the_frames_and_people_of_one_pass(
 
     Not asserted, because chunks cannot give it: the far person is tracked from the first frame
     in one pass, but the person detector alone does not find him at the third chunk's start."""
+    from gesturebank.app.extract import detect_people, extract_take
     from gesturebank.extract.chunks import detecting
-    from gesturebank.extract.pipeline import detect_people, extract_take
 
     video = samples / "sports2d" / "Demo" / "demo.mp4"
     config = Config.model_validate({"build": {"chunk_s": 2.6, "chunk_overlap_s": 1.0}})

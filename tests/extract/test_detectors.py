@@ -14,12 +14,12 @@ import av
 import numpy as np
 import pytest
 
+from gesturebank.app.extract import detect_people, extract_take
 from gesturebank.config import Config, DetectorConfig, VideoConfig
 from gesturebank.errors import ConfigError, DetectionError, InputError
 from gesturebank.extract.cache import DetectionCache
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.detectors.openpose_json import read_openpose_folder
-from gesturebank.extract.pipeline import detect_people, extract_take
 from gesturebank.extract.video import iter_frames
 from gesturebank.poses import MultiPose2D
 from gesturebank.skeletons import BLAZEPOSE33, COCO17, OPENPOSE_BODY25, get_skeleton

@@ -5,9 +5,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config
 from gesturebank.errors import InputError
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.poses import Pose2D
 from gesturebank.skeletons import COCO17

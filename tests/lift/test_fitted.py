@@ -12,9 +12,9 @@ import pytest
 from scipy.optimize._numdiff import approx_derivative
 from scipy.spatial.transform import Rotation
 
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config, FittedConfig
 from gesturebank.datasets.takes import find_calibration
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.fitted import FittedLifter
 from gesturebank.lift.multiview.cameras import Camera, CameraGroup

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.datasets.takes import find_calibration
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos

@@ -10,10 +10,10 @@ import av
 import numpy as np
 import pytest
 
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import Audio, read_audio
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.lift.multiview.sync import (
     align,
     audio_offset,

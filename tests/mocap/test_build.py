@@ -87,8 +87,8 @@ def test_angles_are_plausible_and_inside_the_limits(built: Path) -> None:
 
 
 def test_a_bvh_without_audio_fails_with_its_reason(samples: Path, tmp_path: Path) -> None:
+    from gesturebank.app.build import build_dataset
     from gesturebank.config import Config
-    from gesturebank.datasets.build import build_dataset
     from gesturebank.datasets.takes import discover_takes
 
     bvh = mocap_take(samples, tmp_path / "in", name="silent")

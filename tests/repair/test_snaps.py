@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from gesturebank import footage
+from gesturebank.app.extract import extract_take
 from gesturebank.config import Config, RepairConfig
 from gesturebank.extract.identity import gather
-from gesturebank.extract.pipeline import extract_take
 from gesturebank.poses import Pose2D
 from gesturebank.repair import repair_pose2d
 from gesturebank.repair.keypoints import shoulder_width

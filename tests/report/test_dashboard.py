@@ -15,14 +15,14 @@ import cv2
 import numpy as np
 import pytest
 
+from gesturebank.app.build import BuildSummary, dashboard_after_build
 from gesturebank.clip import ROLES, Clip
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.build import BuildSummary
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
 from gesturebank.qc.clip_metrics import ClipMetrics
-from gesturebank.report import dashboard_after_build, write_dashboard
+from gesturebank.report import write_dashboard
 from gesturebank.report.data import reason_kind, role_runs
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.skeletons import COCO17, COCO17_BONES

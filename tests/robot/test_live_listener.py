@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gesturebank.cli.robot import live_command, load_frame_model
+from gesturebank.app.robot import load_frame_model
+from gesturebank.cli.robot import live_command
 from gesturebank.config import PlaybackConfig, SpeechConfig, TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_io import read_audio

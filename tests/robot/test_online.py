@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import torch
 
-from gesturebank.cli.robot import live_command, load_frame_model
+from gesturebank.app.robot import load_frame_model
+from gesturebank.cli.robot import live_command
 from gesturebank.config import AudioConfig
 from gesturebank.errors import InputError
 from gesturebank.extract.audio_features import features

@@ -36,8 +36,8 @@ def fast_config() -> TrainConfig:
 @pytest.fixture(scope="session")
 def real_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The 3 talking clips of the sample media as 3 subjects (SI folds need ≥ 3), built for real."""
+    from gesturebank.app.build import build_dataset
     from gesturebank.config import Config
-    from gesturebank.datasets.build import build_dataset
     from gesturebank.datasets.takes import discover_takes
 
     talking = samples / "talking"

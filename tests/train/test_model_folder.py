@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from gesturebank.cli.robot import load_frame_model
+from gesturebank.app.robot import load_frame_model
 from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError

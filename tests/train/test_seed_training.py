@@ -11,7 +11,7 @@ import pytest
 import torch
 
 import gesturebank.datasets as gds
-from gesturebank.cli.robot import load_frame_model
+from gesturebank.app.robot import load_frame_model
 from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import load_segments, split_items

@@ -3,7 +3,7 @@
 One float per job (take or chunk), in shared memory the workers get when they start: a worker
 stores the source time (s) of each frame it detects there (`extract.frame_watch`), a plain store
 without a lock, so the frame loop is not slowed; the build reads the board as it waits for jobs
-(`datasets.build`, every `POLL_S`) and reports each take's seconds of video detected. Per-frame
+(`app.build`, every `POLL_S`) and reports each take's seconds of video detected. Per-frame
 counts cross the process pool this way at no cost per frame beyond that store; the Ray executor
 has no board (its progress is per chunk and per take).
 """

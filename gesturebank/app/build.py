@@ -1,6 +1,6 @@
 """`build-dataset`: every take through the pipeline, in a process pool or on Ray, resumably.
 
-Each take is built by `datasets.pipeline.build_take` (extract → repair → clips → lift → angles →
+Each take is built by `app.take.build_take` (extract → repair → clips → lift → angles →
 100 Hz → features → QC metrics) in a worker, which writes the take's clips and record into the
 dataset folder (`datasets.store`) as soon as it is done. A take that fails anywhere is recorded
 as `failed` with its one-line reason and the build goes on. When every take is done,
@@ -29,11 +29,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gesturebank.config import Config
-from gesturebank.datasets import store
-from gesturebank.datasets.frame_board import POLL_S, FrameBoard, start_worker, watched
-from gesturebank.datasets.lock import dataset_lock
-from gesturebank.datasets.take_job import (
+from gesturebank.app.frame_board import POLL_S, FrameBoard, start_worker, watched
+from gesturebank.app.take_job import (
     ChunkJob,
     Job,
     Outcome,
@@ -46,6 +43,9 @@ from gesturebank.datasets.take_job import (
     run_take,
     written_result,
 )
+from gesturebank.config import Config
+from gesturebank.datasets import store
+from gesturebank.datasets.lock import dataset_lock
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.extract.frame_watch import watching
@@ -57,8 +57,8 @@ FramesCallback = Callable[[str, float], None]  # take id, seconds of its video d
 
 # Imported once by the worker pool's fork server (their import is the slow part of a start).
 PIPELINE_MODULES = (
-    "gesturebank.datasets.pipeline",
-    "gesturebank.extract.pipeline",
+    "gesturebank.app.take",
+    "gesturebank.app.extract",
     "gesturebank.extract.detectors.blazepose",
     "gesturebank.extract.audio_features",
     "gesturebank.filters",
@@ -240,7 +240,7 @@ def _every_poll(take_id: str, start_s: float, on_frames: FramesCallback | None) 
 def _ray(
     schedule: Schedule, out: Path, videos_dir: Path, config: Config
 ) -> Generator[TakeResult, None, None]:
-    from gesturebank.datasets.cluster import run_on_ray  # needs Ray: imported when used
+    from gesturebank.app.cluster import run_on_ray  # needs Ray: imported when used
 
     yield from run_on_ray(schedule, out, videos_dir, config)  # close() reaches it: tasks cancelled
 
@@ -369,4 +369,20 @@ def _build(
     except OSError as exc:  # a full disk: the finished takes are kept, a re-run completes it
         summary.error = cannot_write(out, exc)
     summary.takes = store.take_records(out, ids)
+    return summary
+
+
+def dashboard_after_build(summary: BuildSummary) -> BuildSummary:
+    """`summary` of a finished `build-dataset`, with its dataset's dashboard written
+    (`summary.dashboard`) under the dataset's lock, or with the one line why it could not be
+    (`summary.error`). Nothing is written when the build could not write the shared files."""
+    from gesturebank.report import write_dashboard
+
+    if summary.error:
+        return summary
+    with dataset_lock(summary.out):
+        try:
+            summary.dashboard = write_dashboard(summary.out)
+        except OSError as exc:  # a full disk: the finished takes are kept, a re-run completes it
+            summary.error = cannot_write(summary.out, exc)
     return summary

@@ -28,9 +28,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from gesturebank.config import Config
-from gesturebank.datasets import store
-from gesturebank.datasets.take_job import (
+from gesturebank.app.take_job import (
     ChunkJob,
     Job,
     Schedule,
@@ -41,6 +39,8 @@ from gesturebank.datasets.take_job import (
     run_take,
     written_result,
 )
+from gesturebank.config import Config
+from gesturebank.datasets import store
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 

@@ -28,7 +28,7 @@ from rich.progress import (
 from rich.table import Column
 from rich.text import Text
 
-from gesturebank.datasets.take_job import TakeResult
+from gesturebank.app.take_job import TakeResult
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError
 

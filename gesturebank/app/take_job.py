@@ -1,6 +1,6 @@
 """One take as a job of the build: run it in a worker and write it, record its failure, and
-read back what a worker wrote when its result never arrived. The local pool (`datasets.build`)
-and the Ray executor (`datasets.cluster`) both run takes through it.
+read back what a worker wrote when its result never arrived. The local pool (`app.build`)
+and the Ray executor (`app.cluster`) both run takes through it.
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
+from gesturebank.app.views import lifter_name
 from gesturebank.config import Config, VideoConfig
 from gesturebank.datasets import store
-from gesturebank.datasets.pipeline import content_digest as pipeline_digest
-from gesturebank.datasets.pipeline import lifter_name
+from gesturebank.datasets.digest import content_digest as pipeline_digest
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError
 from gesturebank.extract.cache import DetectionCache
@@ -76,8 +76,8 @@ def chunk_jobs(take: Take, config: Config) -> list[ChunkJob]:
 def run_chunk(job: ChunkJob, out: Path, config: Config) -> None:
     """Detect one chunk into OUT_DIR's chunk cache. A chunk that fails is left to its take's
     task, which detects what the cache lacks itself and fails with the reason."""
+    from gesturebank.app.extract import detect_people
     from gesturebank.extract.chunks import detecting
-    from gesturebank.extract.pipeline import detect_people
 
     try:
         detect_people(job.video, detecting(config, job.range), cache=chunk_cache(out))
@@ -120,7 +120,7 @@ def content_digest(config: Config) -> str:
 
 def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
     """Build one take and write it; every failure becomes a `failed` record, never an exception."""
-    from gesturebank.datasets.pipeline import build_take
+    from gesturebank.app.take import build_take
 
     start = time.perf_counter()
     try:
