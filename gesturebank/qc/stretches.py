@@ -21,7 +21,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -33,7 +33,7 @@ from gesturebank.lift.depth_confidence import expected_hand_error_cm
 from gesturebank.qc import metrics as M
 from gesturebank.qc.checks import Failure, failures
 from gesturebank.qc.clip_metrics import ClipMetrics
-from gesturebank.qc.table import CHECKS
+from gesturebank.qc.table import CHECKS, Check, Signal, StretchSignal
 from gesturebank.robot.pepper import INDEX, RobotProfile
 from gesturebank.skeletons import COCO17
 
@@ -46,18 +46,6 @@ BETWEEN_CUTS = "too short between cut stretches"
 def is_cut_reason(reason: str) -> bool:
     """Whether `reason` is that of a stretch the QC cut out (or left too short between cuts)."""
     return reason.startswith((CUT, BETWEEN_CUTS))
-
-
-@dataclass(frozen=True)
-class Signal:
-    """A stretch check's per-video-frame signal (see the module docstring): `values (T,)`,
-    `weights (T,)` (0: the frame does not count), the `limit` the weighted mean must not
-    exceed, or with `events` that each frame's value must not exceed."""
-
-    values: F64
-    weights: F64
-    limit: float
-    events: bool = False
 
 
 def _at_frames(values: object, clip: Clip) -> np.ndarray:
@@ -236,6 +224,11 @@ SIGNALS: dict[str, Callable[[Clip, QCConfig, RobotProfile], Signal]] = {
 }
 
 
+def signal_of(check: Check) -> StretchSignal | None:
+    """The per-frame signal a stretch check cuts by: its own, or a built-in one's."""
+    return check.stretch or (SIGNALS.get(check.name) if check.scope == "stretch" else None)
+
+
 # --------------------------------------------------------------------------------------------------
 # Where to cut
 
@@ -329,12 +322,13 @@ def plan_cut(
     ends = _ends(t)
     forbidden = np.zeros(len(t), bool)
     why = np.full(len(t), "", dtype=object)
-    failing = {f.check.name: f for f in failed if f.check is not None and f.check.stretch}
+    failing = {f.check.name: f for f in failed if f.check is not None and signal_of(f.check)}
     shares: list[tuple[Failure | None, F64]] = []
     for check in CHECKS:
-        if check.stretch is None or check.limit(config) is None:
+        make = signal_of(check)
+        if make is None or check.limit(config) is None:
             continue
-        signal = check.stretch(clip, config, profile)
+        signal = make(clip, config, profile)
         failure = failing.get(check.name)
         if not signal.events:
             shares.append((failure, excess(signal)))

@@ -20,12 +20,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
+import numpy as np
+
 from gesturebank.config import QCConfig
 from gesturebank.qc.clip_metrics import ClipMetrics, number
 
 if TYPE_CHECKING:
     from gesturebank.clip import Clip
-    from gesturebank.qc.stretches import Signal
     from gesturebank.robot.pepper import RobotProfile
 
 Scope = Literal["stretch", "take"]
@@ -43,10 +44,25 @@ UNITS: dict[str, tuple[str, float]] = {
     "people": ("{:.1f}", 1.0),
     "HSV change": ("{:.3f}", 1.0),
 }
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A stretch check's per-video-frame signal over one clip (`qc.stretches` cuts by it):
+    `values (T,)`, `weights (T,)` (0: the frame does not count), and the `limit` their weighted
+    mean must not exceed (an aggregate: a share of frames, a mean), or with `events` that each
+    frame's value must not exceed (a spike, the part of a frozen run beyond the limit)."""
+
+    values: np.ndarray
+    weights: np.ndarray
+    limit: float
+    events: bool = False
+
+
 # A reason: the metric's value, the limit, the clip's metrics and the config → one line of text.
 Reason = Callable[[float, float, ClipMetrics, QCConfig], str]
-# A stretch check's per-frame signal over one clip (`qc.stretches.Signal`).
-StretchSignal = Callable[["Clip", QCConfig, "RobotProfile"], "Signal"]
+# A stretch check's per-frame signal over one clip.
+StretchSignal = Callable[["Clip", QCConfig, "RobotProfile"], Signal]
 # A check's own metric, for a check whose metric is no ClipMetrics field (a plug-in's).
 Measure = Callable[["Clip", QCConfig, "RobotProfile"], float]
 
@@ -60,7 +76,8 @@ class Check:
     not judged); side: "max" (fails above) or "min" (fails below); unit: a key of `UNITS`;
     scope: "stretch" or "take" (module docstring); label: the dashboard's name of the metric;
     reason: the reason's text (`str.format` of v, lim, m: the metrics, c: the config, or a
-    function of the same); stretch: the per-frame signal a stretch check cuts by.
+    function of the same); stretch: the per-frame signal a stretch check cuts by (a built-in
+    one's is `qc.stretches.SIGNALS[name]`, which the table does not import).
     """
 
     name: str
@@ -113,23 +130,6 @@ def _static_reason(value: float, limit: float, m: ClipMetrics, c: QCConfig) -> s
     )
 
 
-def _signals() -> dict[str, StretchSignal]:
-    from gesturebank.qc import stretches
-
-    return stretches.SIGNALS
-
-
-class _Lazy:
-    """The stretch signal `name` of `qc.stretches`, looked up when first called (that module
-    measures with `qc.metrics`, which is not needed to read the table)."""
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-
-    def __call__(self, clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
-        return _signals()[self.name](clip, config, profile)
-
-
 def _check(
     name: str,
     metric: str,
@@ -141,8 +141,7 @@ def _check(
     reason: str | Reason,
 ) -> Check:
     """A built-in check; a stretch check's signal is `qc.stretches.SIGNALS[name]`."""
-    stretch = _Lazy(name) if scope == "stretch" else None
-    return Check(name, metric, field, side, unit, scope, label, reason, stretch=stretch)
+    return Check(name, metric, field, side, unit, scope, label, reason)
 
 
 # In the order the reasons are written (the order before the table, so records compare equal).
@@ -347,6 +346,8 @@ def register(check: Check) -> None:
     is a setting of the `QCConfig` it is judged with (a plug-in's config may extend it)."""
     if check.scope == "stretch" and check.stretch is None:
         raise ValueError(f"check {check.name!r}: a stretch check needs its stretch signal")
+    if check.scope == "take" and check.stretch is not None:
+        raise ValueError(f"check {check.name!r}: a whole-take check has no stretch signal")
     unregister(check.name)
     CHECKS.append(check)
 
