@@ -35,6 +35,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, SynthConfig
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.video import iter_frames
@@ -50,7 +51,6 @@ from gesturebank.lift.depth_confidence import (
     out_of_plane_share,
 )
 from gesturebank.lift.depth_sign import torso_frame
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.scoring import (
     ARM_BONES,
     ARM_JOINTS,

@@ -32,8 +32,8 @@ import torch
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.audio.features import frame_features
 from gesturebank.config import AudioConfig, TrainConfig
-from gesturebank.extract.audio_features import frame_features
 from gesturebank.train.export import OnnxModel, StreamingLSTM, export_onnx
 from gesturebank.train.model_folder import MODEL_ONNX, STEP_ONNX, OnnxFrameModel
 from gesturebank.train.models.build import build_model

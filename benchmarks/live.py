@@ -21,10 +21,10 @@ from rich.table import Table
 from scipy.io import wavfile
 
 from gesturebank.app.robot import load_frame_model
+from gesturebank.audio.features import apply_znorm, features
+from gesturebank.audio.io import read_audio
 from gesturebank.cli.robot import live_command
 from gesturebank.config import AudioConfig
-from gesturebank.extract.audio_features import apply_znorm, features
-from gesturebank.extract.audio_io import read_audio
 from gesturebank.robot.online import LiveSynth
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.testing.tiny_models import write_model_dir

@@ -2,7 +2,7 @@
 
 Training data: bvhtools' `test.bvh` outside 31–51 s (issue 30's acceptance stretch; test2/test3
 and the renders are held back for evaluation), at 30 Hz, seen by random pinhole cameras with
-detector-like 2D noise and mirrored (gesturebank.train.lifter_net). The ONNX file and its sidecar
+detector-like 2D noise and mirrored (lift.training.lifter_net). The ONNX file and its sidecar
 JSON (architecture, data, command, the table below) go to `--out`, by default the packaged
 gesturebank/data/learned-lifter.onnx. Then the new model lifts test.bvh 21–31 s (a tuning
 stretch, inside the training data) projected at 0/30/60° and prints its scores on Pepper.
@@ -23,16 +23,16 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, LearnedConfig
 from gesturebank.lift import TakeViews
 from gesturebank.lift.learned import PACKAGED, LearnedLifter
 from gesturebank.lift.learned import features as F
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.scoring import look_at, project_view, score_lift
+from gesturebank.lift.training.lifter_net import Architecture, Sampler, Schedule, export, train
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import body_axes, motion_pose
 from gesturebank.samples import default_samples_dir
-from gesturebank.train.lifter_net import Architecture, Sampler, Schedule, export, train
 
 BVH = "bvhtools/testBvhFiles/test.bvh"
 HELD_OUT_S = (31.0, 51.0)  # issue 30's acceptance stretch: never trained on

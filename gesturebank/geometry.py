@@ -15,7 +15,7 @@ Cameras: a `Camera` maps world points to pixels, `x_cam = R @ X + t`, pinhole `K
 radial / tangential distortion `(k1, k2, p1, p2[, k3])`; world units are metres. A `CameraGroup`
 is the ordered set of cameras of one take; arrays over it carry the camera axis first, `(C, ...)`.
 Reading and writing calibration files (Pose2Sim/anipose TOML, Qualisys) stays with the
-multi-view lifter (`gesturebank.lift.multiview.cameras`).
+multi-view lifter (`gesturebank.camera_files`).
 """
 
 from __future__ import annotations

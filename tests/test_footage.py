@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from gesturebank import footage
-from gesturebank.extract.audio_io import read_audio
+from gesturebank.audio.io import read_audio
 from gesturebank.extract.video import frame_timestamps, probe
 from gesturebank.footage import (
     CAM01,

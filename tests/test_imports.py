@@ -38,15 +38,27 @@ def _type_checking_only(tree: ast.Module) -> set[ast.AST]:
     return skip
 
 
-def imports_of(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
-    """The modules of `modules` that module `name` (at `path`) imports when it runs."""
+def imports_of(
+    name: str,
+    path: Path,
+    modules: dict[str, Path],
+    *,
+    type_checking: bool = False,
+    strings: bool = False,
+) -> set[str]:
+    """The modules of `modules` that module `name` (at `path`) imports when it runs; with
+    `type_checking` also those under `if TYPE_CHECKING:`, with `strings` also every string
+    constant that names one (`"pkg.mod"`, `"pkg.mod:attr"`: importlib, plug-in tables)."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    skip = _type_checking_only(tree)
+    skip = set() if type_checking else _type_checking_only(tree)
     targets: set[str] = set()
     for node in ast.walk(tree):
         if node in skip:
             continue
+        if strings and isinstance(node, ast.Constant) and isinstance(node.value, str):
+            if re.fullmatch(r"[A-Za-z_][\w.]*(:\w+)?", node.value):
+                targets.add(node.value.partition(":")[0])
         if isinstance(node, ast.Import):
             targets.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -60,9 +72,14 @@ def imports_of(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
     return {t for t in targets if t in modules and t != name}
 
 
-def import_graph(root: Path) -> dict[str, set[str]]:
+def import_graph(
+    root: Path, *, type_checking: bool = False, strings: bool = False
+) -> dict[str, set[str]]:
     modules = module_files(root)
-    return {name: imports_of(name, path, modules) for name, path in modules.items()}
+    return {
+        name: imports_of(name, path, modules, type_checking=type_checking, strings=strings)
+        for name, path in modules.items()
+    }
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -211,7 +228,7 @@ def test_the_floor_table_is_read() -> None:
 
 def test_no_module_imports_a_higher_floor() -> None:
     floors = floors_from_doc(ARCHITECTURE.read_text(encoding="utf-8"))
-    homeless, upward = upward_imports(import_graph(ROOT), floors)
+    homeless, upward = upward_imports(import_graph(ROOT, strings=True), floors)
     assert not homeless, f"modules on no floor (add them to {ARCHITECTURE.name}): {homeless}"
     new = {edge: how for edge, how in upward.items() if edge not in KNOWN_UPWARD}
     assert not new, "imports up a floor:\n" + "\n".join(
@@ -222,7 +239,7 @@ def test_no_module_imports_a_higher_floor() -> None:
 def test_every_known_upward_import_still_occurs() -> None:
     """An exception that was fixed leaves KNOWN_UPWARD, so that it cannot come back unseen."""
     floors = floors_from_doc(ARCHITECTURE.read_text(encoding="utf-8"))
-    _, upward = upward_imports(import_graph(ROOT), floors)
+    _, upward = upward_imports(import_graph(ROOT, strings=True), floors)
     gone = sorted(set(KNOWN_UPWARD) - set(upward))
     assert not gone, f"fixed, remove from KNOWN_UPWARD: {gone}"
 
@@ -268,3 +285,144 @@ def test_the_cli_starts_without_torch_or_the_dataset_reader() -> None:
     code = f"import sys, gesturebank.cli; print([m for m in {heavy!r} if m in sys.modules])"
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert run.stdout.strip() == "[]", run.stdout
+
+
+def test_an_import_string_up_a_floor_is_found(tmp_path: Path) -> None:
+    """An import by name (importlib, a plug-in table) counts for the floors: "pkg.top.d" read
+    as a string constant is an edge; a docstring that mentions it is not."""
+    pkg = tmp_path / "pkg"
+    for folder in ("base", "top"):
+        (pkg / folder).mkdir(parents=True)
+        (pkg / folder / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("")
+    (pkg / "base" / "a.py").write_text(
+        '"""Not pkg.top.d here."""\nimport importlib\n\n'
+        'def f():\n    return importlib.import_module("pkg.top.d")\n'
+    )
+    (pkg / "base" / "b.py").write_text('TABLE = {"x": "pkg.top.d:Thing"}\n')
+    (pkg / "top" / "d.py").write_text("")
+    floors = {"pkg": 0, "pkg.base": 0, "pkg.top": 1}
+    assert upward_imports(import_graph(pkg), floors)[1] == {}
+    _, upward = upward_imports(import_graph(pkg, strings=True), floors)
+    assert set(upward) == {("pkg.base.a", "pkg.top.d"), ("pkg.base.b", "pkg.top.d")}
+
+
+# --------------------------------------------------------------------------------------------------
+# Cycles counted with the imports under `if TYPE_CHECKING:` (a type-only loop is still two
+# modules that cannot be understood one without the other). Known ones, each with its issue.
+
+KNOWN_TYPE_CYCLES: dict[tuple[str, ...], int] = {
+    (
+        "gesturebank.extract.detectors.blazepose.detector",
+        "gesturebank.extract.detectors.blazepose.tracker",
+    ): 42,
+}
+
+
+def test_no_import_cycles_with_type_checking_imports() -> None:
+    found = {tuple(c) for c in cycles(import_graph(ROOT, type_checking=True))}
+    new = sorted(found - set(KNOWN_TYPE_CYCLES))
+    assert not new, f"import cycles through TYPE_CHECKING imports: {new}"
+    gone = sorted(set(KNOWN_TYPE_CYCLES) - found)
+    assert not gone, f"fixed, remove from KNOWN_TYPE_CYCLES: {gone}"
+
+
+def test_a_type_checking_cycle_is_found(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from pkg import b\n")
+    (pkg / "b.py").write_text(
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from pkg.a import X\n"
+    )
+    assert cycles(import_graph(pkg)) == []
+    assert cycles(import_graph(pkg, type_checking=True)) == [["pkg.a", "pkg.b"]]
+
+
+# --------------------------------------------------------------------------------------------------
+# Sizes: a module holds one job, at most MAX_LINES lines, unless its first lines say it is one
+# piece (ONE_PIECE, with the reason).
+
+MAX_LINES = 600
+ONE_PIECE = "# one piece:"
+
+
+def oversized(root: Path, limit: int = MAX_LINES) -> dict[str, int]:
+    """Module path (relative to `root`) → line count, for every .py over `limit` lines that
+    does not carry the ONE_PIECE mark in its first 30 lines."""
+    found = {}
+    for path in sorted(root.rglob("*.py")):
+        lines = path.read_text(encoding="utf-8").splitlines()
+        if len(lines) > limit and not any(ONE_PIECE in line for line in lines[:30]):
+            found[str(path.relative_to(root))] = len(lines)
+    return found
+
+
+def test_no_module_is_over_600_lines() -> None:
+    assert not (big := oversized(ROOT)), f"modules over {MAX_LINES} lines (split them): {big}"
+
+
+def test_an_oversized_module_is_found(tmp_path: Path) -> None:
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "big.py").write_text("x = 1\n" * 601)
+    (tmp_path / "marked.py").write_text(f"{ONE_PIECE} a table\n" + "x = 1\n" * 700)
+    (tmp_path / "small.py").write_text("x = 1\n" * 600)
+    assert oversized(tmp_path) == {"sub/big.py": 601}
+
+
+# --------------------------------------------------------------------------------------------------
+# The terminal: only the application floor (`app`) and the command line (`cli`) import `rich`.
+# Stage modules that still do, each with the issue that moves their printing up.
+
+TERMINAL_FLOORS = ("gesturebank.app", "gesturebank.cli")
+KNOWN_RICH: dict[str, int] = {
+    "gesturebank.datasets.listing": 42,
+    "gesturebank.train.trainer": 42,
+    "gesturebank.train.eval.compare": 42,
+    "gesturebank.train.eval.tables": 42,  # evaluate's tables (#44 moved them out of evaluate)
+}
+
+
+def rich_users(root: Path) -> set[str]:
+    """Modules under the package folder `root` that import `rich` (anywhere, TYPE_CHECKING
+    included)."""
+    users = set()
+    for name, path in module_files(root).items():
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level:
+                names = [node.module or ""]
+            if any(n == "rich" or n.startswith("rich.") for n in names):
+                users.add(name)
+    return users
+
+
+def _in_terminal_floor(module: str, floors: tuple[str, ...] = TERMINAL_FLOORS) -> bool:
+    return any(module == f or module.startswith(f + ".") for f in floors)
+
+
+def test_only_app_and_cli_import_rich() -> None:
+    stages = {m for m in rich_users(ROOT) if not _in_terminal_floor(m)}
+    new = sorted(stages - set(KNOWN_RICH))
+    assert not new, f"stage modules importing rich (print from app/ or cli/): {new}"
+    gone = sorted(set(KNOWN_RICH) - stages)
+    assert not gone, f"fixed, remove from KNOWN_RICH: {gone}"
+
+
+def test_a_rich_import_outside_the_terminal_floors_is_found(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    (pkg / "cli").mkdir(parents=True)
+    (pkg / "stage").mkdir()
+    for init in (pkg, pkg / "cli", pkg / "stage"):
+        (init / "__init__.py").write_text("")
+    (pkg / "cli" / "show.py").write_text("from rich.console import Console\n")
+    (pkg / "stage" / "work.py").write_text("def f():\n    import rich\n")
+    (pkg / "stage" / "quiet.py").write_text("import richer\n")
+    users = rich_users(pkg)
+    assert users == {"pkg.cli.show", "pkg.stage.work"}
+    assert [u for u in sorted(users) if not _in_terminal_floor(u, ("pkg.cli",))] == [
+        "pkg.stage.work"
+    ]

@@ -60,7 +60,7 @@ PIPELINE_MODULES = (
     "gesturebank.app.take",
     "gesturebank.app.extract",
     "gesturebank.extract.detectors.blazepose",
-    "gesturebank.extract.audio_features",
+    "gesturebank.audio.features",
     "gesturebank.filters",
     "gesturebank.lift.blazepose_world",
     "gesturebank.qc.metrics",

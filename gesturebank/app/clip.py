@@ -8,13 +8,13 @@ import math
 import numpy as np
 
 from gesturebank.app.views import TakeView
+from gesturebank.audio.io import Audio
+from gesturebank.audio.vad import RATE_HZ, SpeechActivity, speech_activity
 from gesturebank.clip import Clip, kept_parts, part_mask
 from gesturebank.config import Config
 from gesturebank.datasets.cut import Span, frame_ends
 from gesturebank.datasets.process import head_roll_at, process_angles
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_io import Audio
-from gesturebank.extract.vad import RATE_HZ, SpeechActivity, speech_activity
 from gesturebank.lift.clip_confidence import lift_confidence
 from gesturebank.mocap import MOCAP
 from gesturebank.qc.usable import still_spiking

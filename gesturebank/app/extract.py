@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gesturebank.audio.io import Audio, read_audio
 from gesturebank.config import Config, VideoConfig
 from gesturebank.errors import DetectionError, GesturebankError, InputError
-from gesturebank.extract.audio_io import Audio, read_audio
 from gesturebank.extract.cache import DetectionCache, cache_key, video_digest
 from gesturebank.extract.chunks import Chunk, detecting, stitch, video_chunks
 from gesturebank.extract.detectors import (

@@ -1,7 +1,7 @@
 """One take through the whole pipeline into clips (docs/architecture.md "Data flow").
 
 extract (decode, detect everybody + shot cuts — cached —, the main speaker per shot, audio) →
-repair the main speaker's keypoints → speech activity over the take (`extract.vad`) → cut the
+repair the main speaker's keypoints → speech activity over the take (`audio.vad`) → cut the
 take into clips (shots, speaker changes, absences and unusable stretches, audio, silences over
 `speech.max_silence_s`, `clips.min_s`) → per clip: lift, Pepper angles (masked where a
 limb was not seen), the 100 Hz processing, audio features on the same clock, QC metrics and the
@@ -20,6 +20,7 @@ import numpy as np
 
 from gesturebank.app.clip import build_clip, covering, take_activity
 from gesturebank.app.views import TakeView, mocap_view, multi_view, single_views
+from gesturebank.audio.vad import silences
 from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
@@ -28,7 +29,6 @@ from gesturebank.datasets.judging import judged_records
 from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.records import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
-from gesturebank.extract.vad import silences
 from gesturebank.qc.usable import usable_frames
 from gesturebank.robot import pepper
 
@@ -46,6 +46,7 @@ class BuiltTake:
     clips: tuple[Clip, ...]
     preview: bytes | None
     detect_s: float
+    cached: bool | None = None  # its detections came from the cache (None: not cached)
 
 
 def check_names(config: Config) -> None:
@@ -91,7 +92,7 @@ def build_take(
     verdicts) and its preview; raises a GesturebankError when the take cannot be built.
     chunks: where videos longer than build.chunk_s find their chunks' detections (None: every
     video is detected in one pass)."""
-    from gesturebank.extract.audio_features import features
+    from gesturebank.audio.features import features
 
     if take.mocap:
         views = [mocap_view(take, config)]
@@ -195,7 +196,8 @@ def build_take(
         preview_times=tuple(t for t, _ in view.preview),
         traits=take.traits,
     )
-    return BuiltTake(record, tuple(clips), _preview_jpeg(view.preview), view.detect_s)
+    preview = _preview_jpeg(view.preview)
+    return BuiltTake(record, tuple(clips), preview, view.detect_s, view.cached)
 
 
 def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:

@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gesturebank.audio.io import Audio
 from gesturebank.config import Config
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_io import Audio
 from gesturebank.mocap import MOCAP
 from gesturebank.mocap.front_view import front_view
 from gesturebank.poses import Pose2D, Pose3D
@@ -56,6 +56,7 @@ class TakeView:
     detect_s: float
     tracking: dict[str, Any]
     preview: tuple[tuple[float, np.ndarray], ...]
+    cached: bool | None = None  # detections from the cache (every camera's); None: not cached
 
 
 def lifter_name(take: Take, config: Config) -> str:
@@ -128,6 +129,7 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
                 lifter=lifter_name(take, config),
                 video_fps=ext.info.video.fps,
                 detect_s=ext.info.detect_seconds,
+                cached=ext.info.cache_hit,
                 tracking={
                     **_tracking_json(ext.tracked.report),
                     "mouth_seconds": ext.info.mouth_seconds,
@@ -184,9 +186,9 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
     audio is a .wav beside the videos, else the camera track with the most energy, moved onto
     the reference clock by the camera offsets the lifter used."""
     from gesturebank.app.extract import extract_take
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
+    from gesturebank.camera_files import CameraGroup
     from gesturebank.lift import LIFTERS, TakeViews
-    from gesturebank.lift.multiview.cameras import CameraGroup
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
 
     assert take.calibration is not None
@@ -233,6 +235,7 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
         lifter=lifter_name(take, config),
         video_fps=e.info.video.fps,
         detect_s=sum(x.info.detect_seconds for x in exts),
+        cached=None if None in (hits := [x.info.cache_hit for x in exts]) else all(hits),
         tracking=_tracking_json(e.tracked.report),
         preview=e.preview,
     )
@@ -243,7 +246,7 @@ def mocap_view(take: Take, config: Config) -> TakeView:
     lifter), one speaker, one shot; its audio starts with the first frame."""
     import time
 
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
     from gesturebank.mocap.bvh import read_bvh
     from gesturebank.mocap.pose import motion_pose
 

@@ -39,9 +39,9 @@ def calibrate(
     section (--set board.KEY=VALUE; the flags win), by default Pose2Sim's 4 x 7 inner-corner,
     6 cm checkerboard.
     """
+    from gesturebank.camera_files import CameraGroup
     from gesturebank.fileio import output_errors, write_bytes_atomic
     from gesturebank.lift.multiview.calibrate import calibrate_group
-    from gesturebank.lift.multiview.cameras import CameraGroup
 
     board: dict[str, Any] = dict(
         kind=kind, inner_corners=inner_corners, squares=squares, square_size=square_size

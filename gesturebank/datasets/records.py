@@ -345,7 +345,10 @@ class DatasetInfo(_Info):
     audio_znorm_by_subject: dict[str, ZNorm] = Field(
         description="Per subject (and '*' for all) mean and std of every audio feature (§3.2)."
     )
-    clip_counts: dict[str, int] = Field(description="Manifest rows per QC status.")
+    clip_counts: dict[str, int] = Field(description="Clips (with arrays) per QC status.")
+    stretches_dropped: int = Field(
+        0, description="Stretches of built takes that gave no clip (a span with its reason)."
+    )
     takes: dict[str, TakeSummary]
 
     @property

@@ -147,7 +147,7 @@ def write_naoqi(
 
 def write_robot_wav(audio: str | os.PathLike[str], path: Path) -> Path:
     """`audio`'s first track as ALAudioDevice plays it: a 48 kHz 16-bit stereo WAV at `path`."""
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
     from gesturebank.robot.backends.naoqi import SAMPLE_RATE, stereo_pcm
 
     track = read_audio(audio, sample_rate=SAMPLE_RATE)

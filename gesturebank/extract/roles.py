@@ -25,17 +25,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gesturebank.audio.vad import RATE_HZ, speech_activity
 from gesturebank.config import SpeechConfig, VideoConfig
 from gesturebank.extract.detectors.blazepose import Roi
 from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, face_box, speaking_score
 from gesturebank.extract.speech import speech_envelope
-from gesturebank.extract.vad import RATE_HZ, speech_activity
 from gesturebank.poses import MultiPose2D
 
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
 # Codes of the role track; gesturebank.clip.ROLES names them in this order (a test keeps them so).
 UNKNOWN, SPEAKING, LISTENING = 0, 1, 2

@@ -18,7 +18,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from gesturebank.skeletons import COCO17, get_skeleton
 
 if TYPE_CHECKING:  # only for annotations: no video decoder needed
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
 HEAD_HANDS = ("nose", "left_wrist", "right_wrist")
 MAX_LAG_S = 0.3  # largest motion–speech lag searched, either way

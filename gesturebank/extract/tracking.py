@@ -65,7 +65,7 @@ from gesturebank.poses import MultiPose2D, Pose2D
 from gesturebank.skeletons import COCO17, get_skeleton
 
 if TYPE_CHECKING:  # only for annotations: tracking needs no video decoder
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
 # What a waist-up shot shows (no knees, no ankles): a candidate's size, centre and confidence.
 WAIST_UP = tuple(j for j in COCO17.joints if "knee" not in j and "ankle" not in j)

@@ -19,8 +19,8 @@ from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.registry import Registry
 
 if TYPE_CHECKING:
-    from gesturebank.extract.audio_io import Audio
-    from gesturebank.lift.multiview.cameras import Camera, CameraGroup
+    from gesturebank.audio.io import Audio
+    from gesturebank.camera_files import Camera, CameraGroup
 
 
 @dataclass(frozen=True, eq=False)

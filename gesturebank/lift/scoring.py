@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gesturebank.camera_files import Camera
 from gesturebank.config import RetargetConfig
-from gesturebank.lift.multiview.cameras import Camera
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.robot.pepper import JOINTS, fk
 from gesturebank.robot.retarget import pepper_angles

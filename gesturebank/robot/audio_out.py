@@ -35,7 +35,7 @@ class DeviceAudio:
     """Plays an audio file on this computer's default output (as the dissertation did)."""
 
     def __init__(self, path: PathLike, sample_rate: int = 48000) -> None:
-        from gesturebank.extract.audio_io import read_audio
+        from gesturebank.audio.io import read_audio
 
         name = os.fspath(path)
         track = read_audio(path, sample_rate=sample_rate)

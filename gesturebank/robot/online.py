@@ -9,7 +9,7 @@ backend) is measured and summarised as p50/p99.
 
 A listener model (`train --target listener`, seed 004) makes the robot listen: its input is the
 feature frame plus the speaker's speaking flag (1.0 while the person at the microphone speaks:
-`extract.vad_stream`, causal), and it drives only the head (`pepper.HEAD_JOINTS`); every other
+`audio.vad_stream`, causal), and it drives only the head (`pepper.HEAD_JOINTS`); every other
 joint holds the start pose through the same Kalman filter and safety limits.
 
 The model is any `FrameModel` with what it needs around it (`LiveModel`): the audio config it
@@ -31,10 +31,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from gesturebank.audio.features import apply_znorm, frame_features, frame_length, frame_step
+from gesturebank.audio.vad_stream import StreamingSpeech
 from gesturebank.config import AudioConfig, PlaybackConfig, SpeechConfig
 from gesturebank.errors import InputError, RobotError
-from gesturebank.extract.audio_features import apply_znorm, frame_features, frame_length, frame_step
-from gesturebank.extract.vad_stream import StreamingSpeech
 from gesturebank.filters import KalmanConstAcc
 from gesturebank.robot import pepper
 from gesturebank.robot.audio_out import PORTAUDIO_HINT
@@ -173,7 +173,7 @@ Chunks = Iterator[tuple[np.ndarray, float]]
 def wav_chunks(path: PathLike, hop: int, sample_rate: int, *, realtime: bool = True) -> Chunks:
     """Stream an audio file in `hop`-sample chunks; in real time, chunk k becomes available
     (k + 1) hops after the start, as from a microphone. A partial last chunk is dropped."""
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
 
     track = read_audio(path, sample_rate=sample_rate)
     if track is None or len(track.signal) < hop:

@@ -43,7 +43,7 @@ def _audio(path: PathLike | None, duration: float, delay: float) -> np.ndarray |
     """The audio, `delay` s of silence first, cut to `duration` s."""
     if path is None:
         return None
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
 
     track = read_audio(path, sample_rate=AUDIO_RATE)
     if track is None:

@@ -16,11 +16,9 @@ in any order — and the JSON lines a `record` backend writes (the frames it was
 from __future__ import annotations
 
 import csv
-import importlib
 import io
 import json
 import os
-import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -291,25 +289,6 @@ def _from_record(name: str, text: str) -> Timeline:
         profile=profile if isinstance(profile, str) else None,
         reach=reach if isinstance(reach, str) else None,
     )
-
-
-# --------------------------------------------------------------------------------------------------
-# Moved up
-
-
-def __getattr__(name: str) -> object:
-    """`from_clip`, deprecated: it reads a dataset, two floors up; it is
-    `gesturebank.datasets.listing.clip_timeline` now. Fetched by name when it is asked for, so
-    this module imports nothing above its floor (kept for one release)."""
-    if name != "from_clip":
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    warnings.warn(
-        "gesturebank.robot.timeline.from_clip is deprecated: use "
-        "gesturebank.datasets.listing.clip_timeline",
-        DeprecationWarning,
-        stacklevel=2,
-    )
-    return importlib.import_module("gesturebank.datasets.listing").clip_timeline
 
 
 def reach_of(config: object) -> str:

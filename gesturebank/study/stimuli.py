@@ -105,7 +105,7 @@ def _clip_audio(dataset: Path, clip_id: str, out: Path) -> tuple[str, Path]:
 
 
 def _duration(audio: Path) -> float:
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
 
     track = read_audio(audio, sample_rate=_RATE)
     if track is None or not len(track.signal):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gesturebank.lift.multiview.cameras import Camera
+from gesturebank.camera_files import Camera
 from gesturebank.mocap.pose import body_axes
 from gesturebank.skeletons import COCO17
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gesturebank.camera_files import Camera
 from gesturebank.errors import GesturebankError
-from gesturebank.lift.multiview.cameras import Camera
 from gesturebank.skeletons import COCO17
 from gesturebank.synth.camera import pixel_rays
 from gesturebank.synth.figure import PART_INDEX, PARTS, Mesh, figure_meshes, head_frame

@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import MocapConfig, RetargetConfig, SynthConfig, SynthLook
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open, sha256_file, write_bytes_atomic
 from gesturebank.footage import ENCODER, SPEECH_RATE, looped_speech
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import motion_pose
 from gesturebank.robot.retarget import pepper_angles

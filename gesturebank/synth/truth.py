@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.skeletons import COCO17
 
 TRUTH = "truth.npz"

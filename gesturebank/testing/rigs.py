@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.geometry import Camera, rodrigues_to_matrix
-from gesturebank.lift.multiview.cameras import CameraGroup
 
 
 def _unit_vector(rng: np.random.Generator) -> np.ndarray:

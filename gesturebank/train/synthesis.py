@@ -7,10 +7,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gesturebank.audio.features import apply_znorm, features
 from gesturebank.config import SpeechConfig
 from gesturebank.datasets.listener import HEAD, listener_inputs
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_features import apply_znorm, features
 from gesturebank.robot import pepper
 from gesturebank.train import model_folder
 from gesturebank.train.eval.evaluate import postprocess
@@ -18,7 +18,7 @@ from gesturebank.train.export import OnnxModel
 from gesturebank.train.model_folder import MODEL_ONNX
 
 if TYPE_CHECKING:  # the decoder is imported when a file is read
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
 PathLike = str | os.PathLike[str]
 
@@ -43,7 +43,7 @@ def synthesize(
     (Silero VAD with `speech`'s thresholds, default SpeechConfig()) and moves only the head: the
     other joints hold the neutral pose.
     """
-    from gesturebank.extract.audio_io import read_audio
+    from gesturebank.audio.io import read_audio
     from gesturebank.robot.timeline import Timeline, write_timeline
 
     folder = model_folder.load(model_dir)
@@ -75,7 +75,7 @@ def synthesize(
 
 def _speaking(track: Audio, times: np.ndarray, speech: SpeechConfig | None) -> np.ndarray:
     """(N,) bool: speech heard at each of `times` (s from the file's first sample)."""
-    from gesturebank.extract.vad import RATE_HZ, speech_activity
+    from gesturebank.audio.vad import RATE_HZ, speech_activity
 
     t0 = float(times[0]) - 0.5 / RATE_HZ  # activity frame k is centred on t0 + (k + ½) / rate
     activity = speech_activity(track, t0=t0, n_frames=len(times), config=speech or SpeechConfig())

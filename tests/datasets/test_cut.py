@@ -135,7 +135,7 @@ def test_missing_audio_is_padded_with_silence() -> None:
     """The build's features cover every frame: a track 0.5 s late (and short at the end) is
     padded with digital silence, its samples kept where they were."""
     from gesturebank.app.clip import covering
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
     t = np.arange(0, 3.0, 1 / 30)
     late = Audio(np.ones(16000, np.float32), 16000, 0.5, 0.5)  # 0.5–1.5 s

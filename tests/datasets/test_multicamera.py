@@ -8,11 +8,11 @@ import pyarrow.parquet as pq
 
 from gesturebank.app.build import build_dataset
 from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config
 from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.takes import discover_takes, find_calibration
 from gesturebank.lift import TakeViews
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.repair import repair_pose2d, repair_pose3d
 

@@ -16,12 +16,12 @@ import pytest
 
 from gesturebank import footage
 from gesturebank.app.build import build_dataset
+from gesturebank.audio.io import read_audio
 from gesturebank.clip import PART_JOINTS, part_columns
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.datasets.torch import load_segments, split_items
-from gesturebank.extract.audio_io import read_audio
 from gesturebank.train.parts import default_require
 
 LAB = "talking/lab/cam01_arctic.mp4"

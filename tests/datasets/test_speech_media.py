@@ -12,11 +12,11 @@ import numpy as np
 from scipy.io import wavfile
 
 from gesturebank.app.build import build_dataset
+from gesturebank.audio.io import read_audio
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.cut import SILENCE
 from gesturebank.datasets.takes import discover_takes
-from gesturebank.extract.audio_io import read_audio
 
 RATE = 16000
 

@@ -1,4 +1,4 @@
-"""Tests of extract.audio_features: reference equality on real speech, formulas, live path."""
+"""Tests of audio.features: reference equality on real speech, formulas, live path."""
 
 from __future__ import annotations
 
@@ -10,9 +10,7 @@ import pytest
 import python_speech_features as psf
 from scipy.io import wavfile
 
-from gesturebank.config import AudioConfig
-from gesturebank.errors import InputError
-from gesturebank.extract.audio_features import (
+from gesturebank.audio.features import (
     apply_znorm,
     delta,
     feature_dim,
@@ -23,6 +21,8 @@ from gesturebank.extract.audio_features import (
     mel_to_hz,
     num_frames,
 )
+from gesturebank.config import AudioConfig
+from gesturebank.errors import InputError
 
 SR = 16000
 

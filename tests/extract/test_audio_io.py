@@ -12,7 +12,7 @@ import pytest
 from scipy.io import wavfile
 from scipy.signal import resample_poly
 
-from gesturebank.extract.audio_io import read_audio
+from gesturebank.audio.io import read_audio
 
 
 def test_wav_is_read_sample_for_sample_at_its_own_rate(samples: Path) -> None:

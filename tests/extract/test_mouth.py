@@ -13,9 +13,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from gesturebank.audio.io import read_audio
 from gesturebank.config import DetectorConfig, SpeechConfig, VideoConfig
 from gesturebank.extract import mouth
-from gesturebank.extract.audio_io import read_audio
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.speech import speech_envelope
 from gesturebank.extract.video import iter_frames

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.audio.io import Audio
 from gesturebank.clip import ROLES
 from gesturebank.config import SpeechConfig, TrackingConfig
 from gesturebank.extract import roles as R
-from gesturebank.extract.audio_io import Audio
 from gesturebank.extract.speech import speech_envelope
 from gesturebank.extract.tracking import main_speaker, track_ids, turns
 from gesturebank.footage import SPEECH_RATE

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.audio.io import Audio, read_audio
 from gesturebank.config import DetectorConfig, TrackingConfig
 from gesturebank.errors import DetectionError
-from gesturebank.extract.audio_io import Audio, read_audio
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.identity import find_switches, link, shot_index, split_at_cuts
 from gesturebank.extract.tracking import TERMS, TrackReport, main_speaker

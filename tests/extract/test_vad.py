@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.audio import vad
+from gesturebank.audio.io import Audio, read_audio
 from gesturebank.config import SpeechConfig
-from gesturebank.extract import vad
-from gesturebank.extract.audio_io import Audio, read_audio
 
 RATE = 16000
 

@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import MultiviewConfig
 from gesturebank.errors import InputError
 from gesturebank.geometry import Camera, rodrigues_to_matrix, similarity
 from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.bundle import camera_errors, refine_cameras, select_frames
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter
 from gesturebank.lift.scoring import project_view
 from gesturebank.testing.rigs import perturb_cameras

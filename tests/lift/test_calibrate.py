@@ -139,7 +139,7 @@ def test_calibrate_command_writes_the_toml_multiview_reads(samples: Path, tmp_pa
     import subprocess
     import sys
 
-    from gesturebank.lift.multiview.cameras import CameraGroup
+    from gesturebank.camera_files import CameraGroup
 
     photos = tmp_path / "intrinsics"
     for cam in ("cam01", "cam03"):  # two of the four cameras keep the test short

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.errors import CalibrationError
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 
 
 def fl(lo: float, hi: float) -> st.SearchStrategy[float]:

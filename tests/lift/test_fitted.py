@@ -13,11 +13,11 @@ from scipy.optimize._numdiff import approx_derivative
 from scipy.spatial.transform import Rotation
 
 from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.config import Config, FittedConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.fitted import FittedLifter
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.skeleton_fit import (
     N_JOINTS,

@@ -11,19 +11,19 @@ import numpy as np
 import onnx
 import pytest
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, LearnedConfig
 from gesturebank.errors import InputError
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.learned import PACKAGED, LearnedLifter
 from gesturebank.lift.learned import features as F
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.scoring import MIRROR, look_at, mirror_view, project_view, score_lift
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import body_axes, motion_pose
 from gesturebank.poses import Pose2D
 
 torch = pytest.importorskip("torch")
-from gesturebank.train.lifter_net import Architecture, TemporalLifterNet  # noqa: E402
+from gesturebank.lift.training.lifter_net import Architecture, TemporalLifterNet  # noqa: E402
 
 
 def _onnx_dims(value: onnx.ValueInfoProto) -> list[int | str]:

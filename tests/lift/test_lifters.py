@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.config import Config
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.lift import LIFTERS, TakeViews
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.poses import Pose2D
 
 BUILT_IN = ["blazepose-world", "fitted", "geometric", "multiview"]

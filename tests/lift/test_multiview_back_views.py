@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.lift import TakeViews
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.multiview.robust import FACE, TORSO, Views, facing, fix_swaps, unseen_face
 from gesturebank.lift.multiview.triangulate import dlt

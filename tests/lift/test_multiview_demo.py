@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.lift import TakeViews
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras, match_videos
 from gesturebank.poses import Pose2D
 from gesturebank.skeletons import COCO17

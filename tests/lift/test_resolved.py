@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.depth_sign import decode_path, ray_candidates, rays
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.scoring import (
     look_at,
     mirror_angles,

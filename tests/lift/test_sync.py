@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from gesturebank.app.extract import extract_take
+from gesturebank.audio.io import Audio, read_audio
 from gesturebank.config import Config
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_io import Audio, read_audio
 from gesturebank.lift.multiview.sync import (
     align,
     audio_offset,

@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.config import MultiviewConfig
 from gesturebank.errors import InputError
 from gesturebank.lift.multiview import triangulate as tri_mod
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 from gesturebank.lift.multiview.refine import refine
 from gesturebank.lift.multiview.robust import Views, fix_swaps, make_consistent, relabel, untangle
 from gesturebank.lift.multiview.triangulate import Triangulation, dlt, triangulate

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from gesturebank.app.robot import load_frame_model
+from gesturebank.audio.io import read_audio
+from gesturebank.audio.vad import CHUNK, chunk_probabilities
+from gesturebank.audio.vad_stream import StreamingSpeech
 from gesturebank.cli.robot import live_command
 from gesturebank.config import PlaybackConfig, SpeechConfig, TrainConfig
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_io import read_audio
-from gesturebank.extract.vad import CHUNK, chunk_probabilities
-from gesturebank.extract.vad_stream import StreamingSpeech
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
 from gesturebank.robot.safety import safe_pose, speed_profile

@@ -11,11 +11,11 @@ import pytest
 import torch
 
 from gesturebank.app.robot import load_frame_model
+from gesturebank.audio.features import features
+from gesturebank.audio.io import read_audio
 from gesturebank.cli.robot import live_command
 from gesturebank.config import AudioConfig
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_features import features
-from gesturebank.extract.audio_io import read_audio
 from gesturebank.robot import pepper
 from gesturebank.robot.backends.record import read_record
 from gesturebank.robot.online import LiveSynth

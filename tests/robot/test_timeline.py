@@ -86,15 +86,14 @@ def test_from_clip_reads_angles_and_holds_unknown_ones(tmp_path: Path) -> None:
     np.testing.assert_allclose(tl.angles, held, atol=1e-6)
 
 
-def test_from_clip_still_answers_with_a_deprecation_warning() -> None:
-    """Issue 34: the documented `robot.timeline.from_clip` moved up to `datasets.listing`; the
-    old name works for one release and says where it went."""
+def test_from_clip_is_gone_from_the_robot_floor() -> None:
+    """Issue 42: the deprecated `robot.timeline.from_clip` (a dataset read two floors up, by an
+    import string the floor test could not see) is removed; `datasets.listing.clip_timeline`
+    is the one name."""
     import gesturebank.robot.timeline as timeline
 
-    with pytest.warns(DeprecationWarning, match="datasets.listing.clip_timeline"):
-        assert timeline.from_clip is clip_timeline
-    with pytest.raises(AttributeError, match="no_such_name"):
-        timeline.no_such_name  # noqa: B018
+    assert not hasattr(timeline, "from_clip")
+    assert "importlib" not in Path(timeline.__file__).read_text(encoding="utf-8")
 
 
 def test_header_unit_and_reach(tmp_path: Path) -> None:

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, SynthConfig
 from gesturebank.lift import LIFTERS, TakeViews
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.scoring import project_view, score_lift
 from gesturebank.poses import Pose3D
 from gesturebank.synth.take import Performer, cached_render, rig_azimuths

@@ -9,9 +9,9 @@ import av
 import numpy as np
 import pytest
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import MocapConfig, SynthConfig
 from gesturebank.datasets.takes import discover_takes
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import motion_pose
 from gesturebank.robot.pepper import JOINTS

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import gesturebank.datasets as gds
+from gesturebank.audio.features import features
+from gesturebank.audio.io import read_audio
 from gesturebank.config import AudioConfig, EvalConfig
 from gesturebank.datasets.torch import Segment, load_segments, make_segment, split_items
-from gesturebank.extract.audio_features import features
-from gesturebank.extract.audio_io import read_audio
 from gesturebank.train.eval import beats as B
 from gesturebank.train.eval import fgd as F
 from gesturebank.train.eval import metrics as M

@@ -1,4 +1,4 @@
-"""Variations of training poses for the learned lifter (gesturebank.train.lifter_poses): bones
+"""Variations of training poses for the learned lifter (lift.training.lifter_poses): bones
 keep their lengths or scale by the drawn factor, the torso is untouched, a sampled arm stays in
 its anatomical ranges."""
 
@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gesturebank.lift.depth_sign import torso_frame
+from gesturebank.lift.training.lifter_poses import Ranges, reproportion, sample_arm
 from gesturebank.skeletons import COCO17
-from gesturebank.train.lifter_poses import Ranges, reproportion, sample_arm
 
 _I = COCO17.index
 TORSO = [_I[j] for j in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]

@@ -18,7 +18,7 @@ from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import motion_pose
 
 pytest.importorskip("torch")
-from gesturebank.train.lifter_net import MIN_DEPTH_M, Sampler, in_picture
+from gesturebank.lift.training.lifter_net import MIN_DEPTH_M, Sampler, in_picture
 
 SIZE = (640, 480)
 

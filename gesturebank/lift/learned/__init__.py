@@ -4,7 +4,7 @@ The net (after VideoPose3D's dilated temporal convolutions) sees `receptive` fra
 30 Hz) of the 13 upper-body keypoints around each frame, normalised by features.features, and
 gives the 13 joints relative to the neck in the camera's axes: the depth sign of each bone comes
 from how the 2D moves over time, as learned from motion capture seen by random cameras
-(gesturebank.train.lifter_net, benchmarks/train_lifter.py). The packaged model was trained on
+(lift.training.lifter_net, benchmarks/train_lifter.py). The packaged model was trained on
 bvhtools' test.bvh outside 31–51 s only (its sidecar JSON names the data and the command).
 
 The view is resampled to 30 Hz for the net and back to its own timestamps; the ends are padded

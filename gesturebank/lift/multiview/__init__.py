@@ -1,6 +1,6 @@
 """Multi-view lifting: calibrated cameras, intrinsic calibration, sync and triangulation.
 
-cameras.py    Camera / CameraGroup (OpenCV model), TOML (Pose2Sim/anipose) and Qualisys I/O
+(cameras: gesturebank.camera_files, TOML (Pose2Sim/anipose) and Qualisys I/O, beside geometry)
 calibrate.py  intrinsics from checkerboard / ChArUco photos
 triangulate.py confidence-weighted DLT with bounded camera exclusion
 sync.py       camera offsets from audio or keypoint motion; resampling onto one clock
@@ -11,7 +11,7 @@ Importing this package does not import mediapipe; the modules import only numpy,
 (and pycolmap, inside `bundle.refine_cameras`).
 """
 
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.config import MultiviewConfig
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 
 __all__ = ["Camera", "CameraGroup", "MultiviewConfig"]

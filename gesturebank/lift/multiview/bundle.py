@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.errors import InputError
 from gesturebank.geometry import Camera, similarity
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.triangulate import dlt, reprojection_errors
 
 log = logging.getLogger(__name__)

@@ -19,9 +19,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from gesturebank.camera_files import Camera, CameraGroup
 from gesturebank.config import BoardConfig
 from gesturebank.errors import CalibrationError
-from gesturebank.lift.multiview.cameras import Camera, CameraGroup
 
 log = logging.getLogger(__name__)
 

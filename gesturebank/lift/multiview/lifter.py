@@ -20,11 +20,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.errors import CalibrationError, InputError
 from gesturebank.lift import TakeViews
 from gesturebank.lift.multiview.bundle import BundleReport, refine_cameras
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.refine import Refinement, refine, reprojection
 from gesturebank.lift.multiview.robust import (
     TORSO,
@@ -43,7 +43,7 @@ from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.skeletons import COCO17
 
 if TYPE_CHECKING:
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
 log = logging.getLogger(__name__)
 

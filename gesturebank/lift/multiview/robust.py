@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.geometry import frame_from, torso_vectors
-from gesturebank.lift.multiview.cameras import CameraGroup
 from gesturebank.lift.multiview.triangulate import dlt, reprojection_errors
 from gesturebank.skeletons import COCO17
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal as sps
 
+from gesturebank.audio.io import Audio
 from gesturebank.errors import InputError
-from gesturebank.extract.audio_io import Audio
 from gesturebank.poses import Pose2D
 
 log = logging.getLogger(__name__)

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gesturebank.camera_files import CameraGroup
 from gesturebank.errors import InputError
-from gesturebank.lift.multiview.cameras import CameraGroup
 
 log = logging.getLogger(__name__)
 

@@ -61,7 +61,7 @@ class RobotSpeaker:
     (module docstring). `start` returns when the robot reports the sound has started."""
 
     def __init__(self, device: Any, path: str | os.PathLike[str], *, url: str, timeout_ms: int):
-        from gesturebank.extract.audio_io import read_audio
+        from gesturebank.audio.io import read_audio
 
         track = read_audio(path, sample_rate=SAMPLE_RATE)
         if track is None or not len(track.signal):

@@ -21,8 +21,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.ndimage import maximum_filter1d, minimum_filter1d, uniform_filter1d
 
+from gesturebank.audio.features import feature_dim
 from gesturebank.config import AudioConfig
-from gesturebank.extract.audio_features import feature_dim
 
 F64 = NDArray[np.float64]
 I64 = NDArray[np.int64]

@@ -29,16 +29,18 @@ from gesturebank.train.eval.evaluate import (
     SEED_MEASURES,
     TABLE_5_1,
     Column,
-    Footnotes,
     average,
     baselines,
-    cell,
-    footnotes,
     postprocess,
     score_systems,
 )
 from gesturebank.train.eval.fgd import label as fgd_label
 from gesturebank.train.eval.field import prepare_trained
+from gesturebank.train.eval.tables import (
+    Footnotes,
+    cell,
+    footnotes,
+)
 from gesturebank.train.torch_runtime import predict as torch_predict
 from gesturebank.train.torch_runtime import torch_settings
 

@@ -1,5 +1,5 @@
 """Speech activity as audio arrives (live mode's listener): the same Silero VAD as
-`extract.vad`, its recurrent state carried from chunk to chunk, one probability per 512 new
+`audio.vad`, its recurrent state carried from chunk to chunk, one probability per 512 new
 samples at 16 kHz (32 ms), with the same hysteresis (`speech.threshold` to start,
 `speech.release_threshold` to stop). Causal: the flag after a push depends on audio up to it.
 """
@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
+from gesturebank.audio.vad import CHUNK, CONTEXT, MODEL_RATE, STATE_SHAPE, _session
 from gesturebank.config import SpeechConfig
 from gesturebank.errors import InputError
-from gesturebank.extract.vad import CHUNK, CONTEXT, MODEL_RATE, STATE_SHAPE, _session
 
 
 class StreamingSpeech:

@@ -26,7 +26,7 @@ from gesturebank.config import SpeechConfig
 from gesturebank.errors import DetectionError
 
 if TYPE_CHECKING:  # only for annotations: no audio decoder needed
-    from gesturebank.extract.audio_io import Audio
+    from gesturebank.audio.io import Audio
 
 INSTALL = "pip install --no-deps silero-vad==6.2.3"
 MODEL_RATE = 16000  # Hz; the model's other rate (8 kHz) is not used

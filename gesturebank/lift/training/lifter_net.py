@@ -26,8 +26,8 @@ from torch import nn
 from gesturebank.geometry import Camera
 from gesturebank.lift.learned import features as F
 from gesturebank.lift.scoring import MIRROR, look_at
+from gesturebank.lift.training.lifter_poses import Ranges, reproportion, sample_arm
 from gesturebank.mocap.pose import body_axes
-from gesturebank.train.lifter_poses import Ranges, reproportion, sample_arm
 
 # BlazePose's 2D error against the projected truth on the project's renders of test.bvh 21–31 s
 # (a tuning stretch) at 0/30/60°, in neck → mid-hip lengths, per joint (nose … right_hip): the
