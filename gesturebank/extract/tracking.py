@@ -44,6 +44,11 @@ import numpy as np
 
 from gesturebank.config import SpeechConfig, TrackingConfig
 from gesturebank.errors import DetectionError
+from gesturebank.extract.bystanders import (
+    bystanders_left_out,
+    front_share,
+    seen_from_the_front,
+)
 from gesturebank.extract.identity import (
     Switch,
     find_switches,
@@ -60,7 +65,6 @@ from gesturebank.extract.speech import (
     speech_envelope,
     speech_following,
 )
-from gesturebank.geometry import torso_vectors
 from gesturebank.poses import MultiPose2D, Pose2D
 from gesturebank.skeletons import COCO17, get_skeleton
 
@@ -221,7 +225,7 @@ class _Scene:
         w, h = multi.image_size
         off = np.linalg.norm(centre - np.array([w / 2, h / 2]), axis=-1) / (np.hypot(w, h) / 2)
         self.size = np.linalg.norm(hi - lo, axis=-1)  # (T, P) px, NaN = no upper body
-        self.front = _seen_from_the_front(coco[..., :2])  # (T, P) the torso turned to us
+        self.front = seen_from_the_front(coco[..., :2])  # (T, P) the torso turned to us
         self.central = np.clip(1.0 - off, 0.0, 1.0)
         self.conf = np.nan_to_num(ub[..., 2], nan=0.0).mean(axis=-1)
         self._speed: dict[int, tuple[int, np.ndarray]] = {}
@@ -454,7 +458,8 @@ def _by_roles(
         return out, True
     cands = _candidates(scores)
     # small, far or edge-of-frame people are bystanders: they never veto (issue 41)
-    rivals = bystanders_left_out(cands, _front_share(scene, start, stop, cands), scene.config)
+    front = front_share(scene.ids[start:stop], scene.front[start:stop], cands)
+    rivals = bystanders_left_out(cands, front, scene.config)
     together = [(scene.ids[start:stop] == k).any(axis=1) for k in rivals]
     # one person is alone even when the tracker broke them into several tracks one after another
     if len(rivals) <= 1 or int(np.sum(together, axis=0).max()) <= 1:
@@ -474,53 +479,6 @@ def _by_roles(
         rest = frozenset(int(k) for k in np.unique(scene.ids[start:stop]) if k >= 0) - {facing[0]}
         return _choose(scene, start, stop, shot=shot, reason="shot", exclude=rest), False
     return [(start, stop, _segment(scene, start, stop, shot, "nobody", -1, None, cands))], False
-
-
-def _seen_from_the_front(xy: np.ndarray) -> np.ndarray:
-    """`(T, P)` whether each slot's torso (COCO-17 `xy (T, P, 17, 2)`, image y down) is seen
-    from the front: its left shoulder right of its up direction (up: mid-hips to mid-shoulders,
-    or mid-shoulders to the nose where the hips are unseen); False where unknown."""
-    i = COCO17.index
-    ls, rs, nose = (
-        xy[..., i["left_shoulder"], :],
-        xy[..., i["right_shoulder"], :],
-        xy[..., i["nose"], :],
-    )
-    across, up = torso_vectors(ls, rs, xy[..., i["left_hip"], :], xy[..., i["right_hip"], :])
-    hips = np.isfinite(up).all(axis=-1, keepdims=True)
-    up = np.where(hips, up, nose - (ls + rs) / 2)
-    turn = across[..., 0] * up[..., 1] - across[..., 1] * up[..., 0]
-    with np.errstate(invalid="ignore"):
-        return np.asarray(turn < 0)
-
-
-def _front_share(
-    scene: _Scene, start: int, stop: int, cands: dict[int, dict[str, float]]
-) -> dict[int, float]:
-    """Per candidate, the share of its frames in [start, stop) with its torso seen from the
-    front."""
-    ids, front = scene.ids[start:stop], scene.front[start:stop]
-    return {k: float(front[ids == k].mean()) if (ids == k).any() else 0.0 for k in cands}
-
-
-def bystanders_left_out(
-    cands: dict[int, dict[str, float]], front: dict[int, float], config: TrackingConfig
-) -> dict[int, dict[str, float]]:
-    """The candidates who can veto the choice where no mouth decides (issue 41). People seen
-    from behind (torso turned away in over half their frames, `front`) do not set the scale
-    when somebody faces us; of the rest, a candidate smaller than `veto_min_size` of the biggest
-    (their "size" terms) or at the edge of the picture ("centrality" below
-    `veto_min_centrality`) is a bystander. When that leaves nobody, all of them."""
-    turned = {k for k in cands if front.get(k, 0.0) < 0.5}
-    facing_us = {k: v for k, v in cands.items() if k not in turned} or cands
-    biggest = max(v["size"] for v in facing_us.values())
-    rivals = {
-        k: v
-        for k, v in facing_us.items()
-        if v["size"] >= config.veto_min_size * biggest
-        and v["centrality"] >= config.veto_min_centrality
-    }
-    return rivals or cands
 
 
 def track_ids(multi: MultiPose2D, config: TrackingConfig, *, cuts: np.ndarray | None) -> np.ndarray:
