@@ -21,7 +21,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -381,32 +381,28 @@ def piece(clip: Clip, start: int, stop: int, clip_id: str) -> Clip:
     if i1 <= i0:
         raise ValueError(f"clip {clip.clip_id}: frames {start}..{stop} hold no 100 Hz sample")
     origin = float(times[i0])
-    n = slice(i0, i1)
-    t = slice(start, stop)
-    role = None if clip.role is None else np.asarray(clip.role)[n]
-    return replace(
-        clip,
-        clip_id=clip_id,
-        start_s=clip.start_s + origin,
-        angles=clip.angles[n],
-        angles01=clip.angles01[n],
-        mask=clip.mask[n],
-        audio=clip.audio[n],
-        times=times[n] - origin,
-        speech=clip.speech[n],
-        raw_angles=clip.raw_angles[t],
-        timestamps=ts[t] - origin,
-        pose2d=clip.pose2d.frames(start, stop, origin_s=origin),
-        pose3d=clip.pose3d.frames(start, stop, origin_s=origin),
-        valid=clip.valid[t],
-        repaired=clip.repaired[t],
-        n_people=clip.n_people[t],
-        change=clip.change[t],
-        head_roll=clip.head_roll[n],
-        depth_confidence=clip.depth_confidence[t],
-        partner_speaking=clip.partner_speaking[n],
-        role=role,
-    )
+    n, t = slice(i0, i1), slice(start, stop)
+    cut: dict[str, object] = {
+        "clip_id": clip_id,
+        "start_s": clip.start_s + origin,
+        "times": times[n] - origin,
+        "timestamps": ts[t] - origin,
+        "pose2d": clip.pose2d.frames(start, stop, origin_s=origin),
+        "pose3d": clip.pose3d.frames(start, stop, origin_s=origin),
+    }
+    # every other array: on the 100 Hz clock (N rows) or on the video frames (T rows)
+    rows_n, rows_t = len(times), len(ts)
+    for f in fields(clip):
+        value = getattr(clip, f.name)
+        if f.name in cut or not isinstance(value, np.ndarray) or value.ndim == 0:
+            continue
+        if rows_n == rows_t:
+            raise ValueError(f"clip {clip.clip_id}: as many video frames as 100 Hz samples")
+        if len(value) == rows_n:
+            cut[f.name] = value[n]
+        elif len(value) == rows_t:
+            cut[f.name] = value[t]
+    return replace(clip, **cut)  # type: ignore[arg-type]
 
 
 class Judged(NamedTuple):
