@@ -17,6 +17,7 @@ import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -178,7 +179,7 @@ def _create(config: Config, path: Path) -> Detector:
     if "threads" in inspect.signature(factory).parameters:  # plug-ins may not take it
         extra["threads"] = config.build.inference_threads
     try:
-        return factory(config.detector, video=path, **extra)
+        return factory(config.detector.settings(), video=path, **extra)
     except GesturebankError as exc:
         raise type(exc)(f"{path}: {exc}") from None
 
@@ -225,7 +226,9 @@ def detect_people(
     key = None
     store = cache or DetectionCache()
     if config.build.cache_detections and getattr(det, "cacheable", True):
-        params = {s: getattr(config, s).model_dump(mode="json") for s in ("detector", "video")}
+        own = config.detector.settings()  # the chosen detector's settings, not the others'
+        params: dict[str, Any] = {"detector": None if own is None else own.model_dump(mode="json")}
+        params["video"] = config.video.model_dump(mode="json")
         params["shots"] = config.shots.model_dump(mode="json")
         # a detector's `version` changes when its code gives other output for the same video
         params["version"] = getattr(det, "version", 0)

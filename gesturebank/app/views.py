@@ -15,6 +15,7 @@ from gesturebank.audio.io import Audio
 from gesturebank.config import Config
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
+from gesturebank.lift.clip_confidence import lifter_traits
 from gesturebank.mocap import MOCAP
 from gesturebank.mocap.front_view import front_view
 from gesturebank.poses import Pose2D, Pose3D
@@ -84,10 +85,10 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
     from gesturebank.extract.identity import gather
     from gesturebank.lift import LIFTERS
 
-    if config.lifter.name == "multiview":  # known before the slow extraction starts
+    if lifter_traits(config.lifter.name).several_views:  # known before the slow extraction
         raise InputError(
-            f"{take.video}: the multiview lifter needs a multi-camera take (a folder with a "
-            "calibration file and two or more videos)"
+            f"{take.video}: the {config.lifter.name} lifter needs a multi-camera take (a folder "
+            "with a calibration file and two or more videos)"
         )
     ext = extract_take(take.video, config, chunks=chunks)
     if ext.audio is None:
@@ -195,7 +196,7 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
     assert isinstance(lifter, MultiviewLifter)  # the audio choice below needs its camera offsets
     pose3d, report = lifter.lift_with_report(TakeViews(tuple(poses), cameras, tuple(audios)))
     pose3d, report3d = repair_pose3d(pose3d, config=config.repair)
-    ref = config.multiview.reference_camera
+    ref = config.lifter.multiview.reference_camera
     if take.audio is not None:
         audio = read_audio(take.audio, sample_rate=config.audio.sample_rate)
         if audio is None:
