@@ -70,6 +70,10 @@ VOLATILE = {
 # Digests of the config, which a new layout of the same values changes; the config itself is
 # compared (`resolved`).
 RELAID = {"config_digest"}
+# Left out of the stored digests too: the inputs (the config, with every key a branch adds; the
+# samples' folder, which is the machine's), the version, and the preview frames' times, which
+# differ between a build that detects and one that reads cached detections (a frame or two).
+INPUTS = {"config", "videos_dir", "tool_version", "preview_times"}
 
 
 def build_command(tree: Path) -> list[str]:
@@ -97,10 +101,19 @@ def _rounded(value: object) -> object:
     return value
 
 
+def _without_inputs(value: object) -> object:
+    if isinstance(value, dict):
+        return {k: _without_inputs(v) for k, v in value.items() if k not in INPUTS}
+    if isinstance(value, list):
+        return [_without_inputs(v) for v in value]
+    return value
+
+
 def digests(dataset: Path) -> dict[str, object]:
     """file[:array] → its digest, for every array (.npz: shape, NaN count, sum and sum of |x|)
-    and every record (.json, .parquet: sha256 of its canonical JSON without the volatile fields)
-    of `dataset`. Text, small, and it moves when a value moves by more than ~1e-9 relative."""
+    and every record (.json, .parquet: sha256 of its canonical JSON without the volatile fields
+    and the INPUTS) of `dataset`. Text, small, and it moves when a value moves by more than ~1e-9
+    relative."""
     out: dict[str, object] = {}
     for path in sorted(p for p in dataset.rglob("*") if p.is_file()):
         name = str(path.relative_to(dataset))
@@ -117,7 +130,9 @@ def digests(dataset: Path) -> dict[str, object]:
                     out[f"{name}:{key}"] = _rounded([list(a.shape), int(np.isnan(x).sum()), *sums])
         elif path.suffix in {".json", ".parquet"}:
             text = json.dumps(
-                _rounded(without_volatile(records(path))), sort_keys=True, default=str
+                _rounded(_without_inputs(without_volatile(records(path)))),
+                sort_keys=True,
+                default=str,
             ).replace(str(dataset), "OUT_DIR")
             out[name] = hashlib.sha256(text.encode()).hexdigest()[:16]
     return out
@@ -213,6 +228,7 @@ def content(path: Path, root: Path) -> bytes:
     """The file's bytes, with its dataset's own folder (the pages name it) written as OUT_DIR and
     the page cache's key (a checksum that covers the folder) left out."""
     text = path.read_bytes().replace(str(root).encode(), b"OUT_DIR")
+    text = re.sub(rb"config digest `[0-9a-f]+`", b"config digest", text)  # RELAID, in a card
     return re.sub(rb"page-key [0-9a-f]+", b"page-key", text)
 
 
