@@ -67,6 +67,7 @@ VOLATILE = {
     "wall_s",
     "mouth_seconds",
     "path",
+    "dataset",  # the dataset folder a model was trained from
 }
 # Digests of the config, which a new layout of the same values changes; the config itself is
 # compared (`resolved`).
