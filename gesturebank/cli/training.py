@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 
+from gesturebank.app.train_progress import EpochBar
 from gesturebank.config import TrainConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.store import Dataset
@@ -115,8 +116,9 @@ def train_command(
     )
     # the temporary folder is made before training, so an unwritable --out fails at once
     with model_folder.writing(out) as tmp:
+        bar = None if quiet else EpochBar()
         result = train(
-            net, train_segments, val_segments, cfg, quiet=quiet, description=what, epochs=epochs
+            net, train_segments, val_segments, cfg, progress=bar, description=what, epochs=epochs
         )
         export_onnx(net, tmp)
         write_loss_png(tmp / LOSS_PNG, history=result.history, title=f"{what}: loss per epoch")
