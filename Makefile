@@ -1,7 +1,8 @@
 # gesturebank — the two commands that do everything on a fresh machine:
-#   make demo   set up .venv, fetch real sample media, build a dataset, write the QC dashboard
-#   make test   set up .venv with dev tools, fetch test media, run lint + type checks, build the
-#               docs site (strict), run the suite
+#   make demo   set up .venv with what the demo runs, fetch real sample media, build a dataset,
+#               write the QC dashboard
+#   make test   set up .venv with every extra, fetch test media, run lint + type checks, build
+#               the docs site (strict), run the suite (`make setup`: every extra, nothing run)
 #
 # Run as root on Debian/Ubuntu, `make` also installs the system packages it needs with apt-get
 # (espeak-ng, sox: speech test media; libusb-1.0-0: open3d; chromium: dashboard tests;
@@ -23,7 +24,7 @@ SILERO_VAD := silero-vad==6.2.3
 .PHONY: demo test lint typecheck pytest docs setup system-deps samples clean help
 
 help:
-	@sed -n '2,8p' Makefile
+	@sed -n '2,9p' Makefile
 
 # -- setup --------------------------------------------------------------------------------------
 system-deps:
@@ -34,10 +35,11 @@ system-deps:
 	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
 	else echo "note: missing system packages (install them as root): $$missing"; fi
 
-$(VENV)/.installed: pyproject.toml Makefile
+# The venv, then what pip cannot resolve alone: three packages without their declared deps.
+define VENV_WITH
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
-	$(PIP) install -q -e ".[$(EXTRAS)]"
+	$(PIP) install -q -e "$(1)"
 	# mediapipe without its declared deps: they would add a second cv2 (the GUI build) and jax.
 	# Its real runtime deps are in pyproject's dependencies.
 	$(PIP) install -q --no-deps $(MEDIAPIPE)
@@ -49,10 +51,21 @@ $(VENV)/.installed: pyproject.toml Makefile
 	# declared deps (torch, torchaudio), which the model does not need.
 	$(PIP) install -q --no-deps $(SILERO_VAD)
 	touch $@
+endef
+
+# What `make demo` runs (build-dataset); `make setup` and `make test`: every extra. README's
+# "Install by hand" lists the same commands (tests/test_project_files.py compares them).
+$(VENV)/.core: pyproject.toml Makefile
+	$(call VENV_WITH,.)
+
+$(VENV)/.installed: pyproject.toml Makefile
+	$(call VENV_WITH,.[$(EXTRAS)])
+	touch $(VENV)/.core
 
 setup: system-deps $(VENV)/.installed
 
-samples: setup
+# the demo needs only the package; `make test` has set up everything before (its first goal)
+samples: system-deps $(VENV)/.core
 	$(VENV)/bin/gesturebank fetch-samples $(MEDIA)
 
 # -- the two commands ---------------------------------------------------------------------------
@@ -63,7 +76,7 @@ demo: samples
 	@echo "Demo finished. Sample media: $(MEDIA)   Dataset: $(DEMO_OUT)/"
 	@test -f $(DEMO_OUT)/qc/index.html && echo "QC dashboard: $(DEMO_OUT)/qc/index.html" || true
 
-test: samples lint typecheck docs pytest
+test: setup samples lint typecheck docs pytest
 
 lint: setup
 	$(VENV)/bin/ruff check gesturebank tests benchmarks examples docs/hooks

@@ -23,7 +23,17 @@ cm" is what the kept clips' depth confidence predicts (`expected_hand_error_cm`,
 "kept" is the accepted clips' seconds of the rendered seconds; a rejected take names QC's
 reasons.
 
+The head (issue 40): "head °" is the head direction error (HeadPitch and HeadYaw together),
+"HeadPitch/Yaw ° (bias)" their mean errors and mean signed errors; "head from" splits the kept
+clips' 100 Hz frames by the source of their head (`clip.head_source`: the face mesh, the body's
+face keypoints): the share of each and its head error, so the mesh, the fallback and the chosen
+mix are each scored. `--head-source body` builds with the body's keypoints only (the head
+before issue 40); `--every-clip` scores the clips QC rejected too (side views, arms at a limit:
+their heads are still measured).
+
     .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
+    .venv/bin/python benchmarks/pipeline_truth.py --bvh test2.bvh test3.bvh --start 0 \
+        --length 20 --azimuths 0 30 60 90 --elevations 0 30 --looks tshirt --defaults-only
     .venv/bin/python benchmarks/pipeline_truth.py --quick     # 3 s at 0°, 640×360, defaults
 """
 
@@ -33,15 +43,18 @@ import argparse
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from rich.console import Console
 from rich.table import Table
 
 from gesturebank.app.build import build_dataset
+from gesturebank.clip import HEAD_SOURCES, Clip
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.process import process_angles
+from gesturebank.datasets.store import Status
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
 from gesturebank.lift import LIFTERS
@@ -59,23 +72,25 @@ from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.synth.take import Performer, cached_render, render_cache
 from gesturebank.synth.truth import Truth
 
-BVH = "bvhtools/testBvhFiles/test.bvh"
+BVH_DIR = "bvhtools/testBvhFiles"
 START_S, LENGTH_S = 31.0, 20.0  # issue 30's acceptance stretch
 QUICK_LENGTH_S, QUICK_SIZE = 3.0, (640, 360)
 VIEWS_OFF = {"qc": {"max_facing_away_fraction": 1.0, "max_sideways_fraction": 1.0}}
 
 
 def render(config: Config, *, azimuth: float, look: str, length_s: float,
-           size: tuple[int, int]) -> Truth:  # fmt: skip
+           size: tuple[int, int], bvh: str = "test.bvh", start_s: float = START_S,
+           elevation: float = 0.0) -> Truth:  # fmt: skip
     samples = default_samples_dir()
-    if not (samples / BVH).is_file():
+    path = samples / BVH_DIR / bvh
+    if not path.is_file():
         fetch_samples(samples)
     synth = SynthConfig.model_validate({
-        "azimuths_deg": [azimuth], "start_s": START_S, "length_s": length_s, "look": look,
-        "width_px": size[0], "height_px": size[1],
+        "azimuths_deg": [azimuth], "start_s": start_s, "length_s": length_s, "look": look,
+        "width_px": size[0], "height_px": size[1], "elevation_deg": elevation,
     })  # fmt: skip
     speech = [samples / rel for rel in SPEECH]
-    return cached_render([Performer(samples / BVH)], config=synth, mocap=config.mocap,
+    return cached_render([Performer(path)], config=synth, mocap=config.mocap,
                          speech=speech, cache=render_cache(samples))  # fmt: skip
 
 
@@ -97,6 +112,7 @@ class Scores:
     hand_cm: float
     head_deg: float
     head_bias: tuple[float, float]
+    head_by_source: dict[str, tuple[float, float]]  # source → (share of frames, head error °)
 
 
 @dataclass(frozen=True)
@@ -109,20 +125,22 @@ class Measured:
     unlimited: Scores | None
 
 
-def measure(truth: Truth, config: Config, out: Path) -> Measured:
-    """Build the render's video into `out` and score its kept clips against both truths."""
+def measure(truth: Truth, config: Config, out: Path, *, every_clip: bool = False) -> Measured:
+    """Build the render's video into `out` and score its kept clips (`every_clip`: every clip
+    it made, QC's verdict aside) against both truths."""
+    status: Status | None = None if every_clip else "accepted"
     build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
     dataset = open_dataset(out)
-    stored, pipeline_truth, unlimited = [], [], []
+    stored, pipeline_truth, unlimited, sources = [], [], [], []
     deep, wrong = 0, 0
     expected = [(row.clip.metrics.get("expected_hand_error_cm", np.nan), row.clip.duration_s)
-                for row in dataset.clips()]  # fmt: skip
+                for row in dataset.clips(status)]  # fmt: skip
     expected_cm = (
         float(np.average([e for e, _ in expected], weights=[d for _, d in expected]))
         if expected
         else float("nan")
     )
-    for row in dataset.clips():
+    for row in dataset.clips(status):
         clip = dataset.load(row.clip.clip_id)
         frames = np.round((clip.timestamps + clip.start_s - truth.times[0]) * truth.fps)
         frames = np.clip(frames.astype(int), 0, len(truth.times) - 1)
@@ -131,6 +149,7 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
         wrong += sum(w for _, w in signs.values())
         limited_truth, free_truth = truths(truth, clip.times + clip.start_s, config)
         stored.append(clip.angles.astype(np.float64))
+        sources.append(head_source_at(clip))
         pipeline_truth.append(limited_truth)
         unlimited.append(free_truth)
     reasons = sorted({r for row in dataset.rows() for r in row.clip.qc_reasons})
@@ -140,14 +159,32 @@ def measure(truth: Truth, config: Config, out: Path) -> Measured:
         return Measured(kept_s, reasons, wrong_pct, expected_cm, None, None)
     mine = np.concatenate(stored)
 
+    source = np.concatenate(sources)
+
     def scores(true: list[np.ndarray]) -> Scores:
         truth_angles = np.concatenate(true)
         per_joint, _, hand, head = score_angles(mine, truth_angles)
-        return Scores(per_joint, hand, head, head_bias_deg(mine, truth_angles))
+        by_source = {}
+        for code, name in enumerate(HEAD_SOURCES):
+            rows = source == code
+            if code and rows.any():
+                share = float(rows.mean())
+                by_source[name] = (share, score_angles(mine[rows], truth_angles[rows])[3])
+        return Scores(per_joint, hand, head, head_bias_deg(mine, truth_angles), by_source)
 
     return Measured(
         kept_s, reasons, wrong_pct, expected_cm, scores(pipeline_truth), scores(unlimited)
     )
+
+
+def head_source_at(clip: Clip) -> np.ndarray:
+    """(N,) the head's source (`clip.HEAD_SOURCES` code) of the video frame nearest each of the
+    clip's 100 Hz times."""
+    k = np.searchsorted(clip.timestamps, clip.times)
+    k = np.clip(k, 1, max(1, len(clip.timestamps) - 1))
+    nearer = np.abs(clip.timestamps[k - 1] - clip.times) <= np.abs(clip.timestamps[k] - clip.times)
+    k = np.where(nearer, k - 1, k) if len(clip.timestamps) > 1 else np.zeros_like(k)
+    return np.asarray(clip.head_source)[k]
 
 
 def main() -> None:
@@ -162,49 +199,86 @@ def main() -> None:
     parser.add_argument("--defaults-only", action="store_true",
                         help="skip the second build with QC's view limits off")  # fmt: skip
     parser.add_argument("--quick", action="store_true", help="3 s at 0°, small, one look")
+    parser.add_argument(
+        "--every-clip",
+        action="store_true",
+        help="score every clip the build made, QC's verdict aside (the head where QC rejects "
+        "the view or the arms); 'kept s' then counts them all",
+    )
+    parser.add_argument(
+        "--bvh",
+        nargs="+",
+        default=["test.bvh"],
+        help="motions of bvhtools' testBvhFiles (test2.bvh, test3.bvh: held out)",
+    )
+    parser.add_argument("--start", type=float, default=START_S, help="where in the BVH, s")
+    parser.add_argument("--length", type=float, help=f"seconds rendered (default {LENGTH_S:g})")
+    parser.add_argument(
+        "--elevations",
+        type=float,
+        nargs="+",
+        default=[0.0],
+        help="camera heights, degrees above the horizon",
+    )
+    parser.add_argument(
+        "--head-source",
+        choices=["face", "body"],
+        help="retarget.head_source of the build (default: the configuration's)",
+    )
     args = parser.parse_args()
-    lifter = {"lifter": {"name": args.lifter}} if args.lifter else {}
+    lifter: dict[str, Any] = {"lifter": {"name": args.lifter}} if args.lifter else {}
+    if args.head_source:
+        lifter["retarget"] = {"head_source": args.head_source}
     defaults = Config.model_validate(lifter)
     azimuths, looks = ([0.0], ["tshirt"]) if args.quick else (args.azimuths, args.looks)
-    length = QUICK_LENGTH_S if args.quick else LENGTH_S
+    length = QUICK_LENGTH_S if args.quick else (args.length or LENGTH_S)
     size = QUICK_SIZE if args.quick else (defaults.synth.width_px, defaults.synth.height_px)
-    table = Table(title=f"build-dataset ({defaults.detector.name}, {defaults.lifter.name}) on "
-                  f"renders of test.bvh {START_S:g}–{START_S + length:g} s, kept clips against "
+    table = Table(title=f"build-dataset ({defaults.detector.name}, {defaults.lifter.name}, head "
+                  f"from {defaults.retarget.head_source}) on renders of {' '.join(args.bvh)} "
+                  f"{args.start:g}–{args.start + length:g} s, kept clips against "
                   "the truth through the build's processing, and against the unlimited truth "
                   "(unl.)")  # fmt: skip
-    for col in ("look", "view", "true away %", "QC", "kept s", "arm MAE °", "worst arm joint °",
-                "hand cm", "expected hand cm", "wrong sign %", "head °", "HeadPitch/Yaw ° (bias)",
+    for col in ("motion", "look", "view", "true away %", "QC", "kept s", "arm MAE °",
+                "worst arm joint °", "hand cm", "expected hand cm", "wrong sign %", "head °",
+                "HeadPitch/Yaw ° (bias)", "head P/Y mean °", "head from: share % head °",
                 "arm MAE ° (unl.)", "hand cm (unl.)", "QC reasons"):  # fmt: skip
         table.add_column(col, justify="right")
     configs = {"defaults": defaults}
     if not (args.quick or args.defaults_only):
         configs["views off"] = Config.model_validate({**VIEWS_OFF, **lifter})
     with tempfile.TemporaryDirectory(prefix="pipeline-truth-") as tmp:
-        for look in looks:
-            for azimuth in azimuths:
-                truth = render(defaults, azimuth=azimuth, look=look, length_s=length, size=size)
-                true_2d = truth.joints2d[0]
-                away = facing_away(true_2d, np.ones(true_2d.shape[:2], dtype=bool)).mean()
-                for qc, config in configs.items():
-                    got = measure(truth, config, Path(tmp) / f"{look}-{azimuth:g}-{qc}")
-                    first = (look, f"{azimuth:g}°", f"{100 * away:.0f}", qc)
-                    kept = f"{got.kept_s:.1f} / {length:g}"
-                    reasons = "; ".join(got.reasons) or "-"
-                    if got.pipeline is None or got.unlimited is None:
-                        table.add_row(*first, kept, *["-"] * 9, reasons)
-                        continue
-                    arm = got.pipeline.per_joint_deg[ARM_JOINTS]
-                    worst = int(np.nanargmax(arm))
-                    table.add_row(
-                        *first, kept, f"{np.nanmean(arm):.1f}",
-                        f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
-                        f"{got.pipeline.hand_cm:.1f}", f"{got.expected_hand_cm:.1f}",
-                        f"{got.wrong_sign_pct:.0f}", f"{got.pipeline.head_deg:.1f}",
-                        f"{got.pipeline.per_joint_deg[0]:.0f}/{got.pipeline.per_joint_deg[1]:.0f} "
-                        f"({got.pipeline.head_bias[0]:+.0f}/{got.pipeline.head_bias[1]:+.0f})",
-                        f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",
-                        f"{got.unlimited.hand_cm:.1f}", reasons,
-                    )  # fmt: skip
+        views = [(b, look, az, el) for b in args.bvh for look in looks for el in args.elevations
+                 for az in azimuths]  # fmt: skip
+        for bvh, look, azimuth, elevation in views:
+            truth = render(defaults, azimuth=azimuth, look=look, length_s=length, size=size,
+                           bvh=bvh, start_s=args.start, elevation=elevation)  # fmt: skip
+            true_2d = truth.joints2d[0]
+            away = facing_away(true_2d, np.ones(true_2d.shape[:2], dtype=bool)).mean()
+            for qc, config in configs.items():
+                name = f"{bvh}-{look}-{azimuth:g}-{elevation:g}-{qc}"
+                got = measure(truth, config, Path(tmp) / name, every_clip=args.every_clip)
+                view = f"{azimuth:g}°" + (f" ↑{elevation:g}°" if elevation else "")
+                first = (bvh, look, view, f"{100 * away:.0f}", qc)
+                kept = f"{got.kept_s:.1f} / {length:g}"
+                reasons = "; ".join(got.reasons) or "-"
+                if got.pipeline is None or got.unlimited is None:
+                    table.add_row(*first, kept, *["-"] * 11, reasons)
+                    continue
+                arm = got.pipeline.per_joint_deg[ARM_JOINTS]
+                worst = int(np.nanargmax(arm))
+                table.add_row(
+                    *first, kept, f"{np.nanmean(arm):.1f}",
+                    f"{JOINTS[ARM_JOINTS[worst]]} {arm[worst]:.0f}",
+                    f"{got.pipeline.hand_cm:.1f}", f"{got.expected_hand_cm:.1f}",
+                    f"{got.wrong_sign_pct:.0f}", f"{got.pipeline.head_deg:.1f}",
+                    f"{got.pipeline.per_joint_deg[0]:.0f}/{got.pipeline.per_joint_deg[1]:.0f} "
+                    f"({got.pipeline.head_bias[0]:+.0f}/{got.pipeline.head_bias[1]:+.0f})",
+                    f"{np.mean(got.pipeline.per_joint_deg[:2]):.1f}",
+                    " ".join(f"{k} {100 * share:.0f} {deg:.1f}" for k, (share, deg)
+                             in got.pipeline.head_by_source.items()) or "-",
+                    f"{np.nanmean(got.unlimited.per_joint_deg[ARM_JOINTS]):.1f}",
+                    f"{got.unlimited.hand_cm:.1f}", reasons,
+                )  # fmt: skip
     Console(width=max(Console().width, 160)).print(table)
 
 

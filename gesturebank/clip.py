@@ -28,6 +28,9 @@ from gesturebank.skeletons import COCO17
 # The role track's codes, in order: 0 unknown (who speaks is not known: no mouth seen, or
 # nobody's mouth follows the speech), 1 speaking, 2 listening (extract.roles).
 ROLES = ("unknown", "speaking", "listening")
+# Where a video frame's head angles came from, in order: 0 none (the head unknown), 1 the face
+# mesh fitted to the reference face, 2 the body's face keypoints (`datasets.head`).
+HEAD_SOURCES = ("none", "face", "body")
 # Body parts, each judged on its own (issue 32): the Pepper joints that belong to it. HipRoll is
 # the torso's, which every angle needs, and belongs to none.
 PARTS = ("head", "left_arm", "right_arm")
@@ -142,6 +145,8 @@ class Clip:
         depth_confidence (T,) float32 in [0, 1]: how far the lift's depth signs can be trusted
                   (`lift.depth_confidence`, Eq. 2; 1 where the 3D was measured: several cameras,
                   motion capture)
+        head_source (T,) int8: where the frame's head angles came from, an index into
+                  HEAD_SOURCES
     start_s: where clip time 0 lies in the source video, seconds.
     person: the tracked person's id within the take (>= 0; 0 for a motion-capture take).
     partner_clip_id: the clip of another person of the same take that overlaps this one in time
@@ -171,11 +176,14 @@ class Clip:
     partner_speaking: np.ndarray
     person: int = 0
     role: np.ndarray | None = None
+    head_source: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n, t, d = len(self.times), len(self.timestamps), len(JOINTS)
         if self.role is None:  # an older clip: who speaks was not known
             object.__setattr__(self, "role", np.zeros(n, np.int8))
+        if self.head_source is None:  # built in memory without it: the head's source unknown
+            object.__setattr__(self, "head_source", np.zeros(t, np.int8))
         shapes = {
             "angles": (self.angles, (n, d)),
             "angles01": (self.angles01, (n, d)),
@@ -190,6 +198,7 @@ class Clip:
             "change": (self.change, (t,)),
             "depth_confidence": (self.depth_confidence, (t,)),
             "role": (np.asarray(self.role), (n,)),
+            "head_source": (np.asarray(self.head_source), (t,)),
         }
         for name, (value, shape) in shapes.items():
             if np.shape(value) != shape:
@@ -208,6 +217,14 @@ class Clip:
             raise InputError(
                 f"clip {self.clip_id}: role must be int8 codes 0..{len(ROLES) - 1} (ROLES), "
                 f"got {role.dtype}"
+            )
+        source = np.asarray(self.head_source)
+        if source.dtype != np.int8 or (
+            len(source) and (source.min() < 0 or source.max() >= len(HEAD_SOURCES))
+        ):
+            raise InputError(
+                f"clip {self.clip_id}: head_source must be int8 codes 0..{len(HEAD_SOURCES) - 1} "
+                f"(HEAD_SOURCES), got {source.dtype}"
             )
         if int(self.person) < 0:
             raise InputError(f"clip {self.clip_id}: person must be >= 0, got {self.person}")
@@ -267,6 +284,7 @@ class Clip:
             "depth_confidence": np.asarray(self.depth_confidence, dtype=np.float32),
             "person": np.array(self.person, dtype=np.int32),
             "role": np.asarray(self.role, dtype=np.int8),
+            "head_source": np.asarray(self.head_source, dtype=np.int8),
             "head_roll": np.asarray(self.head_roll, dtype=np.float32),
             "partner_clip_id": np.array(self.partner_clip_id),
             "partner_speaking": np.asarray(self.partner_speaking, dtype=bool),
@@ -298,6 +316,7 @@ class Clip:
                 depth_confidence=np.asarray(arrays["depth_confidence"]),
                 person=int(arrays["person"]) if "person" in arrays else 0,
                 role=np.asarray(arrays["role"]) if "role" in arrays else None,
+                head_source=np.asarray(arrays["head_source"]),
                 head_roll=np.asarray(arrays["head_roll"]),
                 partner_clip_id=str(arrays["partner_clip_id"]),
                 partner_speaking=np.asarray(arrays["partner_speaking"]),

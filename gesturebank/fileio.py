@@ -6,7 +6,7 @@ import hashlib
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO
@@ -105,3 +105,16 @@ def sha256_file(path: str | os.PathLike[str]) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()
+
+
+def keep_existing(paths: Iterable[str | os.PathLike[str]], *, force: bool) -> None:
+    """The one overwrite policy of the commands that write an output: unless `force`, an
+    InputError naming the first of `paths` that exists (a folder: one that holds anything), so
+    a second run never replaces a model or a video without a word."""
+    if force:
+        return
+    for path in map(Path, paths):
+        if path.is_dir() and not any(path.iterdir()):
+            continue  # an empty folder holds nothing to lose
+        if path.exists():
+            raise InputError(f"{path}: already exists and is kept; --force replaces it")

@@ -76,9 +76,13 @@ class Registry(Generic[T]):
             raise self._unknown(name)
 
     def _unknown(self, name: str) -> InputError:
-        return InputError(
-            f"unknown {self.kind} {name!r}; available: {', '.join(self.names()) or 'none'}"
-        )
+        """The error for an unknown name: the flag, the names, the closest."""
+        names = self.names()
+        flag = f"--{self.kind.split()[-1]}"  # "robot backend" → --backend
+        close = difflib.get_close_matches(name, names, n=1, cutoff=0.6)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        known = f"one of: {', '.join(names)}" if names else "none is registered"
+        return InputError(f"unknown {self.kind} {name!r} ({flag}); {known}{hint}")
 
     def create(self, name: str, *args: object, **kwargs: object) -> T:
         return self.get(name)(*args, **kwargs)

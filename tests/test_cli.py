@@ -1,5 +1,6 @@
 """The installed console scripts: help texts, exit codes, one-line errors."""
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -9,9 +10,15 @@ import pytest
 BIN = Path(sys.executable).parent
 
 
-def run(*args: str) -> subprocess.CompletedProcess[str]:
+def run(*args: str, columns: int | None = None) -> subprocess.CompletedProcess[str]:
     cmd = [str(BIN / args[0]), *args[1:]]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+    env = None if columns is None else {**os.environ, "COLUMNS": str(columns)}
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False, env=env)
+
+
+def fits(text: str, columns: int = 80) -> bool:
+    """Every line within `columns` and none cut short by rich (`…`)."""
+    return all(len(ln.rstrip()) <= columns and "…" not in ln for ln in text.splitlines())
 
 
 def test_help_lists_every_command_with_text() -> None:
@@ -124,7 +131,7 @@ def test_train_and_qc_output_errors_are_one_line(demo_dataset: Path, tmp_path: P
     (dataset / "qc").write_text("not a folder")
     sd = ["--variant", "sd", "--subject", "lab"]
     cases = [
-        (("train", str(dataset), "-q"), "at least 3 subjects, the dataset has 2; train with"),
+        (("train", str(dataset), "-q"), "2 subjects, too few for --variant si (needs 3); train"),
         (("train", str(dataset), *sd, "--out", str(blocker / "m")), "cannot write the model"),
         (("qc", str(dataset)), f"{dataset}: cannot write the QC results"),
     ]
@@ -146,9 +153,12 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
             "--subject", "lab", "--out", str(model), "-q", *fast)  # fmt: skip
     assert r.returncode == 0, r.stderr
     assert (model / "model_step.onnx").is_file()
-    r = run("gesturebank", "evaluate", str(model))
+    r = run("gesturebank", "evaluate", str(model), columns=80)
     assert r.returncode == 0, r.stderr
     assert "mean pose" in r.stdout and "RMSE" in r.stdout
+    # issue 44: at 80 columns headers were cut (`Subje…`, `avera…`); short ones and their units
+    assert fits(r.stdout), r.stdout
+    assert " Subject " in r.stdout and " average " in r.stdout and "units: RMSE °" in r.stdout
     # the 1.06 s test part is shorter than the 3 s LCCA window: flagged, not scored, no warnings
     assert "LCCA, CCA, FCCA not computable" in r.stdout and "Warning" not in r.stderr
     csv = tmp_path / "angles.csv"
@@ -182,14 +192,85 @@ def test_train_synthesize_replay_live_chain(demo_dataset: Path, samples: Path, t
     assert live_csv.read_text().startswith("# gesturebank angle timeline; robot profile: pepper-")
     for recorded in (live, sent, live_csv):  # a record file replays and exports as a timeline
         r = run("gesturebank", "replay", str(recorded), "--backend", "record",
-                "--out", str(tmp_path / "again.jsonl"))  # fmt: skip
+                "--out", str(tmp_path / "again.jsonl"), "--force")  # fmt: skip
         assert r.returncode == 0, r.stderr
         r = run("gesturebank", "export", str(recorded), "--format", "naoqi",
-                "--out", str(tmp_path / "r.naoqi.json"))  # fmt: skip
+                "--out", str(tmp_path / "r.naoqi.json"), "--force")  # fmt: skip
         assert r.returncode == 0, r.stderr
     r = run("gesturebank", "replay", str(csv), "--backend", "naoqi", "--url", "tcp://127.0.0.1:1")
     assert r.returncode == 1  # the robot failed: one line, no traceback
     assert len([ln for ln in r.stderr.splitlines() if ln.strip()]) == 1
+
+
+def test_every_writer_keeps_an_existing_output_unless_forced(tmp_path: Path) -> None:
+    """Issue 44: a second `train` wiped a trained model without a word. Every command that
+    writes an output keeps an existing one, exits 2 and names --force."""
+    model = tmp_path / "model"
+    model.mkdir()
+    (model / "model.json").write_text("{}")
+    kept = tmp_path / "kept.csv"
+    kept.write_text("precious")
+    study = tmp_path / "study"
+    study.mkdir()
+    (study / "key.json").write_text("{}")
+    dataset, wav = str(tmp_path / "ds"), str(tmp_path / "a.wav")
+    timeline = tmp_path / "t.csv"
+    joints = "HeadPitch,HeadYaw,LShoulderPitch,LShoulderRoll,LElbowYaw,LElbowRoll,"
+    joints += "RShoulderPitch,RShoulderRoll,RElbowYaw,RElbowRoll,HipRoll"
+    timeline.write_text(f"time_s,{joints}\n" + "".join(f"{t}{',0' * 11}\n" for t in (0, 0.01)))
+    cases = [
+        ("train", dataset, "--variant", "sd", "--subject", "lab", "--out", str(model)),
+        ("synthesize", str(model), wav, "--out", str(kept)),
+        ("export", str(tmp_path / "t.csv"), "--format", "csv", "--out", str(kept)),
+        ("stimuli", str(model), "--audio", wav, "--out", str(study)),
+        ("preview", dataset, "--clip", "c", "--out", str(kept)),
+        ("replay", str(tmp_path / "t.csv"), "--backend", "record", "--out", str(kept)),
+        ("live", str(model), "--backend", "record", "--input", wav, "--out", str(kept)),
+    ]
+    for args in cases:
+        r = run("gesturebank", *args)
+        assert r.returncode == 2, (args, r.stdout, r.stderr)
+        assert "already exists and is kept; --force replaces it" in r.stderr, (args, r.stderr)
+    assert kept.read_text() == "precious" and (model / "model.json").read_text() == "{}"
+    assert (study / "key.json").is_file()
+    # with --force the output is replaced
+    forced = ("export", str(timeline), "--format", "csv", "--out", str(kept), "--force")
+    r = run("gesturebank", *forced)
+    assert r.returncode == 0, r.stderr
+    assert kept.read_text() != "precious"
+
+
+def test_every_name_choice_says_the_flag_the_values_and_the_closest(tmp_path: Path) -> None:
+    """Issue 44: `--model lsmt` had no "did you mean lstm", as config keys do. Every name
+    choice now names its flag, lists the valid values and suggests the closest."""
+    timeline = tmp_path / "t.csv"
+    joints = "HeadPitch,HeadYaw,LShoulderPitch,LShoulderRoll,LElbowYaw,LElbowRoll,"
+    joints += "RShoulderPitch,RShoulderRoll,RElbowYaw,RElbowRoll,HipRoll"
+    timeline.write_text(f"time_s,{joints}\n" + "".join(f"{t}{',0' * 11}\n" for t in (0, 0.01)))
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    (videos / "a.mp4").write_bytes(b"")
+    out, ds = str(tmp_path / "out"), str(tmp_path / "ds")
+    cases = [
+        (("train", ds, "--model", "lsmt"), "--model", "lstm", "aud2motion, "),
+        (("train", ds, "--variant", "dyadc"), "--variant", "dyadic", "si, sd, dyadic"),
+        (("train", ds, "--target", "listner"), "--target", "listener", "speaker, listener"),
+        (("evaluate", ds, "--split", "tset"), "--split", "test", "test, val, train"),
+        (("export", str(timeline), "--format", "bhv"), "--format", "bvh", "bvh, trc, csv, naoqi"),
+        (("clips", ds, "--status", "rejectd"), "--status", "rejected", "accepted, rejected"),
+        (("build-dataset", str(videos), out, "--detector", "blazpose"), "--detector", "blazepose",
+         "mediapipe"),
+        (("build-dataset", str(videos), out, "--lifter", "learnd"), "--lifter", "learned",
+         "geometric"),
+        (("build-dataset", str(videos), out, "--executor", "rey"), "--executor", "ray", "local"),
+        (("replay", str(timeline), "--backend", "smi", "--out", str(tmp_path / "v.mp4")),
+         "--backend", "sim", "record"),
+    ]  # fmt: skip
+    for args, flag, closest, listed in cases:
+        r = run("gesturebank", *args, columns=200)
+        assert r.returncode == 2, (args, r.stderr)
+        assert flag in r.stderr and f"did you mean {closest!r}?" in r.stderr, (args, r.stderr)
+        assert listed in r.stderr, (args, r.stderr)
 
 
 def test_unknown_plugin_names_are_one_usage_error_before_any_take(tmp_path: Path) -> None:
@@ -197,8 +278,8 @@ def test_unknown_plugin_names_are_one_usage_error_before_any_take(tmp_path: Path
     (videos / "s1").mkdir(parents=True)
     (videos / "s1" / "a.mp4").write_bytes(b"")  # would fail as a take: no take may start
     for option, message in [
-        (("--detector", "foo"), "unknown detector 'foo'; available: blazepose"),
-        (("--lifter", "bar"), "unknown lifter 'bar'; available: blazepose-world"),
+        (("--detector", "foo"), "unknown detector 'foo' (--detector); one of: blazepose"),
+        (("--lifter", "bar"), "unknown lifter 'bar' (--lifter); one of: blazepose-world"),
         (("--set", "robot.profile=nao"), "unknown robot profile 'nao'"),
     ]:
         r = run("build-dataset", str(videos), str(out), "--quiet", *option)
@@ -257,3 +338,34 @@ def test_build_dataset_of_one_video_file_and_the_qc_summary(samples: Path, tmp_p
     assert r.returncode == 0, r.stderr
     assert [ln for ln in r.stdout.splitlines() if ln.startswith("cam01_arctic: ")] == built
     assert "clips kept" in r.stdout and "rejected" in r.stdout and "QC dashboard:" in r.stdout
+
+
+def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_path: Path) -> None:
+    """Issue 44: the detection cache was invisible. `cache info` says where it is and what it
+    holds, the build's summary counts the takes whose detections came from it, `cache clear`
+    empties it."""
+    cache = tmp_path / "cache"
+    env = {**os.environ, "GESTUREBANK_CACHE": str(cache), "COLUMNS": "200"}
+
+    def gb(*args: str) -> subprocess.CompletedProcess[str]:
+        cmd = [str(BIN / "gesturebank"), *args]
+        return subprocess.run(
+            cmd, capture_output=True, text=True, timeout=600, check=False, env=env
+        )
+
+    video = samples / "talking" / "lab" / "cam01_arctic.mp4"
+    out = tmp_path / "ds"
+    r = gb("build-dataset", str(video), str(out))
+    assert r.returncode == 0, r.stderr
+    assert "from the cache" not in r.stdout  # a first build detects
+    r = gb("cache", "info")
+    assert r.returncode == 0, r.stderr
+    assert f"detection cache: {cache} (from $GESTUREBANK_CACHE)" in r.stdout
+    assert "1 entries, " in r.stdout
+    r = gb("build-dataset", str(video), str(out), "--force")
+    assert r.returncode == 0, r.stderr
+    assert "1 of 1 takes built took their detections from the cache" in r.stdout, r.stdout
+    r = gb("cache", "clear")
+    assert r.returncode == 0 and "removed 1 entries" in r.stdout, r.stdout
+    assert list(cache.iterdir()) == []
+    assert "0 entries, 0 B" in gb("cache", "info").stdout

@@ -38,6 +38,12 @@ UNRELATED = {
     ("gesturebank.testing.clips.synthetic_clip", "seed"): (
         "the synthetic clip's own random draw, not the splits' or the trainer's seed"
     ),
+    ("gesturebank.lift.agreement.bootstrap_over_clips", "seed"): (
+        "the bootstrap's own random draw of clips, not the splits' or the trainer's seed"
+    ),
+    ("gesturebank.lift.agreement.agreement", "seed"): (
+        "the bootstrap's own random draw of clips, not the splits' or the trainer's seed"
+    ),
     ("gesturebank.testing.corrupt.corrupt", "seed"): (
         "the corruption's own random draw, not the splits' or the trainer's seed"
     ),

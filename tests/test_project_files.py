@@ -43,3 +43,92 @@ def test_citation_names_the_toolkit_and_the_dissertation() -> None:
     assert thesis["title"] == DISSERTATION and thesis["year"] == 2018
     assert thesis["authors"] == [{"family-names": "Ondras", "given-names": "Jan"}]
     assert thesis["institution"]["name"] == "University of Cambridge"
+
+
+def _make_dry_run(goal: str) -> str:
+    """The commands `make GOAL` would run on a fresh clone (no .venv yet), not run."""
+    import subprocess
+
+    venv = "/nonexistent-venv"
+    r = subprocess.run(
+        ["make", "-n", "-B", goal, f"VENV={venv}", "MEDIA=/nonexistent-media"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return r.stdout
+
+
+def _installed(text: str) -> set[str]:
+    """Every `pip install` argument (package, -e target) in `text`, options and quotes left out."""
+    found = set()
+    for line in text.splitlines():
+        _, sep, args = line.partition("pip install")
+        if sep and not line.lstrip().startswith("#"):
+            args = args.split("#")[0]
+            found |= {a.strip("\"'") for a in args.split() if not a.startswith("-")}
+    return found - {"pip"}  # `pip install --upgrade pip`
+
+
+def test_install_by_hand_is_what_make_installs() -> None:
+    """Issue 44: README's "Install by hand" left out silero-vad (every take then failed) and
+    scenedetect; `make demo` installed every extra and the README never said so."""
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("## Install by hand", 1)[1].split("```sh", 1)[1].split("```", 1)[0]
+    demo, test, setup = (_make_dry_run(g) for g in ("demo", "test", "setup"))
+    assert _installed(block) == _installed(demo) | _installed(setup)
+    assert _installed(setup) <= _installed(test)  # `make test` installs everything too
+    every = {a for a in _installed(setup) if a.startswith(".[")}
+    assert len(every) == 1 and "train" in next(iter(every))
+    assert not any(a.startswith(".[") for a in _installed(demo)), "make demo: no extras"
+    assert {"silero-vad", "scenedetect", "mediapipe"} <= {
+        a.split("==")[0] for a in _installed(demo)
+    }
+    section = readme.split("## Install by hand", 1)[1].split("\n## ", 1)[0]
+    assert section.count(" GB") >= 2  # the sizes of both installs are given
+
+
+def test_a_missing_extra_is_one_line_naming_it(tmp_path: Path) -> None:
+    """Without the `train` extra (torch hidden from the import system), `train` says which
+    extra to install, in one line, exit 2, instead of a traceback."""
+    import subprocess
+    import sys
+
+    argv = ["gesturebank", "train", str(tmp_path), "--out", str(tmp_path / "m")]
+    script = (
+        "import sys; sys.modules['torch'] = None\n"
+        "from gesturebank.cli import main\n"
+        f"sys.argv = {argv!r}\n"
+        "main()\n"
+    )
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=False)
+    assert r.returncode == 2, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "'train' extra" in lines[0], r.stderr
+
+
+def test_gitignore_covers_what_the_readme_recipes_write(tmp_path: Path) -> None:
+    """Issue 44: the README recipe's outputs were untracked files `.gitignore` did not cover.
+    Every `--out` and dataset folder its recipes write in the checkout is ignored."""
+    import re
+    import shutil
+    import subprocess
+
+    readme = (ROOT / "README.md").read_text()
+    recipes = [
+        readme.split(f"## {title}", 1)[1].split("\n## ", 1)[0]
+        for title in ("From your own videos to Pepper", "What `make demo` does")
+    ]
+    written = set()
+    for text in recipes:  # in code and in prose (`--out played.csv`, across a line break)
+        written |= set(re.findall(r"--out\s+([\w.-]+)", text))
+        written |= {ln.split()[2] for ln in text.splitlines() if ln.startswith("build-dataset ")}
+    assert {"my-dataset", "model", "angles.csv", "pepper.mp4", "played.csv"} <= written
+    repo = tmp_path / "repo"  # a fresh repository holding the project's .gitignore alone
+    repo.mkdir()
+    shutil.copy(ROOT / ".gitignore", repo / ".gitignore")
+    subprocess.run(["git", "init", "-q", str(repo)], check=True)
+    for name in sorted(written):
+        r = subprocess.run(["git", "check-ignore", "-q", name], cwd=repo, check=False)
+        assert r.returncode == 0, f"{name}: not ignored"

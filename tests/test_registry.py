@@ -90,10 +90,10 @@ def test_entry_point_plugins_are_listed_and_loaded(
 
 
 def test_unknown_names_list_what_is_available(registry: Registry[object]) -> None:
-    with pytest.raises(InputError, match=r"^unknown widget 'x'; available: none$"):
+    with pytest.raises(InputError, match=r"^unknown widget 'x' \(--widget\); none is registered$"):
         registry.get("x")
     registry.register("b")(object)
     registry.register_lazy("a", "nowhere:at_all")
     for call in (registry.get, registry.check):
-        with pytest.raises(InputError, match=r"^unknown widget 'x'; available: a, b$"):
+        with pytest.raises(InputError, match=r"^unknown widget 'x' \(--widget\); one of: a, b$"):
             call("x")

@@ -13,12 +13,16 @@ from gesturebank.audio.vad import RATE_HZ, SpeechActivity, speech_activity
 from gesturebank.clip import Clip, kept_parts, part_mask
 from gesturebank.config import Config
 from gesturebank.datasets.cut import Span, frame_ends
+from gesturebank.datasets.head import in_pose_frame, mix_head
 from gesturebank.datasets.process import head_roll_at, process_angles
 from gesturebank.errors import InputError
 from gesturebank.lift.clip_confidence import lift_confidence, lifter_traits
 from gesturebank.qc.usable import still_spiking
 from gesturebank.repair import repair_pose3d
 from gesturebank.robot import pepper
+from gesturebank.skeletons import COCO17
+
+_I = COCO17.index
 
 
 def audio_clock(
@@ -82,6 +86,18 @@ def build_clip(
     raw = pepper_angles(pose3d, config=config.retarget)
     support = angle_support(valid)
     raw[~support] = np.nan
+    face = view.face.frames(a, b) if view.face is not None else None
+    raw, roll, head_source = mix_head(
+        pose3d=pose3d,
+        raw=raw,
+        roll=head_roll(pose3d),
+        body_ok=support[:, pepper.INDEX["HeadPitch"]],
+        torso_ok=valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]],
+        face_axes=None if face is None else in_pose_frame(face.axes, pose3d, view.camera),
+        face_ok=np.zeros(b - a, bool)
+        if face is None
+        else face.residual <= config.retarget.head_max_fit_residual,
+    )
     pose2d = view.pose2d.frames(a, b, origin_s=float(times[0]))
     processed = process_angles(
         raw=raw,
@@ -97,8 +113,6 @@ def build_clip(
     )
     keep = part_mask(parts)
     mask = processed.mask & keep
-    roll = head_roll(pose3d)
-    roll[~support[:, pepper.INDEX["HeadPitch"]]] = np.nan
     known = mask[:, pepper.INDEX["HeadPitch"]]
     clock = {"timestamps": ts, "clock": times, "known": known}
     roll100 = head_roll_at(roll, **clock, processing=config.processing)
@@ -125,6 +139,7 @@ def build_clip(
         depth_confidence=lift_confidence(pose2d=pose2d, pose3d=pose3d, lifter=view.lifter),
         person=int(view.speaker[a]),
         role=role_at(view.role[a:b], ts, times),
+        head_source=head_source,
         partner_clip_id="",  # set for the whole take (`datasets.partners.pair_clips`)
         partner_speaking=np.zeros(len(times), bool),
     )

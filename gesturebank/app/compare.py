@@ -31,15 +31,14 @@ from gesturebank.train.eval.compare import (
 )
 from gesturebank.train.eval.evaluate import (
     LEGEND,
-    Footnotes,
     average,
     baselines,
-    footnotes,
     postprocess,
     score_systems,
 )
 from gesturebank.train.eval.fgd import label as fgd_label
 from gesturebank.train.eval.field import prepare_trained
+from gesturebank.train.eval.tables import Footnotes, footnotes
 from gesturebank.train.torch_runtime import predict as torch_predict
 from gesturebank.train.torch_runtime import torch_settings
 

@@ -33,6 +33,7 @@ from gesturebank.extract.detectors import (
     MultiPersonDetector,
 )
 from gesturebank.extract.frame_watch import watcher
+from gesturebank.extract.head_pose import HeadPoses
 from gesturebank.extract.shots import ShotDetector, Shots
 from gesturebank.extract.tracking import Tracked, main_speaker, track_ids
 from gesturebank.extract.video import (
@@ -59,7 +60,7 @@ class ExtractionInfo:
     n_frames: frames analysed; person_fraction: frames where anybody was found; main_fraction:
     frames where the main speaker was; cache_hit: None when the detector is not cached;
     audio_source: file the audio came from (None = no audio track); mouth_seconds: time spent
-    measuring mouths (`extract.roles`).
+    measuring mouths and heads with the face model (`extract.roles`).
     """
 
     video: VideoInfo
@@ -89,8 +90,9 @@ class Detections:
 
 @dataclass(frozen=True)
 class Extraction:
-    """Everybody (`multi`), the shots, the main speaker (`tracked`), the audio, and the frames
-    decoded for the preview strip — (source time, RGB thumbnail) — when the video was decoded."""
+    """Everybody (`multi`), the shots, the main speaker (`tracked`), the audio, the frames
+    decoded for the preview strip — (source time, RGB thumbnail) — when the video was decoded,
+    and every track's head pose from the face mesh (`extract.head_pose`; None: not measured)."""
 
     multi: MultiPose2D
     shots: Shots
@@ -98,6 +100,7 @@ class Extraction:
     audio: Audio | None
     info: ExtractionInfo
     preview: tuple[tuple[float, np.ndarray], ...] = ()
+    heads: HeadPoses | None = None
 
 
 def _prefetched(frames: Iterator[Frame], size: int = PREFETCH) -> Iterator[Frame]:
@@ -290,20 +293,23 @@ def _audio(path: Path, sample_rate: int) -> tuple[Audio | None, str | None]:
 
 def _who_speaks(
     path: Path, multi: MultiPose2D, shots: Shots, audio: Audio | None, config: Config
-) -> tuple[Tracked, float]:
+) -> tuple[Tracked, HeadPoses | None, float]:
     """The main speaker per shot, with everybody's roles when speech.mouths is on (a second,
-    cheaper decode at speech.mouth_rate_hz), or the person a `<stem>.people.toml` names; and
-    the seconds the mouths took."""
+    cheaper decode at speech.mouth_rate_hz), or the person a `<stem>.people.toml` names;
+    everybody's head from the same face-model runs (retarget.head_source = "face"); and the
+    seconds the faces took."""
     from gesturebank.extract.people_file import chosen_track, read_people_file
-    from gesturebank.extract.roles import measure_roles
+    from gesturebank.extract.roles import measure_people
 
     ids = track_ids(multi, config.tracking, cuts=shots.cuts)
     spec = read_people_file(path)
     keep = None if spec is None else chosen_track(spec, multi=multi, ids=ids)
-    roles, mouth_s = None, 0.0
-    if config.speech.mouths and (ids >= 0).any():
+    roles, heads, mouth_s = None, None, 0.0
+    r = config.retarget
+    want_heads = r.head_source == "face"
+    if (config.speech.mouths or want_heads) and (ids >= 0).any():
         t0 = time.perf_counter()
-        roles = measure_roles(
+        roles, found = measure_people(
             video=path,
             multi=multi,
             ids=ids,
@@ -311,7 +317,10 @@ def _who_speaks(
             video_config=config.video,
             config=config.speech,
             threads=config.build.decode_threads,
+            mouths=config.speech.mouths,
+            head_limits=(r.head_max_face_turn, r.head_min_face_px) if want_heads else None,
         )
+        heads = found if want_heads else None
         mouth_s = time.perf_counter() - t0
     tracked = main_speaker(
         multi,
@@ -324,7 +333,7 @@ def _who_speaks(
         speech=config.speech,
         keep=keep,
     )
-    return tracked, mouth_s
+    return tracked, heads, mouth_s
 
 
 def extract_take(
@@ -362,7 +371,7 @@ def extract_take(
     if anybody == 0:
         raise DetectionError(f"{path}: no person detected in any of {len(multi)} frames")
     audio, source = _audio(path, config.audio.sample_rate) if with_audio else (None, None)
-    tracked, mouth_s = _who_speaks(path, multi, shots, audio, config)
+    tracked, heads, mouth_s = _who_speaks(path, multi, shots, audio, config)
     if tracked.report.main_switches:
         log.warning("%s: %d identity switches", path, len(tracked.report.main_switches))
     present = np.isfinite(tracked.pose.keypoints[..., 0]).any(axis=1)
@@ -377,4 +386,4 @@ def extract_take(
         detect_seconds=detect_s,
         mouth_seconds=mouth_s,
     )
-    return Extraction(multi, shots, tracked, audio, summary, tuple(preview))
+    return Extraction(multi, shots, tracked, audio, summary, tuple(preview), heads)

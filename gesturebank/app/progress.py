@@ -36,6 +36,7 @@ log = logging.getLogger(__name__)
 
 COLOUR = {"built": "green", "skipped": "cyan", "failed": "red"}
 PLAIN_EVERY_S = 10.0  # a take's plain progress line (not a terminal) at most this often
+NARROW_COLUMNS = 100  # a terminal narrower than this gets the compact lines (80 columns fit)
 
 
 def take_video(take: Take) -> tuple[int, float]:
@@ -64,22 +65,35 @@ def take_frames(take: Take) -> int:
     return take_video(take)[0]
 
 
-def _eta(seconds: float | None) -> str:
-    return "–" if seconds is None else str(timedelta(seconds=round(seconds)))
+def _eta(seconds: float) -> str:
+    """0:07 under an hour, 1:02:03 from one."""
+    text = str(timedelta(seconds=round(seconds)))
+    return text.removeprefix("0:")
+
+
+def _rate_and_eta(speed: float | None, left_s: float | None, *, narrow: bool = False) -> str:
+    """` · 83 frames/s · ETA 0:07` (`narrow`: `83/s`); nothing before the rate is known, not
+    a `–` placeholder."""
+    if not speed:
+        return ""
+    rate = f"{speed:,.0f}/s" if narrow else f"{speed:,.0f} frames/s"
+    return f" · {rate}" + ("" if left_s is None else f" · ETA {_eta(left_s)}")
 
 
 class _Counts(ProgressColumn):
-    """`takes 2/3 · 541/1,082 frames · 83 frames/s · ETA 0:00:07`: the rate over the last half
-    minute (rich's estimate), the time left at that rate."""
+    """`takes 2/3 · 541/1,082 frames · 83 frames/s · ETA 0:07`: the rate over the last half
+    minute (rich's estimate), the time left at that rate; `narrow`: `… · 83/s · …`."""
+
+    def __init__(self, *, narrow: bool, table_column: Column) -> None:
+        super().__init__(table_column=table_column)
+        self.narrow = narrow
 
     def render(self, task: Task) -> Text:
         speed = task.finished_speed or task.speed
-        rate = f"{speed:,.0f} frames/s" if speed else "– frames/s"
         label = f"{task.fields['takes']} · " if task.fields["takes"] else ""
+        tail = _rate_and_eta(speed, task.time_remaining, narrow=self.narrow)
         return Text(
-            f"{label}{task.completed:,.0f}/{task.total or 0:,.0f} frames · "
-            f"{rate} · ETA {_eta(task.time_remaining)}",
-            style="cyan",
+            f"{label}{task.completed:,.0f}/{task.total or 0:,.0f} frames{tail}", style="cyan"
         )
 
 
@@ -96,6 +110,8 @@ class BuildProgress:
         self.n_takes, self.n_done = len(takes), 0
         self.console = console
         self.plain = not console.is_terminal  # a log: plain lines per take, no live lines
+        # a narrow terminal: compact counts, a shorter bar, each take's end a line of its own
+        self.narrow = console.width < NARROW_COLUMNS  # a log too: its last line is printed
         self.take_tasks: dict[str, TaskID] = {}
         # per take in plain mode: (time, frames) first seen, time of its last line
         self.started: dict[str, tuple[float, int]] = {}
@@ -103,8 +119,8 @@ class BuildProgress:
         self.ended: set[str] = set()
         self.progress = Progress(
             TextColumn("{task.fields[name]}", table_column=Column(no_wrap=True, min_width=5)),
-            BarColumn(bar_width=10),
-            _Counts(table_column=Column(no_wrap=True)),
+            BarColumn(bar_width=6 if self.narrow else 10),
+            _Counts(narrow=self.narrow, table_column=Column(no_wrap=True)),
             TextColumn(
                 "{task.description}", table_column=Column(no_wrap=True, overflow="ellipsis")
             ),
@@ -141,6 +157,10 @@ class BuildProgress:
         self.counted[result.take_id] = frames
         c = COLOUR.get(result.outcome, "white")
         description = f"[{c}]{result.outcome}[/{c}] {result.take_id}"
+        if self.narrow:  # above the live lines, whole, instead of cut at the bar's end
+            if not self.plain:  # a log has said it in the take's plain line
+                self.progress.console.print(description, highlight=False, soft_wrap=True)
+            description = ""
         if result.outcome == "skipped":
             total = self.progress.tasks[0].total or 1
             self.progress.update(
@@ -154,7 +174,7 @@ class BuildProgress:
         frames = round(self.total_frames.get(take_id, 0) * done / max(1, total))
         what = f"{take_id}: chunk {done}/{total} detected"
         self._advance(take_id, frames, what)
-        self.progress.update(self.task, description=what)
+        self.progress.update(self.task, description="" if self.narrow else what)
 
     def frames(self, take_id: str, seconds: float) -> None:
         """`seconds` of the take's video are detected (its own line: frames, frames/s, ETA)."""
@@ -185,7 +205,7 @@ class BuildProgress:
         self.progress.update(self.take_tasks[take_id], completed=done, description=description)
 
     def _plain_line(self, take_id: str, done: int, total: int, end: str = "") -> None:
-        """`take_id · 541/1,082 frames · 83 frames/s · ETA 0:00:07` (no colon: the summary's
+        """`take_id · 541/1,082 frames · 83 frames/s · ETA 0:07` (no colon: the summary's
         `take_id: …` lines stay the only ones of that shape), at most every
         `PLAIN_EVERY_S` per take unless it is the take's last (`end`: its outcome)."""
         now = time.monotonic()
@@ -194,10 +214,10 @@ class BuildProgress:
             return
         self.said[take_id] = now
         speed = (done - f0) / (now - t0) if now > t0 and done > f0 else None
-        rate = f"{speed:,.0f} frames/s" if speed else "– frames/s"
-        tail = end or f"ETA {_eta((total - done) / speed if speed else None)}"
+        counts = _rate_and_eta(speed, None if end else (total - done) / speed if speed else None)
+        tail = f" · {end}" if end else ""
         self.console.print(
-            f"{take_id} · {done:,}/{total:,} frames · {rate} · {tail}",
+            f"{take_id} · {done:,}/{total:,} frames{counts}{tail}",
             highlight=False,
             soft_wrap=True,
         )

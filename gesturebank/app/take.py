@@ -46,6 +46,7 @@ class BuiltTake:
     clips: tuple[Clip, ...]
     preview: bytes | None
     detect_s: float
+    cached: bool | None = None  # its detections came from the cache (None: not cached)
 
 
 def check_names(config: Config) -> None:
@@ -193,7 +194,8 @@ def build_take(
         preview_times=tuple(t for t, _ in view.preview),
         traits=take.traits,
     )
-    return BuiltTake(record, tuple(clips), _preview_jpeg(view.preview), view.detect_s)
+    preview = _preview_jpeg(view.preview)
+    return BuiltTake(record, tuple(clips), preview, view.detect_s, view.cached)
 
 
 def _audio_sums(feats: list[np.ndarray], dim: int) -> dict[str, object]:

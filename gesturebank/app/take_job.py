@@ -37,6 +37,7 @@ class TakeResult:
     detect_s: float = 0.0
     clips: int = 0
     usable_s: float = 0.0
+    cached: bool | None = None  # its detections came from the cache (None: not cached)
 
 
 @dataclass(frozen=True)
@@ -145,6 +146,7 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
                 built.detect_s,
                 len(built.clips),
                 built.record.usable_s,
+                built.cached,
             )
     return record_failure(take, source, out, config, reason, time.perf_counter() - start)
 

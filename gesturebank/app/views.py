@@ -13,8 +13,10 @@ import numpy as np
 
 from gesturebank.audio.io import Audio
 from gesturebank.config import Config
+from gesturebank.datasets.head import FaceHead
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
+from gesturebank.geometry import Camera
 from gesturebank.lift.clip_confidence import lifter_traits
 from gesturebank.mocap import MOCAP
 from gesturebank.mocap.front_view import front_view
@@ -25,6 +27,7 @@ from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
 if TYPE_CHECKING:
     from gesturebank.extract.cache import DetectionCache
+    from gesturebank.extract.head_pose import HeadPoses
     from gesturebank.extract.tracking import Tracked, TrackReport
     from gesturebank.poses import MultiPose2D
 
@@ -37,7 +40,8 @@ class TakeView:
     valid / repaired: (T, 17) COCO-17 bools; speaker: (T,) the person's track id (the main
     speaker's, or one person's with build.people = "all"); role: (T,) int8 their role code
     (clip.ROLES); lift(a, b): the 3D pose of frames [a, b) (lifted per clip for one camera,
-    sliced for several)."""
+    sliced for several); face: their head from the face mesh in the camera's axes, or None;
+    camera: the calibrated camera that saw it (multi-camera takes)."""
 
     pose2d: Pose2D
     valid: np.ndarray
@@ -56,6 +60,9 @@ class TakeView:
     detect_s: float
     tracking: dict[str, Any]
     preview: tuple[tuple[float, np.ndarray], ...]
+    cached: bool | None = None  # detections from the cache (every camera's); None: not cached
+    face: FaceHead | None = None
+    camera: Camera | None = None
 
 
 def lifter_name(take: Take, config: Config) -> str:
@@ -124,15 +131,42 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
                 lifter=lifter_name(take, config),
                 video_fps=ext.info.video.fps,
                 detect_s=ext.info.detect_seconds,
+                cached=ext.info.cache_hit,
                 tracking={
                     **_tracking_json(ext.tracked.report),
                     "mouth_seconds": ext.info.mouth_seconds,
                     "people": people_summary(ext.multi, ext.tracked),
                 },
                 preview=ext.preview,
+                face=face_head(ext.heads, track, image_size=pose.image_size, config=config),
             )
         )
     return views
+
+
+def face_head(
+    heads: HeadPoses | None,
+    track: np.ndarray,
+    *,
+    image_size: tuple[int, int],
+    config: Config,
+    camera: Camera | None = None,
+) -> FaceHead | None:
+    """The head of the person given per frame by `track (T,)` from the face mesh, in the
+    camera's axes (`extract.head_pose.on_ray`: the calibrated `camera`'s intrinsics, else a
+    pinhole of `fitted.fov_deg`); None without face measurements."""
+    from gesturebank.extract.head_pose import on_ray
+    from gesturebank.lift.fitted import pinhole
+
+    if heads is None:
+        return None
+    axes, centre, residual = heads.of(track)
+    focal, principal, _ = pinhole(
+        np.zeros((0, 2)), image_size, camera, fov_deg=config.lifter.fitted.fov_deg
+    )
+    if camera is not None:
+        centre = camera.undistort_points(centre)
+    return FaceHead(on_ray(axes, centre, focal=focal, principal=principal), residual)
 
 
 def people_summary(multi: MultiPose2D, tracked: Tracked) -> dict[str, dict[str, Any]]:
@@ -229,8 +263,17 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
         lifter=lifter_name(take, config),
         video_fps=e.info.video.fps,
         detect_s=sum(x.info.detect_seconds for x in exts),
+        cached=None if None in (hits := [x.info.cache_hit for x in exts]) else all(hits),
         tracking=_tracking_json(e.tracked.report),
         preview=e.preview,
+        face=face_head(
+            e.heads,
+            e.tracked.report.main_ids,
+            image_size=poses[ref].image_size,
+            config=config,
+            camera=cameras[ref],
+        ),
+        camera=cameras[ref],
     )
 
 

@@ -1,7 +1,7 @@
 """The `gesturebank` command line (and its `build-dataset` shortcut): the app layer.
 
 Each command's glue sits in a module of this package by command group (`build`, `qc`,
-`calibrate`, `train`, `robot`, `export`, `study`, `render`, `clips`, `info`); this module
+`calibrate`, `train`, `robot`, `export`, `study`, `render`, `clips`, `info`, `cache`); this module
 assembles them, in the order `gesturebank --help` lists them. The stages never import it.
 
 Exit codes: 0 ok; 1 some takes failed (the summary says which and why) or the robot failed;
@@ -16,8 +16,21 @@ from typing import Annotated
 
 import typer
 
-from gesturebank.cli import build, calibrate, clips, export, info, qc, render, robot, study, train
+from gesturebank.cli import (
+    build,
+    cache,
+    calibrate,
+    clips,
+    export,
+    info,
+    qc,
+    render,
+    robot,
+    study,
+    train,
+)
 from gesturebank.cli.build import build_dataset_main
+from gesturebank.cli.terminal import missing_extras
 
 __all__ = ["app", "build_dataset_main", "main"]
 
@@ -60,7 +73,9 @@ app.command()(export.export)
 app.command()(study.stimuli)
 app.command()(render.render)
 app.add_typer(study.study_app, name="study")
+app.add_typer(cache.cache_app, name="cache")
 
 
 def main() -> None:
-    app()
+    with missing_extras():
+        app()

@@ -7,11 +7,26 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.table import Table
 
-from gesturebank.cli.options import ConfigOption, QuietOption, SetOption, one_of, resolve_config
-from gesturebank.cli.terminal import EXIT_FAILED, EXIT_OK, EXIT_USAGE, user_errors
+from gesturebank.cli.options import (
+    ConfigOption,
+    QuietOption,
+    SetOption,
+    one_of,
+    pick,
+    resolve_config,
+)
+from gesturebank.cli.terminal import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    NARROW_COLUMNS,
+    missing_extras,
+    user_errors,
+)
 from gesturebank.config import Executor
 from gesturebank.errors import InputError
 from gesturebank.extract.detectors import DETECTORS
@@ -19,6 +34,7 @@ from gesturebank.lift import LIFTERS
 
 if TYPE_CHECKING:
     from gesturebank.app.build import BuildSummary
+    from gesturebank.datasets.store import ClipRecord, TakeRecord
 
 
 def build_dataset(
@@ -38,7 +54,8 @@ def build_dataset(
         int | None, typer.Option(min=1, help="Takes built in parallel (default: CPU cores).")
     ] = None,
     executor: Annotated[
-        Executor | None, typer.Option(help="'local' process pool (default) or 'ray'.")
+        Executor | None,
+        typer.Option(parser=pick(Executor), help="'local' process pool (default) or 'ray'."),
     ] = None,
     ray_address: Annotated[
         str | None,
@@ -119,9 +136,14 @@ def build_dataset(
 def print_summary(console: Console, summary: BuildSummary, *, built: bool = True) -> None:
     """The kept/rejected table and a line per take; `built` False: after `qc` (no build ran,
     so takes are counted, not built/skipped)."""
-    table = Table(title=f"dataset {summary.out}")
+    narrow = console.width < NARROW_COLUMNS  # no vertical rules: the headers fit 80 columns
+    table = (
+        Table(title=f"dataset {summary.out}", box=box.SIMPLE_HEAD, collapse_padding=True)
+        if narrow
+        else Table(title=f"dataset {summary.out}")
+    )
     takes = ("takes built", "skipped", "failed") if built else ("takes", "failed")
-    columns = (*takes, "clips kept", "rejected", "usable s", "seen s")
+    columns = (*takes, "clips kept", "clips rejected", "stretches dropped", "usable s", "seen s")
     for name in (*columns, "kept"):
         table.add_column(name, justify="right")
     visible = summary.visible_s
@@ -130,9 +152,11 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
         if built
         else [str(len(summary.takes)), str(sum(bool(r.failed) for r in summary.takes))]
     )
+    n_dropped = sum(len(_dropped(r)) for r in summary.takes if not r.failed)
     table.add_row(
         *counts,
         *(str(summary.clip_count(s)) for s in ("accepted", "rejected")),
+        str(n_dropped),
         f"{summary.usable_s:.1f}",
         f"{visible:.1f}",
         f"{summary.usable_s / visible:.0%}" if visible > 0 else "–",
@@ -147,13 +171,22 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
             )
             continue
         kept = sum(c.qc_status == "accepted" for c in record.data_clips)
-        reasons = sorted(
-            {r for c in record.clips if c.qc_status != "accepted" for r in c.qc_reasons}
-        )
-        why = f" — dropped or rejected: {'; '.join(reasons)}" if reasons else ""
+        rejected = [c for c in record.data_clips if c.qc_status != "accepted"]
+        dropped = _dropped(record)
+        stretches = "stretch" if len(dropped) == 1 else "stretches"
         console.print(
             f"{record.take_id}: {kept} of {len(record.data_clips)} clips kept, "
-            f"{record.usable_s:.1f} of {record.visible_s:.1f} s{why}",
+            f"{len(rejected)} rejected{_why(rejected)}, "
+            f"{len(dropped)} {stretches} dropped{_why(dropped)}; "
+            f"{record.usable_s:.1f} of {record.visible_s:.1f} s",
+            highlight=False,
+            soft_wrap=True,
+        )
+    cached = sum(r.cached is True for r in summary.results)
+    if built and cached:
+        console.print(
+            f"{cached} of {summary.count('built')} takes built took their detections from the "
+            "cache (`gesturebank cache info`; --no-cache runs the detector again)",
             highlight=False,
             soft_wrap=True,
         )
@@ -163,6 +196,17 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
         console.print(f"QC dashboard: {summary.dashboard}", highlight=False, soft_wrap=True)
     if summary.interrupted:
         console.print("interrupted: finished takes are kept; run the same command to resume")
+
+
+def _dropped(record: TakeRecord) -> list[ClipRecord]:
+    """The spans of a built take that gave no clip (the dashboard's "dropped")."""
+    return [c for c in record.clips if c.kind == "span" and c.qc_status != "failed"]
+
+
+def _why(parts: list[ClipRecord]) -> str:
+    """' (reason; reason)' of rejected clips or dropped stretches, each reason once."""
+    reasons = sorted({r for c in parts for r in c.qc_reasons})
+    return f" ({'; '.join(reasons)})" if reasons else ""
 
 
 def ensure_writable(path: Path) -> None:
@@ -181,4 +225,5 @@ def build_dataset_main() -> None:
         add_completion=False, pretty_exceptions_enable=False, rich_markup_mode="markdown"
     )
     single.command()(build_dataset)
-    single(prog_name="build-dataset")
+    with missing_extras():
+        single(prog_name="build-dataset")

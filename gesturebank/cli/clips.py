@@ -7,8 +7,17 @@ from typing import Annotated
 
 import typer
 
-from gesturebank.cli.options import ConfigOption, DatasetArg, SetOption, Status, resolve_config
+from gesturebank.cli.options import (
+    ConfigOption,
+    DatasetArg,
+    ForceOption,
+    SetOption,
+    Status,
+    pick,
+    resolve_config,
+)
 from gesturebank.cli.terminal import out, user_errors
+from gesturebank.fileio import keep_existing
 
 
 def preview(
@@ -20,16 +29,20 @@ def preview(
     take: Annotated[str | None, typer.Option(help="Every clip of this take, one MP4 each.")] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """A clip's speaker beside the robot doing the same, on one clock, with the clip's audio.
 
     Left: the source video cropped to the speaker, their 2D keypoints drawn. Right: the robot as
-    `replay --clip --backend sim` shows the clip ([render] sets the size and frame rate). A
-    frame code in each half's corner names the source frame and the clip frame shown.
+    `replay --clip --backend sim` shows the clip ([render] sets the size and frame rate). The
+    strip of black and white squares in each half's bottom-left corner is a frame code (its
+    legend beside it: "< video frame N", "< clip frame N"), the source frame and the clip frame
+    shown, readable back by `datasets.preview.read_frame_code`.
     """
     from gesturebank.datasets.preview import preview_command
 
     with user_errors():
+        keep_existing([out_path], force=force)
         config = resolve_config(config_file=config_file, sets=sets, flags={})
         written = preview_command(dataset, clip=clip, take=take, out=out_path, config=config)
     for path in written:
@@ -39,7 +52,8 @@ def preview(
 def clips(
     out_dir: DatasetArg,
     status: Annotated[
-        Status | None, typer.Option(help="Only clips the QC accepted or rejected.")
+        Status | None,
+        typer.Option(parser=pick(Status), help="Only clips the QC accepted or rejected."),
     ] = None,
     subject: Annotated[str | None, typer.Option(help="Only this subject's clips.")] = None,
     take: Annotated[str | None, typer.Option(help="Only this take's clips.")] = None,
@@ -48,16 +62,18 @@ def clips(
     ] = False,
 ) -> None:
     """List a dataset's clips: id, take, subject, where in the source video (start–end, s),
-    seconds, QC status and reasons, and the body parts unknown in some frames (masked).
+    seconds, QC status and reasons, and the body parts unknown in some frames (masked). A
+    terminal narrower than 120 columns gets one block per clip instead of a table.
 
     A clip id (or a take id, when the take has one clip) is what `replay OUT_DIR --clip` takes.
     """
     from gesturebank import datasets
-    from gesturebank.datasets.listing import clips_table, list_clips, rows_csv
+    from gesturebank.datasets.listing import clips_view, list_clips, rows_csv
 
     with user_errors():
         rows = list_clips(datasets.open(out_dir), status=status, subject=subject, take=take)
     if as_csv:
         typer.echo(rows_csv(rows), nl=False)
         return
-    out.print(clips_table(rows, title=f"{out_dir}: {len(rows)} clips"))
+    title = f"{out_dir}: {len(rows)} clip{'' if len(rows) == 1 else 's'}"
+    out.print(clips_view(rows, title=title, width=out.width))

@@ -17,10 +17,11 @@ import numpy as np
 import typer
 
 from gesturebank.app.export import uniform, upright
-from gesturebank.cli.options import ConfigOption, SetOption, resolve_config
+from gesturebank.cli.options import ConfigOption, ForceOption, SetOption, pick, resolve_config
 from gesturebank.cli.terminal import out, user_errors
 from gesturebank.config import Config
 from gesturebank.errors import InputError
+from gesturebank.fileio import keep_existing
 from gesturebank.skeletons import COCO17
 
 Format = Literal["bvh", "trc", "csv", "naoqi"]
@@ -145,11 +146,18 @@ def _write(
 
 
 def export_command(
-    *, src: Path, fmt: Format, out: Path | None, config: Config, audio: Path | None = None
+    *,
+    src: Path,
+    fmt: Format,
+    out: Path | None,
+    config: Config,
+    audio: Path | None = None,
+    force: bool = True,
 ) -> list[Path]:
     """Export `src` as `fmt` into `out` (a file for one clip or CSV; a folder for a dataset;
     default: `<name><suffix>` in the working directory, or `<dataset>-<fmt>/`). Returns the
-    files written. `audio` (naoqi, one clip or CSV): speech the script plays on the robot."""
+    files written. `audio` (naoqi, one clip or CSV): speech the script plays on the robot.
+    `force` False: an InputError when a target exists (`fileio.keep_existing`)."""
     if audio is not None and (fmt != "naoqi" or src.is_dir()):
         raise InputError(f"{audio}: --audio goes with --format naoqi of one clip or angles CSV")
     sources = _sources(src, config)
@@ -160,6 +168,7 @@ def export_command(
         targets = [out if out is not None else Path(f"{sources[0].name}{SUFFIX[fmt]}")]
     if any(t.resolve() == src.resolve() for t in targets):
         raise InputError(f"{src}: --out would overwrite the input; name another file")
+    keep_existing(targets, force=force)
     written: list[Path] = []
     for source, target in zip(sources, targets, strict=True):
         written += _write(source, fmt, target, config, audio)
@@ -178,6 +187,7 @@ def export(
         Format,
         typer.Option(
             "--format",
+            parser=pick(Format),
             help="bvh: Pepper's upper body (and, for a clip, the person as NAME_person.bvh); "
             "trc: the clip's 3D joints (OpenSim/Pose2Sim markers, m); csv: the angle timeline "
             "replay reads (profile, unit, reach in a # line; masked angles empty); naoqi: "
@@ -201,6 +211,7 @@ def export(
     ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """Write clips or angles in other tools' formats (Blender, the GENEA visualiser, OpenSim,
     Pose2Sim, Choregraphe, NAOqi scripts).
@@ -212,6 +223,8 @@ def export(
 
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={})
-        written = export_command(src=src, fmt=fmt, out=out_path, config=config, audio=audio)
+        written = export_command(
+            src=src, fmt=fmt, out=out_path, config=config, audio=audio, force=force
+        )
     for path in written:
         out.print(f"wrote {path}", highlight=False, soft_wrap=True)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 import typer
 
@@ -15,6 +17,27 @@ from gesturebank.robot.backends import BACKENDS
 def one_of(registry: Registry[Any]) -> str:
     """The names a registry knows (plug-ins too), for a help text."""
     return "one of: " + ", ".join(registry.names())
+
+
+def did_you_mean(name: str, names: list[str] | tuple[str, ...]) -> str:
+    """ "; did you mean 'lstm'?" for the closest of `names`, or ''."""
+    close = difflib.get_close_matches(name, list(names), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def pick(choices: Any) -> Callable[[str], str]:
+    """An option's parser for a Literal of names: a wrong one is a usage error naming the flag
+    (click adds it), the valid values and the closest ("did you mean")."""
+    values: tuple[str, ...] = get_args(choices)
+
+    def parse(value: str) -> str:
+        if value in values:
+            return value
+        raise typer.BadParameter(
+            f"{value!r} is not one of {', '.join(values)}{did_you_mean(value, values)}"
+        )
+
+    return parse
 
 
 # Options shared by several commands, defined once.
@@ -29,6 +52,9 @@ SetOption = Annotated[
     ),
 ]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress output.")]
+ForceOption = Annotated[
+    bool, typer.Option("--force", help="Replace an output that exists (else it is kept: exit 2).")
+]
 ModelDirArg = Annotated[Path, typer.Argument(help="A model folder written by `train`.")]
 DatasetArg = Annotated[Path, typer.Argument(help="A dataset folder written by build-dataset.")]
 # a registry, not a Literal: plug-in backends are valid too

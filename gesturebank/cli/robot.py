@@ -18,9 +18,11 @@ from gesturebank.app.robot import load_frame_model, side_by_side
 from gesturebank.cli.options import (
     BackendOption,
     ConfigOption,
+    ForceOption,
     ModelDirArg,
     OutFileOption,
     SetOption,
+    pick,
     resolve_config,
 )
 from gesturebank.cli.terminal import out, user_errors
@@ -33,6 +35,7 @@ from gesturebank.config import (
     Target,
 )
 from gesturebank.errors import InputError, RobotError
+from gesturebank.fileio import keep_existing
 from gesturebank.robot import pepper
 from gesturebank.robot.backends import create
 
@@ -260,6 +263,7 @@ def replay(
     ] = False,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """Play an angle timeline on Pepper, a simulator render, or a file — safely.
 
@@ -273,6 +277,7 @@ def replay(
     from gesturebank.cli.robot import replay_command
 
     with user_errors(), tempfile.TemporaryDirectory(prefix="gesturebank-replay-") as scratch:
+        keep_existing([out_file] if out_file else [], force=force)
         config = resolve_config(config_file=config_file, sets=sets, flags={})
         if clip is not None:
             from gesturebank.datasets.listing import clip_to_play
@@ -334,6 +339,7 @@ def live(
     role: Annotated[
         Target | None,
         typer.Option(
+            parser=pick(Target),
             help="'speaker': the robot moves as it speaks; 'listener': it listens and nods, only "
             "its head moving with the person's speech (a causal model trained with --target "
             "listener). Default: the model's target.",
@@ -342,6 +348,7 @@ def live(
     ] = None,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """Live synthesis: speech from a microphone (or a WAV in real time) drives the robot.
 
@@ -357,6 +364,7 @@ def live(
     from gesturebank.cli.robot import live_command
 
     with user_errors():
+        keep_existing([out_file] if out_file else [], force=force)
         config = resolve_config(config_file=config_file, sets=sets, flags={})
         result = live_command(
             model_dir=model_dir,

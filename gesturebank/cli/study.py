@@ -13,9 +13,10 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from gesturebank.cli.options import ConfigOption, SetOption, resolve_config
+from gesturebank.cli.options import ConfigOption, ForceOption, SetOption, resolve_config
 from gesturebank.cli.terminal import out, user_errors
 from gesturebank.errors import InputError
+from gesturebank.fileio import keep_existing
 
 DEFAULT_HOST, DEFAULT_PORT = "127.0.0.1", 8000  # loopback: strangers only if the operator says
 
@@ -175,6 +176,7 @@ def stimuli(
     ] = 0,
     config_file: ConfigOption = None,
     sets: SetOption = None,
+    force: ForceOption = False,
 ) -> None:
     """Blind stimulus videos for a perceptual study: for each speech (--audio, --clip) one video
     per model, the ground truth (clips) and an anchor — same camera ([render]) and duration,
@@ -184,6 +186,7 @@ def stimuli(
     from gesturebank.study.stimuli import stimuli_command
 
     with user_errors():
+        keep_existing([study_dir], force=force)
         config = resolve_config(config_file=config_file, sets=sets, flags={})
         manifest = stimuli_command(
             model_dirs=model_dirs,

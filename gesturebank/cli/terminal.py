@@ -11,7 +11,35 @@ from rich.console import Console
 from gesturebank.errors import GesturebankError, RobotError
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+NARROW_COLUMNS = 100  # a terminal narrower than this gets tables without vertical rules
 out = Console()
+# The modules of the optional extras (pyproject.toml), for a one-line error when one is missing.
+EXTRA_OF = {
+    "torch": "train",
+    "onnx": "train",
+    "qi": "robot",
+    "sounddevice": "robot",
+    "open3d": "multiview",
+    "pycolmap": "multiview",
+    "ray": "distributed",
+}
+
+
+@contextmanager
+def missing_extras() -> Iterator[None]:
+    """A module of an extra that is not installed: one line naming the extra, exit 2."""
+    try:
+        yield
+    except ModuleNotFoundError as exc:
+        extra = EXTRA_OF.get((exc.name or "").partition(".")[0])
+        if extra is None:
+            raise
+        typer.echo(
+            f"error: this command needs {exc.name}, in gesturebank's {extra!r} extra: "
+            f'`make setup` (every extra) or `pip install -e ".[{extra}]"`',
+            err=True,
+        )
+        raise SystemExit(EXIT_USAGE) from None
 
 
 @contextmanager

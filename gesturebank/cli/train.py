@@ -16,16 +16,19 @@ import typer
 from gesturebank.cli.options import (
     ConfigOption,
     DatasetArg,
+    ForceOption,
     ModelDirArg,
     QuietOption,
     SetOption,
     SplitPart,
     one_of,
+    pick,
     resolve_config,
 )
 from gesturebank.cli.terminal import out, user_errors
 from gesturebank.config import Target, Variant
 from gesturebank.errors import InputError
+from gesturebank.fileio import keep_existing
 from gesturebank.train.registry import MODELS
 
 
@@ -33,15 +36,19 @@ def train_cmd(
     dataset: DatasetArg,
     model: Annotated[str, typer.Option(help=f"The network, {one_of(MODELS)}.")] = "mlp",
     variant: Annotated[
-        Variant,
+        Variant | None,
         typer.Option(
+            parser=pick(Variant),
             help="'si' subject-independent (a fold), 'sd' (one subject) or 'dyadic' (seed 004's "
-            "85/10/5 split, a clip always with its partner: splits/dyadic.json)."
+            "85/10/5 split, a clip always with its partner: splits/dyadic.json). Default: si "
+            "when the dataset has 3 subjects or more, else sd of its one subject.",
+            show_default=False,
         ),
-    ] = "si",
+    ] = None,
     target: Annotated[
         Target | None,
         typer.Option(
+            parser=pick(Target),
             help="What the model predicts: 'speaker' (the person's motion from their speech) or "
             "'listener' (a listener's head from the partner's speech and speaking flag, loss on "
             "listening frames; needs paired clips). Default: train.target ('speaker').",
@@ -51,7 +58,10 @@ def train_cmd(
     fold: Annotated[int | None, typer.Option(help="SI fold (default 0).")] = None,
     subject: Annotated[str | None, typer.Option(help="SD subject.")] = None,
     out_dir: Annotated[
-        Path, typer.Option("--out", help="Model folder to write (an older one is replaced whole).")
+        Path,
+        typer.Option(
+            "--out", help="Model folder to write (with --force an older one is replaced whole)."
+        ),
     ] = Path("model"),
     epochs: Annotated[
         int | None,
@@ -72,6 +82,7 @@ def train_cmd(
     config_file: ConfigOption = None,
     sets: SetOption = None,
     quiet: QuietOption = False,
+    force: ForceOption = False,
 ) -> None:
     """Train a speech-to-motion model on a dataset split: the dissertation's MLP or LSTM (§4.3)
     or a seed model — aud2motion (causal GRU), aud2pose (BiGRU window), aud2repr2pose (motion
@@ -93,6 +104,8 @@ def train_cmd(
     from gesturebank.cli.training import train_command
 
     with user_errors():
+        MODELS.check(model)  # a mistyped name first: it says more than the output's policy
+        keep_existing([out_dir], force=force)
         config = resolve_config(
             config_file=config_file, sets=sets, flags={"train": {"target": target}}
         )
@@ -107,6 +120,7 @@ def train_cmd(
             quiet=quiet,
             epochs=epochs,
             require=require,
+            on_warning=lambda message: typer.echo(f"warning: {message}", err=True),
         )
     out.print(result.stop_line(), highlight=False, soft_wrap=True)
     out.print(
@@ -125,7 +139,7 @@ def evaluate(
     dataset: Annotated[
         Path | None, typer.Argument(help="Dataset (default: the one it was trained on).")
     ] = None,
-    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+    split: Annotated[SplitPart, typer.Option(parser=pick(SplitPart), help="Split part.")] = "test",
     timelines: Annotated[
         list[Path] | None,
         typer.Option(
@@ -138,7 +152,8 @@ def evaluate(
     variant: Annotated[
         Variant | None,
         typer.Option(
-            help="Without a model: the split, 'si' (a fold; the default), 'sd' or 'dyadic'."
+            parser=pick(Variant),
+            help="Without a model: the split, 'si' (a fold; the default), 'sd' or 'dyadic'.",
         ),
     ] = None,
     fold: Annotated[int | None, typer.Option(help="Without a model: SI fold (default 0).")] = None,
@@ -209,7 +224,7 @@ def compare(
         Path | None,
         typer.Option(help="Dataset (default: the one the models were trained on)."),
     ] = None,
-    split: Annotated[SplitPart, typer.Option(help="Split part.")] = "test",
+    split: Annotated[SplitPart, typer.Option(parser=pick(SplitPart), help="Split part.")] = "test",
     table_out: Annotated[
         Path | None, typer.Option("--out", help="Also write the table: a .csv or .md file.")
     ] = None,
@@ -250,6 +265,7 @@ def synthesize(
     znorm: Annotated[
         str, typer.Option(help="Audio z-norm stats: '*' (whole dataset), a subject, or 'self'.")
     ] = "*",
+    force: ForceOption = False,
 ) -> None:
     """Offline synthesis: speech → the 11 Pepper angles at 100 Hz, as a CSV for `replay`.
 
@@ -260,6 +276,7 @@ def synthesize(
     from gesturebank.train.synthesis import synthesize as synthesize_angles
 
     with user_errors():
+        keep_existing([out_csv], force=force)
         angles = synthesize_angles(
             model_dir=model_dir, audio_path=audio, out_csv=out_csv, znorm=znorm
         )

@@ -7,8 +7,9 @@ The model folder they write and read is `train.model_folder`'s (its docstring li
 
 from __future__ import annotations
 
+import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,7 @@ from gesturebank.app.train_progress import EpochBar
 from gesturebank.config import TrainConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.store import Dataset
-from gesturebank.datasets.torch import Segment, load_segments, split_items
+from gesturebank.datasets.torch import Segment, choose_variant, load_segments, split_items
 from gesturebank.errors import InputError
 from gesturebank.robot import pepper
 from gesturebank.train import model_folder
@@ -31,13 +32,20 @@ from gesturebank.train.eval.evaluate import (
     TABLE_5_1,
     average,
     baselines,
-    footnotes,
     postprocess,
     score_systems,
-    table,
 )
 from gesturebank.train.eval.field import SplitInputs
 from gesturebank.train.eval.roles import per_role
+from gesturebank.train.eval.tables import (
+    NARROW_COLUMNS,
+    WORSE_LEGEND,
+    footnotes,
+    table,
+    units,
+    worse_lines,
+    worse_than_mean_pose,
+)
 from gesturebank.train.eval.timelines import system_angles
 from gesturebank.train.export import export_onnx
 from gesturebank.train.loss_plot import write_loss_png
@@ -50,6 +58,36 @@ from gesturebank.train.torch_runtime import torch_settings
 from gesturebank.train.trainer import TrainResult, train
 
 PathLike = str | os.PathLike[str]
+log = logging.getLogger(__name__)
+
+
+def data_warnings(
+    model: str,
+    config: TrainConfig,
+    parts: dict[str, list[Segment]],
+    rate_hz: float,
+) -> list[str]:
+    """Why a model trained on these parts will likely be useless: a train part under
+    `config.min_train_s`, or a part whose every stretch is shorter than the model's training
+    window (its `seq_len`: the windows are then mostly padding)."""
+    found = []
+    seconds = {p: sum(len(s) for s in segs) / rate_hz for p, segs in parts.items()}
+    if seconds["train"] < config.min_train_s:
+        found.append(
+            f"the train part holds {seconds['train']:.1f} s, under train.min_train_s "
+            f"({config.min_train_s:g} s): a model learns little from so little (`evaluate` "
+            "says whether it beats the mean pose)"
+        )
+    seq_len = getattr(getattr(config, model, None), "seq_len", None)
+    for part, segs in parts.items():
+        longest = max((len(s) for s in segs), default=0)
+        if seq_len is not None and longest < seq_len:
+            found.append(
+                f"the {part} part's longest stretch is {longest / rate_hz:.2f} s, shorter than "
+                f"{model}'s {seq_len / rate_hz:g} s training window (train.{model}.seq_len = "
+                f"{seq_len} frames): its windows are mostly padding"
+            )
+    return found
 
 
 def _mean_pose01(segments: list[Segment]) -> np.ndarray:
@@ -63,7 +101,7 @@ def _mean_pose01(segments: list[Segment]) -> np.ndarray:
 def train_command(
     dataset: PathLike,
     model: str,
-    variant: str,
+    variant: str | None,
     fold: int | None = None,
     subject: str | None = None,
     out_dir: PathLike = "model",
@@ -72,27 +110,34 @@ def train_command(
     quiet: bool = False,
     epochs: int | None = None,
     require: str | None = None,
+    on_warning: Callable[[str], None] | None = None,
 ) -> TrainResult:
-    """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject.
+    """Train `model` (a `train.registry.MODELS` name) on a SI fold (default 0) or a SD subject;
+    `variant` None: the one the dataset supports (`datasets.torch.choose_variant`, its note
+    given to `on_warning`).
 
     `epochs` replaces the model's `max_epochs` (each stage's, for a model trained in stages);
     early stopping may still end it sooner. loss.png beside model.json draws the losses.
     `require`: body parts every clip trained on must have ("head", "arms", ...); None: what the
-    model's targets need (`train.parts.default_require`).
+    model's targets need (`train.parts.default_require`). `on_warning` gets each of
+    `data_warnings` before training (default: logged).
 
     The model folder is written beside `out_dir` and swapped in whole, so no file of an older
     model survives and a failed or interrupted run keeps the old one.
     """
     cfg = config or TrainConfig()
     MODELS.check(model)  # before any data is read
-    if variant == "si" and fold is None:
-        fold = 0
     out = Path(out_dir)
     model_folder.check_target(out)
     # a listener model predicts the head only (seed 004), whatever the model class predicts
     targets = pepper.HEAD_JOINTS if cfg.target == "listener" else target_joints(MODELS.get(model))
     need = require if require is not None else default_require(targets)
     ds = open_dataset(dataset, require=need)
+    variant, subject, chose = choose_variant(ds, variant, fold, subject)
+    if chose:
+        (on_warning or log.warning)(chose)
+    if variant == "si" and fold is None:
+        fold = 0
     train_segments, val_segments = (
         load_segments(
             ds, split_items(ds, variant, p, fold=fold, subject=subject), target=cfg.target
@@ -116,6 +161,9 @@ def train_command(
     )
     # the temporary folder is made before training, so an unwritable --out fails at once
     with model_folder.writing(out) as tmp:
+        parts = {"train": train_segments, "val": val_segments}  # once --out is known writable
+        for warning in data_warnings(model, cfg, parts, float(ds.info.rates.pose_hz)):
+            (on_warning or log.warning)(warning)
         bar = None if quiet else EpochBar()
         result = train(
             net, train_segments, val_segments, cfg, progress=bar, description=what, epochs=epochs
@@ -194,7 +242,14 @@ def evaluate_command(
         title = f"{name} ({info.target}) on {split} ({ds.path.name})"
     _print_tables(results, title, inputs, console or Console())
     _print_roles(roles, f"{title}: per role", console or Console())
+    _print_verdict(results, console or Console())
     return report
+
+
+def _print_verdict(results: dict[str, dict[str, dict[str, Any]]], out: Console) -> None:
+    """The last lines: each scored system worse than the mean pose, said plainly."""
+    for line in worse_lines(results):
+        out.print(f"[bold red]warning:[/bold red] {line}", highlight=False)
 
 
 def _print_roles(scores: dict[str, dict[str, float]], title: str, out: Console) -> None:
@@ -257,6 +312,7 @@ def evaluate_timelines_command(
     part = {"si": f"fold {fold}", "sd": f"subject {subject}"}.get(variant, "split")
     title = f"{', '.join(systems)} on {variant.upper()} {part}, {split} ({ds.path.name})"
     _print_tables(results, title, inputs, console or Console())
+    _print_verdict(results, console or Console())
     return {
         "model": None,
         "split": split,
@@ -304,9 +360,13 @@ def _print_tables(
     from gesturebank.train.eval.fgd import label as fgd_label
 
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
-    out.print(table(results, title, TABLE_5_1, notes))
-    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes))
+    narrow = out.width < NARROW_COLUMNS  # short headers, units in a line of their own
+    out.print(table(results, title, TABLE_5_1, notes, narrow=narrow))
+    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes, narrow=narrow))
     fgd_title = fgd_label(inputs.fgd)
-    out.print(table(results, f"{title}: GENEA/BEAT measures ({fgd_title})", FIELD_MEASURES, notes))
-    for line in [LEGEND, *notes.lines]:
-        out.print(line, highlight=False, soft_wrap=True)
+    field_title = f"{title}: GENEA/BEAT measures ({fgd_title})"
+    out.print(table(results, field_title, FIELD_MEASURES, notes, narrow=narrow))
+    legend = [LEGEND, units((*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES))] if narrow else [LEGEND]
+    legend += [WORSE_LEGEND] if worse_than_mean_pose(results) else []
+    for line in [*legend, *notes.lines]:  # narrow: wrapped at words, each note whole
+        out.print(line, highlight=False, soft_wrap=not narrow)

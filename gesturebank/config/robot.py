@@ -46,6 +46,32 @@ class RetargetConfig(Section):
         "frozen), with 0.6 its LElbowYaw for 2.3 s on the builder's clock; with 0.75 the "
         "4-camera demo's hand error grew by 1.03 cm.",
     )
+    head_source: Literal["face", "body"] = Field(
+        "face",
+        description="Where HeadYaw, HeadPitch and head_roll come from in a video: 'face' (the "
+        "face landmark model's mesh fitted to a reference face where a face is found, the "
+        "body's face keypoints elsewhere; each clip's head_source says which per frame) or "
+        "'body' (the body's face keypoints only: nose, eyes, ears).",
+    )
+    head_max_face_turn: float = Field(
+        2.75,
+        gt=0,
+        description="Faces whose nose lies up to this many half eye distances from the eyes' "
+        "midpoint along the eye line (about tan(yaw): 2.75 = 70°) get a face crop for the "
+        "head's pose (the mouth takes speech.max_face_turn).",
+    )
+    head_min_face_px: float = Field(
+        24.0,
+        gt=0,
+        description="Faces narrower than this (pixels, estimated from the eyes) get no face crop "
+        "for the head's pose (the mouth takes speech.min_face_px).",
+    )
+    head_max_fit_residual: float = Field(
+        0.05,
+        gt=0,
+        description="A face mesh whose upper face fits the reference face worse than this (RMS, "
+        "share of the face's height) gives no head pose.",
+    )
 
 
 class PlaybackConfig(Section):

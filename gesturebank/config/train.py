@@ -266,6 +266,12 @@ class TrainConfig(Section):
     )
     smoothing_order: int = Field(5, ge=1, le=10, description="Post-smoothing Butterworth order.")
     lcca_window_s: float = Field(3.0, gt=0, description="Local CCA window τ, seconds (§3.4.3).")
+    min_train_s: float = Field(
+        60.0,
+        ge=0,
+        description="`train` warns when the train part holds fewer seconds than this: a model "
+        "learns little from less (the demo's 5 s of one speaker: worse than the mean pose).",
+    )
     lcca_stride: int = Field(
         1, ge=1, description="Frames between local-CCA windows (Eq. 3.18: 1; raise for speed)."
     )

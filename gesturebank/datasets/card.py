@@ -111,9 +111,9 @@ def card_text(
         f"robot profile {info.robot_profile}) from `{info.videos_dir}`.",
         "",
         f"Kept: {kept:.1f} s ({kept / 3600:.3f} h) in accepted clips, from {len(records)} takes; "
-        "clips per QC status: "
-        + ", ".join(f"{status} {n}" for status, n in info.clip_counts.items())
-        + ".",
+        f"clips kept {info.clip_counts.get('accepted', 0)}, "
+        f"clips rejected {info.clip_counts.get('rejected', 0)}, "
+        f"stretches dropped {info.stretches_dropped}.",
         "",
         "## Sources",
         "",

@@ -18,7 +18,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from rich import box
+from rich.console import Group, RenderableType
+from rich.padding import Padding
 from rich.table import Table
+from rich.text import Text
 
 from gesturebank.datasets.reader import Dataset, ManifestRow
 from gesturebank.datasets.records import STATUSES, Status
@@ -36,6 +39,7 @@ PARTS = {
 }
 COLUMNS = ("clip", "take", "subject", "start_s", "end_s", "seconds", "status", "reasons", "masked")
 MAX_SUGGESTIONS = 3
+TABLE_MIN_COLUMNS = 120  # narrower terminals get one block per clip: reasons wrap whole
 
 
 @dataclass(frozen=True)
@@ -214,6 +218,33 @@ def clips_table(rows: list[ClipRow], *, title: str) -> Table:
             r.masked_text(),
         )
     return table
+
+
+def clips_blocks(rows: list[ClipRow], *, title: str) -> Group:
+    """The rows for a narrow terminal: a clip's id, status, subject and span on one line, then
+    its reasons and masked parts indented below, each wrapped as a whole sentence."""
+    colour = {"accepted": "green", "rejected": "red"}
+    parts: list[RenderableType] = [Text(title)]
+    for r in rows:
+        c = colour.get(r.status, "yellow")
+        head = Text.assemble(
+            (r.clip_id, "bold"),
+            "  ",
+            (r.status, c),
+            f"  {r.subject}  {r.start_s:.2f}–{r.end_s:.2f} s ({r.seconds:.2f} s)",
+        )
+        parts.append(head)
+        for label, text in (("reasons", "; ".join(r.reasons)), ("masked", r.masked_text())):
+            if text:
+                parts.append(Padding(Text(f"{label}: {text}"), (0, 0, 0, 4)))
+    return Group(*parts)
+
+
+def clips_view(rows: list[ClipRow], *, title: str, width: int) -> RenderableType:
+    """`clips_table` on a terminal at least `TABLE_MIN_COLUMNS` wide, else `clips_blocks`."""
+    if width >= TABLE_MIN_COLUMNS:
+        return clips_table(rows, title=title)
+    return clips_blocks(rows, title=title)
 
 
 def rows_csv(rows: list[ClipRow]) -> str:

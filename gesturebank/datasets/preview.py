@@ -10,8 +10,9 @@ The audio is the source's own track from the clip's start, cut to the clip's dur
 Each half carries a frame code in its bottom-left corner: a row of black or white squares, a
 binary number (most significant bit first) naming the frame it shows — on the left the index of
 the source video frame (counted from the file's first frame), on the right the index of the
-clip's 100 Hz frame. `read_frame_code` reads it back, so a test (or a sceptical researcher) can
-check that both halves show the same moment.
+clip's 100 Hz frame — with its legend written beside it ("< video frame 123").
+`read_frame_code` reads it back, so a test (or a sceptical researcher) can check that both
+halves show the same moment.
 """
 
 from __future__ import annotations
@@ -299,11 +300,12 @@ def preview_clip(
                     _draw_keypoints(person, kp[near] * scale + offset, clip.valid[near], scale)
                 robot = scene.render(poses[k])
                 index = int(np.argmin(np.abs(source_t - shown_t)))
-                _annotate(person, f"person  {t:5.2f} s", index)
+                _annotate(person, f"person  {t:5.2f} s", index, "video")
                 _annotate(
                     robot,
                     "robot" + ("  (rejected clip)" if src.status != "accepted" else ""),
                     int(robot_frame[k]),
+                    "clip",
                 )
                 img = np.ascontiguousarray(np.concatenate([person, robot], axis=1))
                 for packet in vstream.encode(av.VideoFrame.from_ndarray(img, format="rgb24")):
@@ -316,13 +318,21 @@ def preview_clip(
     return path
 
 
-def _annotate(panel: np.ndarray, label: str, code: int) -> None:
+def _annotate(panel: np.ndarray, label: str, code: int, what: str) -> None:
+    """The half's label at the top; its frame code at the bottom with its legend beside it
+    (`what frame N`), so the strip of squares reads as a frame number, not a glitch."""
     scale = panel.shape[0] / 480
-    cv2.putText(panel, label, (12, round(30 * scale)), cv2.FONT_HERSHEY_SIMPLEX, 0.7 * scale,
-                (255, 255, 255), 3, cv2.LINE_AA)  # fmt: skip
-    cv2.putText(panel, label, (12, round(30 * scale)), cv2.FONT_HERSHEY_SIMPLEX, 0.7 * scale,
-                _TEXT, 1, cv2.LINE_AA)  # fmt: skip
+    _text(panel, label, (12, round(30 * scale)), 0.7 * scale)
     draw_frame_code(panel, code)
+    square = _code_square(*panel.shape[:2])
+    legend_at = (CODE_BITS * square + round(8 * scale), panel.shape[0] - round(4 * scale))
+    _text(panel, f"< {what} frame {code}", legend_at, 0.45 * scale)
+
+
+def _text(panel: np.ndarray, text: str, at: tuple[int, int], size: float) -> None:
+    """Dark text on a white outline: readable on any background."""
+    cv2.putText(panel, text, at, cv2.FONT_HERSHEY_SIMPLEX, size, (255, 255, 255), 3, cv2.LINE_AA)
+    cv2.putText(panel, text, at, cv2.FONT_HERSHEY_SIMPLEX, size, _TEXT, 1, cv2.LINE_AA)
 
 
 def preview_take(

@@ -36,16 +36,18 @@ from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.robot.pepper import JOINTS
 
+# 5: every clip holds `head_source` (per video frame: the face mesh or the body's keypoints);
 # 4: every clip holds `depth_confidence` (per video frame), its person and role track (who
 # speaks when), `head_roll`, its partner (`partner_clip_id`, `partner_speaking`), and is judged
 # by body part; the manifest gains `depth_confidence`, `expected_hand_error_cm`, `person`,
 # `speaking_fraction`, `parts` and `partner_clip_id`; 3: every clip holds `speech` (100 Hz
 # voice activity); 2: clips; 1: one unit per video.
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 # what this version holds, in the refusal
 SCHEMA_CONTENT = (
     "clips with speech activity, depth confidence, body parts and head roll, "
-    "each clip one person's with its role track, paired with their partner's clip"
+    "each clip one person's with its role track, paired with their partner's clip, "
+    "and where each frame's head came from"
 )
 DATASET_JSON = "dataset.json"
 MANIFEST = "manifest.parquet"
@@ -345,7 +347,10 @@ class DatasetInfo(_Info):
     audio_znorm_by_subject: dict[str, ZNorm] = Field(
         description="Per subject (and '*' for all) mean and std of every audio feature (§3.2)."
     )
-    clip_counts: dict[str, int] = Field(description="Manifest rows per QC status.")
+    clip_counts: dict[str, int] = Field(description="Clips (with arrays) per QC status.")
+    stretches_dropped: int = Field(
+        0, description="Stretches of built takes that gave no clip (a span with its reason)."
+    )
     takes: dict[str, TakeSummary]
 
     @property

@@ -148,7 +148,9 @@ def refresh(
         if _text(new) != _text(old):  # as text: NaN metrics compare equal
             store.write_record(out, new)
     table = store.write_manifest(out, records)
-    statuses = table.column("qc_status").to_pylist()
+    kinds, statuses_all = table.column("kind").to_pylist(), table.column("qc_status").to_pylist()
+    rows = list(zip(kinds, statuses_all, strict=True))
+    statuses = [status for kind, status in rows if kind == "clip"]
     profile = pepper.load_profile(config.robot.profile)
     info = store.DatasetInfo(
         tool_version=__version__,
@@ -166,6 +168,7 @@ def refresh(
         ),
         audio_znorm_by_subject=audio_znorm(records),
         clip_counts={s: statuses.count(s) for s in store.STATUSES},
+        stretches_dropped=sum(kind == "span" and status != "failed" for kind, status in rows),
         takes={r.take_id: _summary(r) for r in records},
     )
     store.write_dataset_json(out, info)

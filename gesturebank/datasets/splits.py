@@ -55,8 +55,11 @@ def subject_independent(
     usable = _usable(records, config.include_rejected)
     subjects = sorted({r["subject"] for r in usable})
     if len(subjects) < 3:
+        found = ", ".join(subjects) if subjects else "none with usable clips"
         raise InputError(
-            f"subject-independent splits need at least 3 subjects, the dataset has {len(subjects)}"
+            f"subject-independent splits need at least 3 subjects, the dataset has "
+            f"{len(subjects)} ({found}); name each take's subject in subjects.csv (columns "
+            "take,subject) or with build.subject_pattern"
         )
     k = min(folds, len(subjects))
     order = [subjects[i] for i in np.random.default_rng(seed).permutation(len(subjects))]

@@ -166,6 +166,12 @@ def _subject(
             ) from None
         if match and "subject" in match.groupdict():
             return match.group("subject"), {}
+    if not folder:  # a video right in the file system's root
+        log.warning(
+            "%s: no folder name to take a subject from; subject 'unknown' (name one in "
+            "subjects.csv or build.subject_pattern)",
+            rel,
+        )
     return (folder or "unknown"), {}
 
 
@@ -288,8 +294,8 @@ def discover_takes(
             raise InputError(f"{path}: same take id {tid!r} as {seen[tid]}; rename one of them")
         seen[tid] = path
         parent = rel.name if is_folder else rel.parent.name  # the folder holding the videos
-        if files is not None and not parent:
-            parent = path.parent.name
+        if not parent:  # right in VIDEOS_DIR (a flat folder): that folder's own name
+            parent = path.resolve().parent.name
         rows = [table[n] for n in _names(rel, tid) if n in table]
         if len(rows) > 1:
             log.warning(

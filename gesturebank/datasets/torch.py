@@ -22,6 +22,7 @@ angles on the clip's listening frames as known (`datasets.listener`).
 
 from __future__ import annotations
 
+import difflib
 import json
 import logging
 from collections.abc import Mapping, Sequence
@@ -103,15 +104,53 @@ def split_items(
             )
         return [(t, 0, n_frames[t]) for t in _read_json(path)[part] if t in n_frames]
     if variant == "sd":
-        if subject is None:
-            raise InputError("a subject-dependent split needs a subject")
         spec = _read_json(folder / "sd.json")
+        subjects = sorted(spec["subjects"])
+        if subject is None:
+            raise InputError(f"--variant sd needs --subject, {_subjects_text(subjects)}")
         if subject not in spec["subjects"]:
-            known = ", ".join(sorted(spec["subjects"]))
-            raise InputError(f"subject {subject!r} is not in {folder / 'sd.json'} ({known})")
+            close = difflib.get_close_matches(subject, subjects, n=1, cutoff=0.6)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise InputError(
+                f"--subject {subject!r}: not a subject of {dataset.path}, "
+                f"{_subjects_text(subjects)}{hint}"
+            )
         items = spec["subjects"][subject][part]
         return [(str(t), int(a), int(b)) for t, a, b in items if str(t) in n_frames]
     raise InputError(f"variant must be 'si', 'sd' or 'dyadic', got {variant!r}")
+
+
+def _subjects_text(subjects: list[str]) -> str:
+    """'one of: a, b' — or why there is none (never an empty list)."""
+    if subjects:
+        return f"one of: {', '.join(subjects)}"
+    return "but the dataset has no subject with usable clips (see `gesturebank clips`)"
+
+
+def choose_variant(
+    dataset: Dataset, variant: str | None, fold: int | None, subject: str | None
+) -> tuple[str, str | None, str | None]:
+    """The split `train` uses when --variant (or --subject) is not given: si when the dataset
+    has subject-independent folds (or a --fold is given), sd when a --subject is, else sd of
+    its only subject. Returns (variant, subject, a note saying what was chosen, or None);
+    InputError naming the choices when none fits."""
+    folder = dataset.path / SPLITS_DIR
+    if variant not in (None, "sd"):
+        return variant, subject, None
+    if variant is None and (fold is not None or any(folder.glob("si_fold_*.json"))):
+        return "si", subject, None
+    if subject is not None:
+        return "sd", subject, None
+    subjects = sorted(_read_json(folder / "sd.json")["subjects"])
+    if len(subjects) == 1:
+        why = "" if variant == "sd" else ", --variant sd (si needs 3 subjects)"
+        return "sd", subjects[0], f"training on its only subject {subjects[0]!r}{why}"
+    if variant == "sd":
+        raise InputError(f"--variant sd needs --subject, {_subjects_text(subjects)}")
+    raise InputError(
+        f"{dataset.path}: {len(subjects)} subjects, too few for --variant si (needs 3); train "
+        f"with --variant sd --subject NAME, {_subjects_text(subjects)}"
+    )
 
 
 def _missing_fold(dataset: Dataset, fold: int) -> InputError:

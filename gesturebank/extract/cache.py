@@ -116,3 +116,17 @@ class DetectionCache:
         with atomic_open(final) as f:
             np.savez(f, allow_pickle=False, **arrays)
         return final
+
+    def entries(self) -> list[Path]:
+        """The cache's entries (`<key>.npz`), none when the folder does not exist."""
+        return sorted(self.root.glob("*.npz")) if self.root.is_dir() else []
+
+    def clear(self) -> tuple[int, int]:
+        """Remove every entry; returns (entries removed, bytes freed). Only `<key>.npz` files
+        go: anything else a user put in the folder stays."""
+        removed = freed = 0
+        for entry in self.entries():
+            size = entry.stat().st_size
+            entry.unlink(missing_ok=True)
+            removed, freed = removed + 1, freed + size
+        return removed, freed

@@ -91,11 +91,14 @@ def face_box(
 
 @dataclass(frozen=True)
 class FaceMesh:
-    """One face-landmark pass: points (468, 2) image px, presence probability, mouth opening."""
+    """One face-landmark pass: points (468, 2) image px, presence probability, mouth opening;
+    points3d (468, 3): the same with the model's depth (scaled like x and y, away from the
+    camera), for the head's pose (`extract.head_pose`)."""
 
     points: np.ndarray
     presence: float
     opening: float
+    points3d: np.ndarray
 
 
 class FaceLandmarker:
@@ -116,11 +119,12 @@ class FaceLandmarker:
         crop = warp(image, to_image, FACE_SIZE, cv2.BORDER_REPLICATE) / 255.0
         self._interpreter.set_tensor(self._input, crop[None].astype(np.float32))
         self._interpreter.invoke()
-        mesh = self._interpreter.get_tensor(self._mesh).reshape(468, 3)[:, :2]
+        mesh = self._interpreter.get_tensor(self._mesh).reshape(468, 3).astype(np.float64)
         presence = float(sigmoid(self._interpreter.get_tensor(self._flag).ravel()[0]))
         opening = mouth_opening(mesh)
-        points = mesh.astype(np.float64) @ to_image[:, :2].T + to_image[:, 2]
-        return FaceMesh(points, presence, opening)
+        points = mesh[:, :2] @ to_image[:, :2].T + to_image[:, 2]
+        depth = mesh[:, 2:] * np.sqrt(abs(np.linalg.det(to_image[:, :2])))  # crop px → image px
+        return FaceMesh(points, presence, opening, np.concatenate([points, depth], axis=1))
 
 
 def mouth_opening(points: np.ndarray) -> float:

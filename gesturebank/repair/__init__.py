@@ -6,7 +6,8 @@ function copes with long NaN stretches (the person absent). Three repairs, in th
 
 1. **Left/right swaps** (2D only): per body group (arms with the shoulders, legs with the hips,
    face), a two-state Viterbi — labels as given / exchanged — minimises the group's
-   frame-to-frame path length plus a penalty per change of state (the face also pays for sides
+   frame-to-frame path length (over the pairs seen on both sides in both frames) plus a
+   penalty per change of state (the face also pays for sides
    that disagree with the shoulders'); runs of at most `max_swap_s` that disagree with the
    labels before them are exchanged back. Swaps go first because exchanging rows back is
    lossless, while a Hampel filter run on an unrepaired swap takes the swapped samples for

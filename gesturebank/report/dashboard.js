@@ -162,6 +162,7 @@
 
   // ---------------------------------------------------------------- take page
   var ROLE_COLOUR = {speaking: '#2e7d32', listening: '#90caf9', unknown: '#e0e0e0'};
+  var HEAD_COLOUR = {face: '#7e57c2', body: '#ffb74d', none: '#e0e0e0'};
 
   function timeline() {
     var T = D.timeline, w = 1100, left = 70, sx = linear(T.t0, T.t1, left, w - 20);
@@ -195,6 +196,14 @@
         s += tag('rect', span(sx, d, y, 14, {'class': 'depth',
                  fill: 'hsl(' + hue + ',65%,50%)'}),
                  tip(d[0] + '–' + d[1] + ' s: depth confidence ' + d[2].toFixed(2)));
+      });
+      y += 20;
+    }
+    if ((T.head || []).length) {  // where the head came from: the face mesh or the body
+      s += text(4, y + 12, 'head');
+      T.head.forEach(function (h) {
+        s += tag('rect', span(sx, [h[0], h[1]], y, 14, {'class': 'head ' + h[2],
+                 fill: HEAD_COLOUR[h[2]]}), tip(h[0] + '–' + h[1] + ' s: head from ' + h[2]));
       });
       y += 20;
     }

@@ -18,7 +18,7 @@ from urllib.parse import quote
 
 import numpy as np
 
-from gesturebank.clip import ROLES, Clip
+from gesturebank.clip import HEAD_SOURCES, ROLES, Clip
 from gesturebank.datasets import store
 from gesturebank.datasets.cut import frame_ends
 from gesturebank.errors import InputError
@@ -294,6 +294,28 @@ def role_runs(clip: Clip) -> list[list[Any]]:
     ]
 
 
+def head_runs(clip: Clip) -> list[list[Any]]:
+    """[t0, t1, source name] in source seconds of each run of one head source in
+    `clip.head_source` (per video frame; `clip.HEAD_SOURCES`)."""
+    source = np.asarray(clip.head_source, dtype=np.int8)
+    if not len(source):
+        return []
+    t = clip.start_s + np.asarray(clip.timestamps, dtype=np.float64)
+    ends = clip.start_s + frame_ends(np.asarray(clip.timestamps, dtype=np.float64))
+    starts = np.r_[0, np.flatnonzero(np.diff(source)) + 1]
+    stops = np.r_[starts[1:], len(source)]
+    return [
+        [round(float(t[a]), 3), round(float(ends[b - 1]), 3), HEAD_SOURCES[int(source[a])]]
+        for a, b in zip(starts, stops, strict=True)
+    ]
+
+
+def _heads(record: store.TakeRecord, clips: Mapping[str, Clip | str]) -> list[list[Any]]:
+    """The head lane: `head_runs` of every loaded clip of the take."""
+    loaded = [clips[c.clip_id] for c in record.data_clips]
+    return [run for c in loaded if isinstance(c, Clip) for run in head_runs(c)]
+
+
 def _people(record: store.TakeRecord, clips: Mapping[str, Clip | str]) -> list[dict[str, Any]]:
     """One lane per person with loaded clips: their id and the runs of their roles."""
     lanes: dict[int, list[list[Any]]] = {}
@@ -456,6 +478,7 @@ def take_data(
             "speakers": _speakers(choices),
             "speech": _speech(record, clips),
             "depth": _depth(record, clips),
+            "head": _heads(record, clips),
             "people": _people(record, clips),
             "preview": [round(t, 3) for t in record.preview_times],
         },

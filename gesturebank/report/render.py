@@ -154,9 +154,9 @@ def _summary(records: Sequence[store.TakeRecord]) -> str:
         ("usable seconds", f"{usable:.1f}"),
         ("seconds the speaker was visible", f"{visible:.1f}"),
         ("share kept", f"{usable / visible:.0%}" if visible > 0 else "–"),
-        ("clips accepted", str(count["kept"])),
+        ("clips kept", str(count["kept"])),
         ("clips rejected", str(count["rejected"])),
-        ("spans dropped", f"{count['dropped']} ({dropped_s:.1f} s)"),
+        ("stretches dropped", f"{count['dropped']} ({dropped_s:.1f} s)"),
         ("takes failed", str(sum(bool(r.failed) for r in records))),
     ]
     head = "".join(f"<th>{_e(k)}</th>" for k, _ in cells)

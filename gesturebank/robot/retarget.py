@@ -32,6 +32,9 @@ offsets (ê ∥ x̂, β = 0), a pure pitch-roll-yaw-roll chain.
   turned R = Rz(yaw)·Ry(pitch)·Rx(roll), so its left axis (ear line + eye line) is R·ŷ;
   roll = atan2(lateral·ẑ', lateral·ŷ') with ŷ' = Rz(yaw)·ŷ, ẑ' = Rz(yaw)·Ry(pitch)·ẑ of the same
   yaw and pitch (+ = left ear up, the head tilted towards its right shoulder).
+- Head from the face (issue 40): the head's axes (forward, left, up) measured from the face mesh
+  (`extract.head_pose`) in the pose's coordinates give the same three angles
+  (`head_from_axes`): yaw and pitch from the forward axis, roll from the left axis.
 - HipRoll: lean of the torso's up axis along the hip line (left hip − right hip). URDF HipRoll
   turns about −x, so positive = upper body leans to its left, as in the dissertation's code.
 
@@ -329,6 +332,29 @@ def head_roll(pose: Pose3D | np.ndarray) -> np.ndarray:
         pitch, yaw = _head(face, local(p["nose"] - ears), lateral)
         roll = _head_roll(lateral, pitch, yaw)
     return roll.astype(np.float32)
+
+
+def head_from_axes(pose: Pose3D | np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """`(T, 3)` float32 rad (HeadPitch, HeadYaw, head_roll) of a head whose axes `axes
+    (T, 3, 3)` (columns forward, left, up, in the coordinates of `pose`'s joints) are known,
+    relative to the torso of `pose`, as `pepper_angles` and `head_roll` define them (module
+    docstring). NaN where the axes or the torso are missing."""
+    p = _points(pose)
+    a = np.asarray(axes, np.float64)
+    if a.shape != (len(p["nose"][0]), 3, 3):
+        raise InputError(f"head_from_axes: axes must be ({len(p['nose'][0])}, 3, 3), got {a.shape}")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fwd, left, up = _body_frame(p)
+
+        def local(v: np.ndarray) -> np.ndarray:
+            return np.stack([_dot(v, fwd), _dot(v, left), _dot(v, up)])
+
+        face, lateral = local(a[:, :, 0].T), local(a[:, :, 1].T)
+        pitch, yaw = _head(face, np.full_like(face, np.nan), lateral)
+        roll = _head_roll(lateral, pitch, yaw)
+        pitch = np.where(np.isfinite(face[0]), pitch, np.nan)
+        yaw = np.where(np.isfinite(face[0]), yaw, np.nan)
+    return np.stack([pitch, yaw, roll], axis=1).astype(np.float32)
 
 
 def _head_roll(lateral: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:

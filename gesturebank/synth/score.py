@@ -70,3 +70,25 @@ def score_2d(detected: np.ndarray, truth: np.ndarray) -> Score2D:
         offset_free_pct=float(np.median(offset_free) * 100),
         swapped=float((crossed.sum(axis=1) < same.sum(axis=1)).mean()),
     )
+
+
+# The joints the lifters read (shoulders, elbows, wrists, hips): what the worst-joint error of
+# the build's stored 2D is taken over (issue 39).
+UPPER = [
+    _I[f"{side}_{j}"] for j in ("shoulder", "elbow", "wrist", "hip") for side in ("left", "right")
+]
+
+
+def worst_joint_p90(detected: np.ndarray, truth: np.ndarray) -> float:
+    """The worst joint's 90th percentile distance to the truth, % of the truth's torso length,
+    over the UPPER joints of `detected (T, 17, ≥2)` px against `truth (T, 17, 2)` px, frame for
+    frame. A joint not detected in a frame counts as lost (infinitely far): a detector does not
+    improve by giving up on the hard frames. The percentile is the empirical one (the smallest
+    error at least 90 % of the frames do not exceed), so a lost joint is never interpolated."""
+    det = np.asarray(detected, np.float64)[:, UPPER, :2]
+    ref = np.asarray(truth, np.float64)[:, UPPER]
+    if det.shape != ref.shape:
+        raise ValueError(f"worst_joint_p90: detected {det.shape} and truth {ref.shape} differ")
+    error = np.linalg.norm(det - ref, axis=-1) / torso_px(np.asarray(truth, np.float64))[:, None]
+    error = np.where(np.isfinite(error), error, np.inf)
+    return float(100 * np.percentile(error, 90, axis=0, method="inverted_cdf").max())

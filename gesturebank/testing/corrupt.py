@@ -57,6 +57,7 @@ _VIDEO_RATE = (
     "n_people",
     "change",
     "depth_confidence",
+    "head_source",
 )
 _CLOCK_RATE = (
     "angles",

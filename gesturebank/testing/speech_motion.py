@@ -122,6 +122,6 @@ def write_speech_motion_dataset(
     # Judged by the real QC, which would reject this motion (not a person's: it holds still
     # exactly in every pause of the speech), so its thresholds are opened for it.
     qc = {"max_jitter_fraction": 1.0, "max_frozen_fraction": 1.0, "outlier_z": 1e9}
-    config = Config.model_validate({"splits": {"folds": subjects}, "qc": qc})
+    config = Config.model_validate({"splits": {"folds": max(2, subjects)}, "qc": qc})
     subject_of = {t: t.split("__")[0] for t in takes}
     return write_dataset(Path(out), takes, subjects=subject_of, config=config)

@@ -25,7 +25,7 @@ TIMING = {"detect_s"}  # metrics that measure the run, not the data
 def test_layout_read_with_pyarrow_and_numpy_only(demo_dataset: Path) -> None:
     """What a user's script sees, without any gesturebank code."""
     info = json.loads((demo_dataset / "dataset.json").read_text())
-    assert info["schema_version"] == 4
+    assert info["schema_version"] == 5
     assert info["rates"] == {"pose_hz": 100.0, "audio_hz": 100.0}
     # models trained on the features must know their window (the dissertation's: none)
     assert info["audio_features"]["params"]["window"] == "none"

@@ -115,3 +115,66 @@ def test_a_bad_takes_toml_stops_the_build_before_any_take(tmp_path: Path) -> Non
     with pytest.raises(InputError, match=r"takes\.toml: alice\.license"):
         build_dataset([], videos, tmp_path / "out", Config())
     assert not (tmp_path / "out" / store.MANIFEST).exists()
+
+
+def test_one_set_of_counts_in_summary_dashboard_dataset_json_and_card(
+    demo_dataset: Path, tmp_path: Path
+) -> None:
+    """Issue 44: dataset.json and DATASET.md said 2 rejected where the summary and the
+    dashboard said 1 rejected clip and 1 dropped stretch. All four now name the same three
+    counts the same way."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    dataset = tmp_path / "ds"
+    shutil.copytree(demo_dataset, dataset)
+    gesturebank = Path(sys.executable).parent / "gesturebank"
+    env = {**os.environ, "COLUMNS": "200"}
+    cmd = [str(gesturebank), "qc", str(dataset)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False, env=env)
+    assert r.returncode == 0, r.stderr
+    manifest = pd.read_parquet(dataset / store.MANIFEST)
+    clips = manifest[manifest.kind == "clip"]
+    spans = manifest[(manifest.kind == "span") & (manifest.qc_status != "failed")]
+    truth = {
+        "clips kept": int((clips.qc_status == "accepted").sum()),
+        "clips rejected": int((clips.qc_status == "rejected").sum()),
+        "stretches dropped": len(spans),
+    }
+    assert truth == {"clips kept": 2, "clips rejected": 1, "stretches dropped": 1}  # the demo
+    info = json.loads((dataset / store.DATASET_JSON).read_text())
+    assert info["clip_counts"]["accepted"] == truth["clips kept"]
+    assert info["clip_counts"]["rejected"] == truth["clips rejected"]
+    assert info["stretches_dropped"] == truth["stretches dropped"]
+    card = (dataset / CARD).read_text()
+    assert ", ".join(f"{name} {n}" for name, n in truth.items()) in card
+    index = (dataset / "qc" / "index.html").read_text()
+    heads = re.findall(r"<th>([^<]+)</th>", index.split("<table class='big'>", 1)[1])
+    cells = re.findall(r"<td id='sum-\d+'>([^<]+)</td>", index)
+    shown = dict(zip(heads, cells, strict=False))
+    assert {k: int(shown[k].split()[0]) for k in truth} == truth
+    table_head = [ln for ln in r.stdout.splitlines() if "clips" in ln and "stretches" in ln]
+    assert table_head, r.stdout  # the summary's columns use the same names
+    row = next(ln for ln in r.stdout.splitlines() if re.match(r"^│\s+\d", ln))
+    numbers = [int(cell) for cell in row.split("│")[3:6]]  # after takes and failed
+    assert numbers == list(truth.values()), row
+
+
+def test_the_summary_table_fits_80_columns(demo_dataset: Path, tmp_path: Path) -> None:
+    """Issue 44: at 80 columns the summary's headers were cut (`stret…`, `rejec…`)."""
+    import os
+    import subprocess
+    import sys
+
+    dataset = tmp_path / "ds"
+    shutil.copytree(demo_dataset, dataset)
+    gesturebank = Path(sys.executable).parent / "gesturebank"
+    env = {**os.environ, "COLUMNS": "80"}
+    cmd = [str(gesturebank), "qc", str(dataset)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False, env=env)
+    assert r.returncode == 0, r.stderr
+    table = r.stdout.split("lab__cam01_arctic:", 1)[0].splitlines()
+    assert all(len(ln) <= 80 and "…" not in ln for ln in table), r.stdout
+    assert "stretches" in r.stdout and "dropped" in r.stdout and "rejected" in r.stdout

@@ -163,3 +163,23 @@ def test_clip_of_something_not_a_dataset_is_one_line(tmp_path: Path) -> None:
         clip_to_play(csv_file, "x", scratch=tmp_path, with_audio=False)
     with pytest.raises(InputError, match="a folder, not an angle timeline .*--clip CLIP_ID"):
         read_timeline(tmp_path)
+
+
+def test_clips_at_80_columns_keeps_reasons_whole(demo_dataset: Path) -> None:
+    """Issue 44: at 80 columns `clips` printed a rejection reason one word per line and cut the
+    headers. Narrow: one block per clip, every line within 80, each reason whole."""
+    import os
+
+    env = {**os.environ, "COLUMNS": "80"}
+    cmd = [str(BIN / "gesturebank"), "clips", str(demo_dataset)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False, env=env)
+    assert r.returncode == 0, r.stderr
+    lines = r.stdout.splitlines()
+    assert all(len(ln.rstrip()) <= 80 and "…" not in ln for ln in lines), r.stdout
+    flowing = " ".join(ln.strip() for ln in lines)
+    rows = _csv(run("clips", str(demo_dataset), "--csv").stdout)
+    assert any(row["reasons"] for row in rows)  # the premise: a rejected clip with reasons
+    for row in rows:
+        assert any(ln.startswith(row["clip"]) and row["status"] in ln for ln in lines), row
+        for reason in filter(None, row["reasons"].split("; ")):
+            assert reason in flowing, (reason, r.stdout)

@@ -4,7 +4,8 @@
   and shoulders of the woman who faces the camera, at 144 and 288 px high, played back and forth
   for 6 s, with speech) builds with the default QC into accepted clips with head angles and
   masked arms (her elbows are below the frame: not seen, however confident the detector is):
-  an arm model's loader skips them, a head model's loader uses them;
+  an arm model's loader skips them, a head model's loader uses them; the head comes from the
+  face mesh (issue 40);
 - a take whose audio track starts 0.5 s late keeps those 0.5 s, marked silent in `speech`
   (missing audio is silence, and a silence under speech.max_silence_s is only marked).
 """
@@ -17,7 +18,7 @@ import pytest
 from gesturebank import footage
 from gesturebank.app.build import build_dataset
 from gesturebank.audio.io import read_audio
-from gesturebank.clip import PART_JOINTS, part_columns
+from gesturebank.clip import HEAD_SOURCES, PART_JOINTS, part_columns
 from gesturebank.config import Config
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.takes import discover_takes
@@ -62,6 +63,8 @@ def test_a_head_only_take_keeps_its_head_and_only_head_models_use_it(
         head = clip.mask[:, part_columns("head")].all(axis=1)
         assert head.mean() > 0.5 and np.isfinite(clip.angles[head][:, part_columns("head")]).all()
         assert np.isfinite(clip.head_roll[head]).mean() > 0.9
+        # issue 40: the head comes from the face mesh (she faces the camera throughout)
+        assert (clip.head_source == HEAD_SOURCES.index("face")).mean() > 0.9
     rows = {r.clip.clip_id: r.clip for r in ds.clips()}
     for clip_id in head_only:
         assert all(

@@ -164,3 +164,16 @@ def test_the_cli_writes_a_take_and_refuses_a_wrong_one(demo_dataset: Path, tmp_p
     assert bad.returncode == 2
     assert bad.stderr.count("\n") == 1 and take_id in bad.stderr, bad.stderr
     assert not (tmp_path / "bad").exists()
+
+
+def test_the_frame_code_has_its_legend_beside_it() -> None:
+    """Issue 44: the frame-code strip looked like a glitch until `preview --help` was read. Its
+    legend is drawn beside it, and the code still reads back."""
+    from gesturebank.datasets.preview import _annotate, _code_square
+
+    panel = np.full((480, 640, 3), 128, np.uint8)
+    _annotate(panel, "person", 1234, "video")
+    assert read_frame_code(panel) == 1234
+    s = _code_square(480, 640)
+    beside = panel[480 - 3 * s :, CODE_BITS * s : CODE_BITS * s + 200]
+    assert (beside != 128).any(axis=-1).sum() > 100  # text drawn right of the squares

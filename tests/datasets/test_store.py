@@ -1,4 +1,4 @@
-"""The on-disk dataset (schema 4): atomic per-take folders of clips, resumability, manifest,
+"""The on-disk dataset (schema 5): atomic per-take folders of clips, resumability, manifest,
 dataset.json, the lazy reader — and what a user's script sees without gesturebank."""
 
 import json
@@ -11,7 +11,7 @@ import pyarrow.parquet as pq
 import pytest
 
 import gesturebank.datasets
-from gesturebank.clip import Clip
+from gesturebank.clip import HEAD_SOURCES, Clip
 from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.refresh import refresh
@@ -137,7 +137,7 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
     takes = {"s1_a": [clip("s1_a"), clip("s1_a", 1, seed=1)], "s2_b": [clip("s2_b", seed=2)]}
     out = write_dataset(tmp_path, takes)
     info = json.loads((out / "dataset.json").read_text())
-    assert info["schema_version"] == 4
+    assert info["schema_version"] == 5
     manifest = pd.read_parquet(out / "manifest.parquet")
     # synthetic clips: exact joints (confidence 1), no lifter with a calibration (NaN)
     assert (manifest["depth_confidence"] == 1.0).all()
@@ -158,6 +158,8 @@ def test_a_dataset_read_with_pandas_and_numpy_alone(tmp_path: Path) -> None:
             assert d["depth_confidence"].dtype == np.float32
             assert d["role"].shape == (row.n_frames,) and d["role"].dtype == np.int8
             assert d["head_roll"].shape == (row.n_frames,) and d["head_roll"].dtype == np.float32
+            assert d["head_source"].shape == d["timestamps"].shape
+            assert d["head_source"].dtype == np.int8
             assert str(d["partner_clip_id"]) == "" and not d["partner_speaking"].any()
     assert set(info["takes"]) == {"s1_a", "s2_b"}
     assert info["takes"]["s1_a"]["clips"] == 2
@@ -264,19 +266,38 @@ def test_files_and_folders_follow_the_umask(tmp_path: Path) -> None:
     assert stat.S_IMODE(store.take_json(tmp_path, "a").stat().st_mode) == 0o644
 
 
-def test_a_schema_3_dataset_is_refused_with_one_rebuild_line(tmp_path: Path) -> None:
-    """Schema 4 added `depth_confidence` to every clip: a dataset written before (schema 3,
-    whose clips have none) is refused by every reader with one line that says how to rebuild
-    it."""
+@pytest.mark.parametrize("old", [3, 4])
+def test_an_older_schema_dataset_is_refused_with_one_rebuild_line(tmp_path: Path, old: int) -> None:
+    """Schema 4 added `depth_confidence` to every clip, schema 5 `head_source`: a dataset
+    written before is refused by every reader with one line that says how to rebuild it."""
     out = write_dataset(tmp_path, {"s1_a": [clip("s1_a")]})
     info = json.loads((out / "dataset.json").read_text())
-    (out / "dataset.json").write_text(json.dumps({**info, "schema_version": 3}))
+    (out / "dataset.json").write_text(json.dumps({**info, "schema_version": old}))
     with pytest.raises(InputError) as exc:
         gesturebank.datasets.open(out)
     message = str(exc.value)
     assert "\n" not in message
-    assert f"schema_version 3, this gesturebank reads 4 ({store.SCHEMA_CONTENT})" in message
+    assert f"schema_version {old}, this gesturebank reads 5 ({store.SCHEMA_CONTENT})" in message
     assert f"rebuild it with build-dataset VIDEOS_DIR {out} --force" in message
+
+
+def test_head_source_travels_with_the_clip_and_is_checked(tmp_path: Path) -> None:
+    """`head_source` is written and read back as (T,) int8 codes of HEAD_SOURCES; another
+    shape, dtype or code is refused where the clip is made; a clip file without it is refused
+    by name."""
+    c = clip("s1_a")
+    t = len(c.timestamps)
+    source = (np.arange(t) % len(HEAD_SOURCES)).astype(np.int8)
+    c = replace(c, head_source=source)
+    out = write_dataset(tmp_path, {"s1_a": [c]})
+    loaded = gesturebank.datasets.open(out).load(c.clip_id)
+    np.testing.assert_array_equal(loaded.head_source, source)
+    for bad in (source[:-1], source.astype(np.int64), np.full(t, 3, np.int8)):
+        with pytest.raises(InputError, match="head_source must be"):
+            replace(c, head_source=bad)
+    arrays = {k: v for k, v in c.to_arrays().items() if k != "head_source"}
+    with pytest.raises(InputError, match="lack 'head_source'"):
+        Clip.from_arrays(arrays)
 
 
 def test_speech_travels_with_the_clip_and_is_checked(tmp_path: Path) -> None:

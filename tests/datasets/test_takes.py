@@ -153,3 +153,31 @@ def test_video_files_as_input(tmp_path: Path) -> None:
     ):
         with pytest.raises(InputError, match=re.escape(message)):
             find_inputs(bad, cfg)
+
+
+def test_a_flat_folder_names_its_subject_as_a_single_file_does(tmp_path: Path) -> None:
+    """Issue 44: videos right in VIDEOS_DIR got subject 'unknown'; one of them given alone got
+    the folder's name. Both now take the folder's name."""
+    from gesturebank.datasets.takes import find_inputs
+
+    talks = tmp_path / "talks"
+    touch(talks, "a.mp4", "b.mp4")
+    assert [t.subject for t in discover_takes(talks)] == ["talks", "talks"]
+    _, alone = find_inputs([talks / "a.mp4"], BuildConfig())
+    assert [t.subject for t in alone] == ["talks"]
+
+
+def test_too_few_subjects_names_them_and_how_to_set_them() -> None:
+    from gesturebank.config import SplitsConfig
+    from gesturebank.datasets.splits import subject_independent
+
+    rows = [
+        {"clip_id": f"c{i}", "take_id": f"t{i}", "subject": s, "qc_status": "accepted",
+         "n_frames": 100, "start_s": 0.0}
+        for i, s in enumerate(["talks", "talks"])
+    ]  # fmt: skip
+    with pytest.raises(InputError) as err:
+        subject_independent(rows, config=SplitsConfig())
+    message = str(err.value)
+    assert "the dataset has 1 (talks)" in message
+    assert "subjects.csv" in message and "build.subject_pattern" in message

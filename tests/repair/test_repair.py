@@ -512,6 +512,27 @@ def test_swap_repair_ignores_unseen_points() -> None:
     assert report.swap_runs == 1 and report.swapped_frames == 5
 
 
+@pytest.mark.parametrize("freq", [1.0, 1.5, 2.0])
+def test_a_hidden_arm_is_no_evidence_of_a_swap(freq: float) -> None:
+    """Seen from the side (shoulders 20 px apart) with the far arm hidden, the near hand swings
+    fast across the body through where the far hand was last seen (issue 39). Compared with
+    that stale point, the near hand looked like the far one and the repair exchanged 32-45
+    right frames; a pair whose other side is unseen is no evidence."""
+    ts = clock(30.0)
+    still = speaker(ts, lambda t: (np.zeros((len(t), 2)), np.zeros((len(t), 2))), world=False)
+    kp = still.keypoints.copy()
+    for part in ("shoulder", "hip"):
+        kp[:, KP[f"left_{part}"], 0], kp[:, KP[f"right_{part}"], 0] = 650, 630
+    far = [KP[_name("right", part)] for part in ("elbow", "wrist", *_HAND)]
+    kp[5:, far, 2] = 0.1  # unseen from frame 5 on
+    swing = 180 * (1 - np.cos(2 * np.pi * freq * ts))  # 0..360 px towards the image's left
+    for part in ("wrist", *_HAND):
+        kp[:, KP[f"left_{part}"], 0] -= swing
+    kp[:, KP["left_elbow"], 0] -= swing / 2
+    _, report = repair_pose2d(with_keypoints(still, kp), config=CONFIG)
+    assert report.swapped_frames == 0
+
+
 # ------------------------------------------------------------------------------------ world
 
 

@@ -16,14 +16,14 @@ import numpy as np
 import pytest
 
 from gesturebank.app.build import BuildSummary, dashboard_after_build
-from gesturebank.clip import ROLES, Clip
+from gesturebank.clip import HEAD_SOURCES, ROLES, Clip
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc.checks import THRESHOLDS, absolute_reasons, fails
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.report import write_dashboard
-from gesturebank.report.data import reason_kind, role_runs
+from gesturebank.report.data import head_runs, reason_kind, role_runs
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.skeletons import COCO17, COCO17_BONES
 from gesturebank.testing.browser import CHROMIUM, Browser, Tab
@@ -634,3 +634,20 @@ def test_role_runs_are_the_person_lane_of_the_timeline(dataset: Path) -> None:
     assert [r[2] for r in runs] == ["unknown", "speaking"]
     assert runs[0][0] == pytest.approx(10.0) and runs[0][1] == pytest.approx(runs[1][0])
     assert runs[1][1] == pytest.approx(10.0 + clip.duration_s, abs=0.011)
+
+
+def test_head_runs_are_the_head_lane_of_the_timeline(dataset: Path, browser: Browser) -> None:
+    """The head lane: runs of each clip's head source (per video frame) in source seconds,
+    drawn one rect per run; the fixture's clips were built in memory (source none)."""
+    heads = _data(_page(dataset, "s1_clean"))["timeline"]["head"]
+    assert heads and {h[2] for h in heads} == {"none"}
+    clip = synthetic_clip(seconds=2.0)
+    t = len(clip.timestamps)
+    source = np.full(t, HEAD_SOURCES.index("face"), np.int8)
+    source[t // 2 :] = HEAD_SOURCES.index("body")
+    runs = head_runs(replace(clip, head_source=source, start_s=10.0))
+    assert [r[2] for r in runs] == ["face", "body"]
+    assert runs[0][0] == pytest.approx(10.0) and runs[0][1] == pytest.approx(runs[1][0])
+    tab = browser.open((dataset / "qc" / "takes" / "s1_clean.html").as_uri())
+    assert _count(tab, "svg.timeline rect.head") == len(heads)
+    tab.close()

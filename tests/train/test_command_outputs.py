@@ -38,6 +38,8 @@ from gesturebank.train.eval.evaluate import (
     TABLE_5_1,
     average,
     evaluate_segments,
+)
+from gesturebank.train.eval.tables import (
     footnotes,
     not_computable,
     table,
@@ -74,7 +76,7 @@ def test_missing_fold_says_why(synthetic_dataset: Path, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="no fold 7; the dataset has folds 0–3"):
         train_command(synthetic_dataset, "mlp", "si", 7, None, tmp_path / "m", ONE_EPOCH)
     two = write_speech_motion_dataset(tmp_path / "two", subjects=2, seconds=4.0)
-    with pytest.raises(InputError, match="at least 3 subjects, the dataset has 2; .*--variant sd"):
+    with pytest.raises(InputError, match="at least 3 subjects, the dataset has 2 .*--variant sd"):
         train_command(two, "mlp", "si", None, None, tmp_path / "m", ONE_EPOCH)
 
 
@@ -131,7 +133,7 @@ def test_synthesize_keeps_the_old_csv_when_the_write_fails(mlp_model: Path, tmp_
     csv.write_text("old\n")
     script = Path(sys.executable).parent / "gesturebank"
     r = subprocess.run(
-        [str(script), "synthesize", str(mlp_model), str(wav), "--out", str(csv)],
+        [str(script), "synthesize", str(mlp_model), str(wav), "--out", str(csv), "--force"],
         capture_output=True,
         text=True,
         timeout=120,
@@ -254,3 +256,63 @@ def test_model_folder_swap_keeps_the_old_one_on_failure(tmp_path: Path) -> None:
     assert [p.name for p in folder.iterdir()] == ["weights.pt"]
     assert [p.name for p in tmp_path.iterdir()] == ["m"]
     assert folder.stat().st_mode & 0o777 == permissions(folder=True)  # not mkdtemp's 0700
+
+
+def test_train_warns_when_the_data_is_too_short_for_a_useful_model(tmp_path: Path) -> None:
+    """Issue 44: 3.3 s of data trained and evaluated without a word, the LSTM's 3 s window
+    longer than the training split. `train` now says both before training."""
+    short = write_speech_motion_dataset(tmp_path / "short", subjects=2, seconds=4.0)
+    said: list[str] = []
+    train_command(short, "lstm", "sd", None, "s0", tmp_path / "m", ONE_EPOCH, quiet=True,
+                  on_warning=said.append)  # fmt: skip
+    assert any("under train.min_train_s (60 s)" in w for w in said), said
+    assert any("shorter than lstm's 3 s training window" in w for w in said), said
+    said.clear()
+    enough = ONE_EPOCH.model_copy(update={"min_train_s": 1.0})
+    train_command(short, "mlp", "sd", None, "s0", tmp_path / "m2", enough, quiet=True,
+                  on_warning=said.append)  # fmt: skip
+    assert said == []  # frame-wise MLP: no window; 1 s asked for: no warning
+
+
+def _worse_results(model_rmse: float) -> dict:
+    rng = np.random.default_rng(3)
+    results = _evaluate([_segments(400, "s0", rng)], rng)
+    results["s0"]["MLP"]["rmse_deg"] = model_rmse
+    return results
+
+
+def test_evaluate_says_plainly_when_a_model_is_worse_than_the_mean_pose() -> None:
+    """Issue 44: the README's own model was worse than predicting the mean pose (39.3° vs
+    18.0°) and nothing said so."""
+    from gesturebank.train.eval.tables import worse_lines, worse_than_mean_pose
+
+    worse = _worse_results(1e3)
+    base = average(worse)[MEAN_POSE]["rmse_deg"]
+    assert worse_than_mean_pose(worse) == {"MLP": (1e3, base)}
+    (line,) = worse_lines(worse)
+    assert line.startswith("MLP is worse than the mean-pose baseline: RMSE 1000.00° against")
+    console = Console(record=True, width=300)
+    console.print(table(worse, "t"))
+    rows = [ln for ln in console.export_text().splitlines() if "MLP" in ln]
+    assert len(rows) == 2 and all("MLP ✗" in ln for ln in rows)  # the subject's and average
+    better = _worse_results(0.0)
+    assert worse_than_mean_pose(better) == {} and worse_lines(better) == []
+
+
+def test_train_picks_a_variant_the_dataset_supports_or_says_which(tmp_path: Path) -> None:
+    """Issue 44: the default --variant si failed on any dataset with fewer than 3 subjects, and
+    "a subject-dependent split needs a subject" named neither --subject nor the subjects."""
+    one = write_speech_motion_dataset(tmp_path / "one", subjects=1, seconds=4.0)
+    said: list[str] = []
+    train_command(one, "mlp", None, None, None, tmp_path / "m", ONE_EPOCH, quiet=True,
+                  on_warning=said.append)  # fmt: skip
+    info = json.loads((tmp_path / "m" / "model.json").read_text())
+    assert (info["variant"], info["subject"]) == ("sd", "s0")
+    assert any("its only subject 's0'" in w for w in said), said
+    two = write_speech_motion_dataset(tmp_path / "two", subjects=2, seconds=4.0)
+    with pytest.raises(InputError, match=r"2 subjects, too few for --variant si.*one of: s0, s1"):
+        train_command(two, "mlp", None, None, None, tmp_path / "m2", ONE_EPOCH)
+    with pytest.raises(InputError, match=r"^--variant sd needs --subject, one of: s0, s1$"):
+        train_command(two, "mlp", "sd", None, None, tmp_path / "m2", ONE_EPOCH)
+    with pytest.raises(InputError, match=r"--subject 's00'.*one of: s0, s1; did you mean 's0'\?"):
+        train_command(two, "mlp", "sd", None, "s00", tmp_path / "m2", ONE_EPOCH)

@@ -149,3 +149,43 @@ def test_another_robot_profile_names_the_file(synthetic_dataset: Path, tmp_path:
     with pytest.raises(InputError) as exc:
         evaluate_timelines_command([tmp_path / "sys"], synthetic_dataset)
     _one_line_error(exc, str(paths[0]), "nao-6", want)
+
+
+def test_every_angle_dialect_reads_back_through_evaluate(
+    synthetic_dataset: Path, tmp_path: Path
+) -> None:
+    """Issue 44 item 10: the angle-format round trip (issue 33: what export writes, replay and
+    export read) also reads back through `evaluate --timelines`: the test clips' own angles in
+    radians as `export --format csv` writes them, in degrees with a `# unit: deg` line and in
+    `_deg` columns all score as the ground truth."""
+    import subprocess
+    import sys
+
+    from gesturebank.robot.pepper import JOINTS
+
+    exe = Path(sys.executable).parent / "gesturebank"
+    ds = gds.open(synthetic_dataset)
+    for dialect in ("exported", "unit_deg", "deg_columns"):
+        (tmp_path / dialect).mkdir()
+    for clip_id in _test_clips(synthetic_dataset):
+        npz = next(ds.path.glob(f"takes/*/{clip_id}.npz"))
+        out = tmp_path / "exported" / f"{clip_id}.csv"
+        cmd = [str(exe), "export", str(npz), "--format", "csv", "--out", str(out)]
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False)
+        assert r.returncode == 0, r.stderr
+        line = read_timeline(out)
+        cells = [
+            [f"{a:.9g}" if np.isfinite(a) else "" for a in np.degrees(row)] for row in line.angles
+        ]
+        rows = "".join(
+            f"{float(t)!r}," + ",".join(row) + "\n"
+            for t, row in zip(line.times, cells, strict=True)
+        )
+        head = f"time_s,{','.join(JOINTS)}\n"
+        (tmp_path / "unit_deg" / f"{clip_id}.csv").write_text(f"# unit: deg\n{head}{rows}")
+        deg_head = f"time_s,{','.join(j + '_deg' for j in JOINTS)}\n"
+        (tmp_path / "deg_columns" / f"{clip_id}.csv").write_text(deg_head + rows)
+    dirs = [tmp_path / d for d in ("exported", "unit_deg", "deg_columns")]
+    report = evaluate_timelines_command(dirs, synthetic_dataset, console=Console(width=250))
+    for name in ("exported", "unit_deg", "deg_columns"):
+        assert report["average"][name]["rmse_deg"] < 1e-3, (name, report["average"][name])

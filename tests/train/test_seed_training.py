@@ -142,7 +142,7 @@ def test_cli_trains_a_seed_model_and_live_refuses_it_in_one_line(
         [gesturebank, "train", str(synthetic_dataset), "--model", "gan", "--out", str(out)],
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
-    assert r.returncode == 2 and "unknown model 'gan'; available: aud2motion" in r.stderr
+    assert r.returncode == 2 and "unknown model 'gan' (--model); one of: aud2motion" in r.stderr
     assert (out / "model.json").is_file()  # the earlier model is untouched
 
 

@@ -21,9 +21,8 @@ from gesturebank.train.eval.evaluate import (
     SEED_MEASURES,
     TABLE_5_1,
     Column,
-    Footnotes,
-    cell,
 )
+from gesturebank.train.eval.tables import Footnotes, cell
 
 PathLike = str | os.PathLike[str]
 _BY_KEY = {c.key: c for c in (*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES)}

@@ -28,11 +28,9 @@ a number. The table's average row is the mean over the subjects where a measure 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
-from rich.table import Table
 
 from gesturebank.config import AudioConfig, TrainConfig
 from gesturebank.datasets.torch import Segment
@@ -66,6 +64,17 @@ class Column(NamedTuple):
     def title(self) -> str:
         """The header with its better-direction mark, e.g. 'RMSE (°) ↓'."""
         return f"{self.header} {self.better}"
+
+    @property
+    def short(self) -> str:
+        """The header without its unit, e.g. 'RMSE ↓' (narrow tables; the unit in `units`)."""
+        return f"{self.header.split(' (')[0]} {self.better}"
+
+    @property
+    def unit(self) -> str:
+        """The unit in the header's parentheses ('' when none)."""
+        _, sep, rest = self.header.partition(" (")
+        return rest.removesuffix(")") if sep else ""
 
 
 # The columns of Table 5.1, a second table with the other seeds' measures and a third with the
@@ -467,120 +476,3 @@ def average(
         # the mean over the subjects where a measure is computable; None where it is for none
         out[system] = {k: float(np.mean(v)) if v else None for k, v in known.items()}
     return out
-
-
-def not_computable(results: dict[str, dict[str, dict[str, Any]]]) -> list[str]:
-    """One line per subject and system with measures that could not be computed, and why."""
-    return [
-        f"{subject}, {system}: {group} not computable — {reason}"
-        for subject, systems in results.items()
-        for system, row in systems.items()
-        for group, reason in row["not_computable"].items()
-    ]
-
-
-SUPERSCRIPTS = "¹²³⁴⁵⁶⁷⁸⁹"
-
-
-@dataclass(frozen=True)
-class Footnotes:
-    """Why cells are n/a, each reason said once: a mark per group of measures, and its line.
-
-    `groups[(subject, system)]` are the groups not computable there; `absent` maps a measure
-    that no row has (FGD without an autoencoder) to its mark.
-    """
-
-    marks: dict[str, str]  # group (or absent measure) → superscript
-    groups: dict[tuple[str, str], tuple[str, ...]]
-    lines: list[str]
-
-    def mark(self, system: str, key: str, subject: str | None = None) -> str:
-        """The marks of the reasons `key` is n/a for `system` (of `subject`, else any)."""
-        if key in self.marks:  # a measure no row has
-            return self.marks[key]
-        found = {
-            g
-            for (subj, sys_), groups in self.groups.items()
-            if sys_ == system and subject in (None, subj)
-            for g in groups
-            if g == EVERY or key in GROUP_KEYS.get(g, ())
-        }
-        return "".join(m for g, m in self.marks.items() if g in found)
-
-
-def footnotes(
-    results: dict[str, dict[str, dict[str, Any]]], absent: dict[str, str] | None = None
-) -> Footnotes:
-    """The n/a reasons of `results` ({subject → {system → metrics}}), one line per group:
-    '¹ LCCA, CCA, FCCA not computable: REASON — s0: every system; s1: MLP' (distinct reasons
-    of a group joined by ' · '). `absent` maps a
-    measure missing from every row to why (one line each)."""
-    by_group: dict[str, dict[str, list[tuple[str, str]]]] = {}
-    groups: dict[tuple[str, str], tuple[str, ...]] = {}
-    for subject, systems in results.items():
-        for system, row in systems.items():
-            groups[(subject, system)] = tuple(row["not_computable"])
-            for group, reason in row["not_computable"].items():
-                by_group.setdefault(group, {}).setdefault(reason, []).append((subject, system))
-    marks: dict[str, str] = {}
-    lines: list[str] = []
-    for group, reasons in by_group.items():
-        marks[group] = SUPERSCRIPTS[len(marks) % len(SUPERSCRIPTS)]
-        said = " · ".join(f"{reason} — {_who(where, results)}" for reason, where in reasons.items())
-        lines.append(f"{marks[group]} {group} not computable: {said}")
-    for key, reason in (absent or {}).items():
-        marks[key] = SUPERSCRIPTS[len(marks) % len(SUPERSCRIPTS)]
-        lines.append(f"{marks[key]} {reason}")
-    return Footnotes(marks, groups, lines)
-
-
-def _who(where: list[tuple[str, str]], results: dict[str, dict[str, dict[str, Any]]]) -> str:
-    """'every subject and system', 'MLP, mean pose of every subject', or per subject
-    's0: every system; s1: MLP'."""
-    subjects: dict[str, list[str]] = {}
-    for subject, system in where:
-        subjects.setdefault(subject, []).append(system)
-    whole = {s for s, systems in subjects.items() if len(systems) == len(results[s])}
-    if whole == set(results):
-        return "every subject and system"
-    if set(subjects) == set(results) and len({tuple(v) for v in subjects.values()}) == 1:
-        return f"{', '.join(next(iter(subjects.values())))} of every subject"
-    return "; ".join(
-        f"{s}: {'every system' if s in whole else ', '.join(systems)}"
-        for s, systems in subjects.items()
-    )
-
-
-def cell(value: Any, column: Column, mark: str) -> str:
-    """A formatted measure, or 'n/a' with the marks of its reasons."""
-    if value is None:
-        return f"n/a{mark}"
-    return column.fmt.format(value * column.scale)
-
-
-def table(
-    results: dict[str, dict[str, dict[str, Any]]],
-    title: str,
-    columns: Sequence[Column] = TABLE_5_1,
-    notes: Footnotes | None = None,
-) -> Table:
-    """A rich table like Table 5.1: one row per subject and system, then the averages.
-
-    Headers carry the better-direction (`LEGEND`); n/a cells the marks of `notes`."""
-    notes = notes or footnotes(results)
-    t = Table(title=title)
-    t.add_column("Subject")
-    t.add_column("System", no_wrap=True)
-    for c in columns:
-        t.add_column(c.title, justify="right")
-
-    def cells(system: str, row: dict[str, Any], subject: str | None) -> list[str]:
-        return [cell(row.get(c.key), c, notes.mark(system, c.key, subject)) for c in columns]
-
-    for subject, systems in results.items():
-        for i, (system, row) in enumerate(systems.items()):
-            t.add_row(subject if i == 0 else "", system, *cells(system, row, subject))
-        t.add_section()
-    for i, (system, row) in enumerate(average(results).items()):
-        t.add_row("[bold]average[/bold]" if i == 0 else "", system, *cells(system, row, None))
-    return t

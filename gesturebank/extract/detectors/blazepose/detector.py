@@ -30,6 +30,7 @@ from gesturebank.extract.detectors.blazepose.preprocess import (
     detection_views,
     detector_input,
     landmark_input,
+    roi_from_points,
 )
 from gesturebank.extract.detectors.blazepose.tracker import Tracker
 from gesturebank.poses import MultiPose2D, Pose2D
@@ -124,6 +125,42 @@ class BlazePoseDetector:
     def detect(self, frames: Iterable[Frame]) -> Pose2D:
         """(T, 33, 3) keypoints of the track seen in the most frames (NaN where it is not)."""
         return most_seen(self.detect_people(frames))
+
+    def detect_each_frame(self, frames: Iterable[Frame]) -> Pose2D:
+        """(T, 33, 3) keypoints of the strongest person in each frame, every frame on its own:
+        the person detector, the ROI from its detection, one landmark pass, nothing carried
+        from the frame before (no ROI tracking, no smoothing). The yardstick the tracked
+        output is held to (issue 39: on fast motion the tracked 2D must be as good); twice
+        the model passes of `detect`."""
+        times: list[float] = []
+        points: list[np.ndarray] = []
+        worlds: list[np.ndarray] = []
+        size: tuple[int, int] | None = None
+        k = len(BLAZEPOSE33)
+        for t, image in frames:
+            size = size or (image.shape[1], image.shape[0])
+            kp, world = np.full((k, 3), np.nan), np.full((k, 3), np.nan)
+            dets = self.find_people(image)
+            if len(dets):
+                best = int(np.argmax(dets.scores))
+                lm = self.landmarks(
+                    image, roi_from_points(dets.keypoints[best, 0], dets.keypoints[best, 1])
+                )
+                if lm.presence >= self.config.min_tracking_confidence:
+                    kp = np.hstack([lm.points[:k, :2], np.clip(lm.points[:k, 2:3], 0.0, 1.0)])
+                    world = lm.world
+            times.append(float(t))
+            points.append(kp)
+            worlds.append(world)
+        if size is None:
+            raise DetectionError("blazepose: no frames to detect on")
+        return Pose2D(
+            np.stack(points).astype(np.float32),
+            np.asarray(times),
+            self.skeleton,
+            size,
+            np.stack(worlds).astype(np.float32),
+        )
 
 
 def most_seen(multi: MultiPose2D) -> Pose2D:
