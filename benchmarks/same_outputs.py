@@ -174,7 +174,7 @@ def without_volatile(value: object) -> object:
             for k, v in value.items()
             if k not in VOLATILE | RELAID
         }
-    if isinstance(value, list):
+    if isinstance(value, list | tuple):  # a Parquet map column: a list of (key, value) tuples
         return [without_volatile(v) for v in value]
     if isinstance(value, float) and math.isnan(value):
         return "NaN"  # a missing value (a mocap take's video_fps) equals itself

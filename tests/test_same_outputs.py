@@ -83,3 +83,11 @@ def test_the_talking_demo_builds_to_its_stored_digests(demo_dataset: Path) -> No
     stored = json.loads(same_outputs.DIGESTS.read_text())
     found = same_outputs.digests(demo_dataset)
     assert same_outputs.digest_differences(found, stored) == []
+
+
+def test_a_missing_value_in_a_parquet_map_equals_itself() -> None:
+    metrics = {"metrics": [("depth_confidence", 1.0), ("expected_hand_error_cm", float("nan"))]}
+    again = {"metrics": [("depth_confidence", 1.0), ("expected_hand_error_cm", float("nan"))]}
+    assert same_outputs.without_volatile(metrics) == same_outputs.without_volatile(again)
+    again["metrics"][0] = ("depth_confidence", 0.5)
+    assert same_outputs.without_volatile(metrics) != same_outputs.without_volatile(again)
