@@ -25,7 +25,7 @@ from gesturebank.audio.io import Audio, read_audio
 from gesturebank.config import Config, VideoConfig
 from gesturebank.errors import DetectionError, GesturebankError, InputError
 from gesturebank.extract.cache import DetectionCache, cache_key, video_digest
-from gesturebank.extract.chunks import Chunk, detecting, stitch, video_chunks
+from gesturebank.extract.chunks import Chunk, stitch, video_chunks
 from gesturebank.extract.detectors import (
     DETECTORS,
     Detector,
@@ -171,6 +171,18 @@ def thumbnail(image: np.ndarray) -> np.ndarray:
     h, w = image.shape[:2]
     size = (max(1, round(w * PREVIEW_HEIGHT / h)), PREVIEW_HEIGHT)
     return np.asarray(cv2.resize(image, size, interpolation=cv2.INTER_AREA))
+
+
+def take_chunks(path: str, config: Config) -> list[tuple[Chunk, VideoConfig]]:
+    """`extract.chunks.video_chunks` of `path` under `config`."""
+    return video_chunks(path, video=config.video, build=config.build, detector=config.detector.name)
+
+
+def detecting(config: Config, video: VideoConfig) -> Config:
+    """`config` detecting one chunk (`video` from `video_chunks`). Chunks are always cached:
+    the cache is how a chunk's task hands its people to its take's."""
+    build = config.build.model_copy(update={"cache_detections": True})
+    return config.model_copy(update={"video": video, "build": build})
 
 
 def _create(config: Config, path: Path) -> Detector:
@@ -356,7 +368,7 @@ def extract_take(
     info = probe(path)
     t0 = time.perf_counter()
     times = preview_times(info, config)
-    plan = [] if chunks is None else video_chunks(str(path), config)
+    plan = [] if chunks is None else take_chunks(str(path), config)
     if chunks is not None and plan:
         found = _detect_chunks(path, config, plan, chunks)
     else:
