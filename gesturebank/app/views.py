@@ -23,6 +23,7 @@ from gesturebank.mocap.front_view import front_view
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.usable import still_spiking
 from gesturebank.repair import repair_pose2d, repair_pose3d, validity
+from gesturebank.repair.snaps import others_of, unsnap
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
 if TYPE_CHECKING:
@@ -108,7 +109,11 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
         tracks = [ext.tracked.report.main_ids]
     views = []
     for track in tracks:
-        pose, report = repair_pose2d(gather(ext.multi, ids, track), config=config.repair)
+        # a joint snapped onto another person for 1-3 frames is set missing first (issue 41)
+        own, snapped = unsnap(
+            gather(ext.multi, ids, track), others_of(ext.multi, ids, track), config=config.repair
+        )
+        pose, report = repair_pose2d(own, config=config.repair)
         valid = _coco17_mask(
             validity(pose, visible_confidence=config.repair.visible_confidence), pose.skeleton
         )
@@ -118,8 +123,8 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
             TakeView(
                 pose2d=pose,
                 valid=valid,
-                repaired=_coco17_mask(report.repaired, pose.skeleton),
-                repairs=report.counts(),
+                repaired=_coco17_mask(report.repaired | snapped, pose.skeleton),
+                repairs={**report.counts(), "snaps": int(snapped.sum())},
                 cuts=ext.shots.cuts,
                 speaker=track,
                 role=ext.tracked.role_of(track),
