@@ -447,7 +447,8 @@ def calibration_table(config: Config, seconds: float, counts: tuple[int, ...], *
                 "refined"):  # fmt: skip
         table.add_column(col, justify="right")
     plain = LIFTERS.create("multiview", config)
-    bundle = MultiviewLifter(multiview=config.multiview.model_copy(update={"refine_cameras": True}))
+    refined = config.lifter.multiview.model_copy(update={"refine_cameras": True})
+    bundle = MultiviewLifter(multiview=refined)
     for count in counts:
         azimuths = rig_azimuths(centre_deg=0.0, count=count, spread_deg=config.synth.rig_spread_deg)
         synth = SynthConfig(azimuths_deg=azimuths, start_s=DETECTED_START_S, length_s=seconds,
@@ -548,7 +549,7 @@ def main() -> None:
     ref_angles = pepper_angles(ref_pose, config=config.retarget)
     span = f", first {QUICK_S} s" if args.quick else ""
     tri = report.triangulation.error[np.isfinite(report.triangulation.error)]
-    refine = getattr(config.multiview, "refine", "n/a")  # the option lands with issue 15 item 1
+    refine = getattr(config.lifter.multiview, "refine", "n/a")  # the option: issue 15 item 1
     print(f"Pose2Sim Demo_SinglePerson, {len(ref_pose)} frames{span}; reference reprojection "
           f"median {np.median(tri):.1f} px (refine: {refine})")  # fmt: skip
     console.print(consistency_table(poses, cams, config, ref_angles, args.quick))

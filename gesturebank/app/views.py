@@ -17,6 +17,7 @@ from gesturebank.datasets.head import FaceHead
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.geometry import Camera
+from gesturebank.lift.clip_confidence import lifter_traits
 from gesturebank.mocap import MOCAP
 from gesturebank.mocap.front_view import front_view
 from gesturebank.poses import Pose2D, Pose3D
@@ -92,10 +93,10 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
     from gesturebank.extract.identity import gather
     from gesturebank.lift import LIFTERS
 
-    if config.lifter.name == "multiview":  # known before the slow extraction starts
+    if lifter_traits(config.lifter.name).several_views:  # known before the slow extraction
         raise InputError(
-            f"{take.video}: the multiview lifter needs a multi-camera take (a folder with a "
-            "calibration file and two or more videos)"
+            f"{take.video}: the {config.lifter.name} lifter needs a multi-camera take (a folder "
+            "with a calibration file and two or more videos)"
         )
     ext = extract_take(take.video, config, chunks=chunks)
     if ext.audio is None:
@@ -166,7 +167,7 @@ def face_head(
         return None
     axes, centre, residual = heads.of(track)
     focal, principal, _ = pinhole(
-        np.zeros((0, 2)), image_size, camera, fov_deg=config.fitted.fov_deg
+        np.zeros((0, 2)), image_size, camera, fov_deg=config.lifter.fitted.fov_deg
     )
     if camera is not None:
         centre = camera.undistort_points(centre)
@@ -234,7 +235,7 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
     assert isinstance(lifter, MultiviewLifter)  # the audio choice below needs its camera offsets
     pose3d, report = lifter.lift_with_report(TakeViews(tuple(poses), cameras, tuple(audios)))
     pose3d, report3d = repair_pose3d(pose3d, config=config.repair)
-    ref = config.multiview.reference_camera
+    ref = config.lifter.multiview.reference_camera
     if take.audio is not None:
         audio = read_audio(take.audio, sample_rate=config.audio.sample_rate)
         if audio is None:

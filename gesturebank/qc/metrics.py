@@ -35,7 +35,7 @@ from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, part_mas
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
 from gesturebank.geometry import Camera
-from gesturebank.lift.depth_confidence import expected_hand_error_cm
+from gesturebank.lift.clip_confidence import expected_hand_error_cm
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.invariants import invariant_metrics
 from gesturebank.qc.table import CHECKS

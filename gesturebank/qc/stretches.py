@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from gesturebank.clip import Clip
 from gesturebank.config import QCConfig
-from gesturebank.lift.depth_confidence import expected_hand_error_cm
+from gesturebank.lift.clip_confidence import expected_hand_error_cm
 from gesturebank.qc import metrics as M
 from gesturebank.qc.checks import Failure, failures
 from gesturebank.qc.clip_metrics import ClipMetrics

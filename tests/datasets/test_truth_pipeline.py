@@ -9,7 +9,7 @@ angles): the clip kept whole (3.0 of 3 s); arm-angle MAE 2.8°, Pepper hand erro
 bone with the wrong depth sign (of the 280 bone-frames that point clearly towards or away from
 the camera; 8 with `blazepose-world`, whose clip measured 12.8° and 8.9 cm). Bounds: 1.5× these,
 and at most 1 % of them wrong. The clip's depth confidence (0.14 on average: forearms
-towards the camera) expects a hand error of 4.0 cm (`lift.depth_confidence.CALIBRATION`, from
+towards the camera) expects a hand error of 4.0 cm (`lift.depth_confidence.LEARNED`, from
 other stretches of test.bvh); its raw angles measure 2.1 cm. The learned lifter's error hardly
 follows the confidence (its calibration spans 3.3–5.8 cm), so the bound is within 50 % of the
 measurement or 2.5 cm, whichever is larger.
