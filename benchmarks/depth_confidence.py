@@ -15,8 +15,9 @@ with the render's camera. Per video frame, against the truth:
   direction from the chest to the camera: 0° facing the camera, 90° side on, 180° its back.
 
 Table 1 bins frames by confidence (`--bins`): frames, wrong sign %, hand cm, arm °. Its rows on
-the tuning set are `lift.depth_confidence.CALIBRATION` (tune only there: `test.bvh` outside
-31–51 s); `--set acceptance` (31–51 s) and `--set holdout` (test2, test3) check it. Table 2
+the tuning set are the lifters' `traits.depth_calibration` (`lift.depth_confidence`; tune
+only there: `test.bvh` outside 31–51 s); `--set acceptance` (31–51 s) and `--set holdout`
+(test2, test3) check it. Table 2
 (`--views`) bins the same frames by the true view in 15° steps, with the share of them QC's
 facing-away and sideways rules call so (on the detections).
 
@@ -42,11 +43,11 @@ from gesturebank.extract.video import iter_frames
 from gesturebank.fileio import sha256_file
 from gesturebank.footage import SPEECH
 from gesturebank.lift import LIFTERS, TakeViews
+from gesturebank.lift.clip_confidence import lifter_traits
 from gesturebank.lift.depth_confidence import (
     ARM_BONES as BONES,
 )
 from gesturebank.lift.depth_confidence import (
-    CALIBRATION,
     depth_confidence,
     out_of_plane_share,
 )
@@ -189,13 +190,14 @@ def confidence_table(frames: Frames, lifter: str, title: str) -> Table:
     for col in ("confidence", "mean", "frames", "wrong sign %", "hand cm", "arm °", "head °",
                 "calibrated hand cm"):  # fmt: skip
         table.add_column(col, justify="right")
-    calibration = CALIBRATION.get(lifter)
+    calibration = lifter_traits(lifter).depth_calibration
     for lo, hi in itertools.pairwise(BIN_EDGES):
         pick = (frames.confidence >= lo) & (frames.confidence < hi)
         mean = f"{frames.confidence[pick].mean():.3f}" if pick.any() else "-"
         expected = "-"
         if calibration is not None and pick.any():
-            expected = f"{np.interp(frames.confidence[pick], *calibration[::2]).mean():.1f}"
+            seen = frames.confidence[pick]
+            expected = f"{np.interp(seen, calibration.middles, calibration.hand_cm).mean():.1f}"
         table.add_row(f"{lo:.2f}–{min(hi, 1):.2f}", mean, *_row(frames, pick), expected)
     table.add_row(
         "all",

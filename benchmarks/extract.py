@@ -13,7 +13,8 @@ ratios, not absolute times, so it reads the same on a busy machine.
    Demo_SinglePerson cameras side by side.
 3. video seconds processed per wall second with every second frame (what `video.max_fps = 30`
    selects from 60 fps footage) ÷ the same with every frame.
-4. seconds per frame with `detector.small_people` ÷ without, on a frame with a far bystander.
+4. seconds per frame with `detector.blazepose.small_people` ÷ without, on a frame with a far
+   bystander.
 5. (not with --quick) the sampled video digest of the detection cache ÷ a full sha256.
 
     .venv/bin/python benchmarks/extract.py [--rounds 3] [--quick] [--samples DIR]
@@ -36,7 +37,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from gesturebank.config import DetectorConfig, VideoConfig
+from gesturebank.config import BlazePoseConfig, MediaPipeConfig, VideoConfig
 from gesturebank.extract.detectors import DETECTORS, Frame
 from gesturebank.extract.detectors.blazepose import BlazePoseDetector, roi_from_points
 from gesturebank.extract.video import iter_frames
@@ -70,8 +71,8 @@ def people(multi: MultiPose2D) -> float:
 
 
 def single_person(samples: Path, rounds: int, limit: int | None, table: Table) -> None:
-    bp = DETECTORS.create("blazepose", DetectorConfig())
-    mp = DETECTORS.create("mediapipe", DetectorConfig())
+    bp = DETECTORS.create("blazepose", BlazePoseConfig())
+    mp = DETECTORS.create("mediapipe", MediaPipeConfig())
     videos = {
         "pose2sim cam01 (60 fps)": samples / "pose2sim/Demo_SinglePerson/videos/cam01.mp4",
         "pose2sim cam03 (60 fps)": samples / "pose2sim/Demo_SinglePerson/videos/cam03.mp4",
@@ -124,7 +125,7 @@ def extra_people(samples: Path, rounds: int, limit: int | None, table: Table) ->
         "Sports2D demo": decode(samples / "sports2d/Demo/demo.mp4", limit),
         "montage of SinglePerson cam01, 03, 04": montage(*single),
     }
-    dets = {n: BlazePoseDetector(DetectorConfig(max_people=n)) for n in (1, 2, 3)}
+    dets = {n: BlazePoseDetector(BlazePoseConfig(max_people=n)) for n in (1, 2, 3)}
     for label, frames in clips.items():
         seen = {n: people(d.detect_people(iter(frames))) for n, d in dets.items()}  # also warms
         runs = {str(n): (lambda d=d, f=frames: d.detect_people(iter(f))) for n, d in dets.items()}
@@ -148,7 +149,7 @@ def extra_people(samples: Path, rounds: int, limit: int | None, table: Table) ->
 
 
 def half_rate(samples: Path, rounds: int, limit: int | None, table: Table) -> None:
-    bp = DETECTORS.create("blazepose", DetectorConfig())
+    bp = DETECTORS.create("blazepose", BlazePoseConfig())
     path = samples / "pose2sim/Demo_MultiPerson/videos/cam01.mp4"
     frames = decode(path, limit)
     half = frames[::2]  # what max_fps = 30 keeps of 60 fps
@@ -167,9 +168,10 @@ def half_rate(samples: Path, rounds: int, limit: int | None, table: Table) -> No
 
 
 def small_people(samples: Path, rounds: int, limit: int | None, table: Table) -> None:
-    """`detector.small_people` against the default views, same frames (it finds the bystander)."""
+    """`detector.blazepose.small_people` against the default views, same frames (it finds the
+    bystander)."""
     frames = decode(samples / "pose2sim/Demo_MultiPerson/videos/cam01.mp4", limit)
-    dets = {s: BlazePoseDetector(DetectorConfig(small_people=s)) for s in (False, True)}
+    dets = {s: BlazePoseDetector(BlazePoseConfig(small_people=s)) for s in (False, True)}
     seen = {s: people(d.detect_people(iter(frames))) for s, d in dets.items()}  # also warms
     t = alternate(
         {str(s): (lambda d=d: d.detect_people(iter(frames))) for s, d in dets.items()}, rounds

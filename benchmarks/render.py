@@ -29,7 +29,7 @@ import time
 from rich.console import Console
 from rich.table import Table
 
-from gesturebank.config import DetectorConfig, MocapConfig, SynthConfig
+from gesturebank.config import BlazePoseConfig, MocapConfig, SynthConfig
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.video import iter_frames
 from gesturebank.footage import SPEECH
@@ -125,7 +125,7 @@ def main() -> None:
                         f"{n / cpu / config.rate_fps:.2f}",  # baseline: the video's own rate
                     )
                 video = truth.videos[0]
-                detector = DETECTORS.create("blazepose", DetectorConfig(), video=video)
+                detector = DETECTORS.create("blazepose", BlazePoseConfig(), video=video)
                 pose = detector.detect(iter_frames(video)).to_coco17()
                 s = score_2d(pose.keypoints, truth.joints2d[0])
                 found.add_row(

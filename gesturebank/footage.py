@@ -33,6 +33,12 @@ PathLike = str | os.PathLike[str]
 CAM01 = "pose2sim/Demo_SinglePerson/videos/cam01.mp4"
 CAM03 = "pose2sim/Demo_SinglePerson/videos/cam03.mp4"
 SPORTS2D = "sports2d/Demo/demo.mp4"
+# cam02 (portrait, 1080 × 1920) sees the man from the front, his face blurred by the demo's
+# authors, and a woman standing far behind him (her shoulders about a quarter of his wide).
+CAM02 = "pose2sim/Demo_SinglePerson/videos/cam02.mp4"
+# Waist-up around him, his hips out of frame (head ≈ y 450–550, hips ≈ y 850 in the source,
+# the arms sweep x 400–1000), the woman inside it right of him: 720 × 480, 3:2 (issue 41).
+BEHIND_BOX = (240, 330, 960, 810)
 # cam04 sees both people from the front (in cam01 the second person, nearer, has her back to it)
 MULTI_CAM = "pose2sim/Demo_MultiPerson/videos/cam04.mp4"
 SPEECH = ("speech/arctic_a0007.wav", "speech/arctic_a0009.wav")
@@ -272,6 +278,8 @@ def standard(*, time_scale: float = 1.0) -> dict[str, Recipe]:
         "fps60": Recipe((CAM01,), s(10)),
         "fps30": Recipe((CAM01,), s(10), keep=2),
         "waist_up": Recipe((CAM01,), s(10), box=WAIST_UP_BOX),
+        # a waist-up speaker, face blurred, with a much smaller person behind (speech dubbed)
+        "behind": Recipe((CAM02,), s(10), box=BEHIND_BOX),
         "cut": Recipe((CAM01, CAM03), s(5, 5)),
         # Its whole 230 frames at 30 fps (a ping-pong as long as the clip is the clip).
         "crossing": Recipe((SPORTS2D,), s(23 / 3)),

@@ -88,23 +88,46 @@ class Registry(Generic[T]):
         return self.get(name)(*args, **kwargs)
 
 
+def section_model_of(factory: object) -> type[BaseModel] | None:
+    """The pydantic model of a plug-in's own section: `section_model` of its class (a factory
+    "Class.from_config" is looked up on its class), None when it declares none."""
+    owner = getattr(factory, "__self__", factory)  # a bound classmethod: its class
+    section = getattr(owner, "section_model", None)  # e.g. `train.contract.OwnSection`
+    return section if isinstance(section, type) and issubclass(section, BaseModel) else None
+
+
+def plugin_default(group: str, name: str) -> BaseModel | None:
+    """The default section of plug-in `name` of `group` (its `section_model()`), None when it is
+    no plug-in or declares no section."""
+    plugin = {ep.name: ep for ep in entry_points(group=group)}.get(name)
+    if plugin is None:
+        return None
+    try:
+        section = section_model_of(plugin.load())
+    except Exception:  # a broken plug-in fails where it is created, with its own message
+        return None
+    return None if section is None else section()
+
+
 def plugin_section(group: str, name: str, raw: object, known: Iterable[str]) -> BaseModel:
-    """A plug-in's own config section `NAME` (e.g. `[train.NAME]` of a "gesturebank.models"
-    plug-in), validated by the `section_model` (a pydantic model) its class declares.
+    """A plug-in's own config section `NAME` (`[train.NAME]` of a "gesturebank.models" plug-in,
+    `[detector.NAME]`, `[lifter.NAME]`), validated by the `section_model` (a pydantic model)
+    its class declares.
 
     ValueError, one line "NAME: …" or "NAME.key: …", when `name` is no plug-in of `group` (with
     the nearest of the `known` keys), the plug-in declares no section, or a value is wrong.
     """
-    plugin = {ep.name: ep for ep in entry_points(group=group)}.get(name)
+    plugins = {ep.name: ep for ep in entry_points(group=group)}
+    plugin = plugins.get(name)
     if plugin is None:
-        close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+        close = difflib.get_close_matches(name, [*known, *plugins], n=1, cutoff=0.6)
         raise ValueError(f"{name}: unknown key" + (f" (did you mean {close[0]}?)" if close else ""))
     try:
         owner = plugin.load()
     except Exception as exc:  # a broken plug-in must not look like a missing one
         raise ValueError(f"{name}: plug-in {plugin.value} failed to load ({exc})") from exc
-    section = getattr(owner, "section_model", None)  # declared by `train.contract.OwnSection`
-    if not (isinstance(section, type) and issubclass(section, BaseModel)):
+    section = section_model_of(owner)
+    if section is None:
         raise ValueError(f"{name}: plug-in {plugin.value} declares no section_model")
     try:
         return section.model_validate(raw)

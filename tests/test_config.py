@@ -25,7 +25,7 @@ def test_defaults_match_the_dissertation() -> None:
         26,
         0.97,
     )
-    assert c.detector.model_complexity == 1
+    assert c.detector.mediapipe.model_complexity == 1
 
 
 def test_precedence_defaults_file_cli(tmp_path: Path) -> None:

@@ -36,7 +36,8 @@ def _hook() -> ModuleType:
 
 def _leaf_keys(model: type[BaseModel], prefix: str = "") -> list[str]:
     keys = []
-    for name, field in model.model_fields.items():
+    for key, field in model.model_fields.items():
+        name = field.alias or key  # the key as written in TOML
         ann = field.annotation
         if isinstance(ann, type) and issubclass(ann, BaseModel):
             keys += _leaf_keys(ann, f"{prefix}{name}.")
@@ -74,8 +75,9 @@ def test_the_config_reference_shows_default_unit_range_and_description() -> None
     assert rows["shots.detector"][1] == "`'content'` \\| `'none'`"
     assert rows["splits.sd_fractions"][2] == "`[0.7, 0.15, 0.15]`"
     assert rows["train.lstm.max_epochs"][2] == "`100`"
-    assert "precomputed" in rows["detector.json_suffix"][5]
-    assert "&lt;video stem&gt;" in rows["detector.json_suffix"][5]  # no raw HTML in a cell
+    assert "precomputed" in rows["detector.openpose-json.json_suffix"][5]
+    cell = rows["detector.openpose-json.json_suffix"][5]
+    assert "&lt;video stem&gt;" in cell  # no raw HTML in a cell
 
 
 def test_the_dataset_format_page_names_every_field() -> None:

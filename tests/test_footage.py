@@ -55,6 +55,7 @@ def expected(samples: Path) -> dict[str, tuple[tuple[int, int], int, int]]:
         "cut": ((1080, 1920), 60, 18),
         "crossing": ((1768, 994), 30, 7),  # 7.67 s × 0.03 at 30 fps
         "lowres": ((202, 360), 60, 18),  # 1080 × 360 / 1920 = 202.5 -> even 202
+        "behind": ((720, 480), 60, 18),  # cam02's waist-up box (issue 41)
     }
     if (samples / MULTI_CAM).is_file():
         table["multi"] = (probe(samples / MULTI_CAM).size, 60, 18)

@@ -377,8 +377,6 @@ def test_an_oversized_module_is_found(tmp_path: Path) -> None:
 TERMINAL_FLOORS = ("gesturebank.app", "gesturebank.cli")
 KNOWN_RICH: dict[str, int] = {
     "gesturebank.datasets.listing": 42,
-    "gesturebank.train.trainer": 42,
-    "gesturebank.train.eval.compare": 42,
     "gesturebank.train.eval.tables": 42,  # evaluate's tables (#44 moved them out of evaluate)
 }
 

@@ -116,7 +116,8 @@ def section_tables(model: type[BaseModel], prefix: str = "") -> list[str]:
     out: list[str] = []
     leaves = []
     nested = []
-    for key, field in model.model_fields.items():
+    for name, field in model.model_fields.items():
+        key = field.alias or name  # as written in TOML: [detector.openpose-json]
         (nested if _is_section(field.annotation) else leaves).append((key, field))
     if prefix:
         out.append(f"### `[{prefix}]`\n")

@@ -16,8 +16,7 @@ from gesturebank.datasets.cut import Span, frame_ends
 from gesturebank.datasets.head import in_pose_frame, mix_head
 from gesturebank.datasets.process import head_roll_at, process_angles
 from gesturebank.errors import InputError
-from gesturebank.lift.clip_confidence import lift_confidence
-from gesturebank.mocap import MOCAP
+from gesturebank.lift.clip_confidence import lift_confidence, lifter_traits
 from gesturebank.qc.usable import still_spiking
 from gesturebank.repair import repair_pose3d
 from gesturebank.robot import pepper
@@ -78,7 +77,8 @@ def build_clip(
     a_cfg = config.audio
     i0, i1, times = audio_clock(ts, feats_start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
     pose3d = view.lift(a, b)
-    if view.lifter not in ("multiview", MOCAP):  # a lifter's own glitches (multiview: repaired)
+    if not lifter_traits(view.lifter).measured_depth:  # a lifter's own glitches (measured 3D:
+        # triangulated and repaired by its lifter, or motion capture)
         pose3d, _ = repair_pose3d(pose3d, config=config.repair)
     valid = view.valid[a:b] & ~still_spiking(
         pose3d.joints, view.valid[a:b], max_spike=config.repair.max_spike

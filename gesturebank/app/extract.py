@@ -17,6 +17,7 @@ import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from gesturebank.audio.io import Audio, read_audio
 from gesturebank.config import Config, VideoConfig
 from gesturebank.errors import DetectionError, GesturebankError, InputError
 from gesturebank.extract.cache import DetectionCache, cache_key, video_digest
-from gesturebank.extract.chunks import Chunk, detecting, stitch, video_chunks
+from gesturebank.extract.chunks import Chunk, stitch, video_chunks
 from gesturebank.extract.detectors import (
     DETECTORS,
     Detector,
@@ -172,6 +173,18 @@ def thumbnail(image: np.ndarray) -> np.ndarray:
     return np.asarray(cv2.resize(image, size, interpolation=cv2.INTER_AREA))
 
 
+def take_chunks(path: str, config: Config) -> list[tuple[Chunk, VideoConfig]]:
+    """`extract.chunks.video_chunks` of `path` under `config`."""
+    return video_chunks(path, video=config.video, build=config.build, detector=config.detector.name)
+
+
+def detecting(config: Config, video: VideoConfig) -> Config:
+    """`config` detecting one chunk (`video` from `video_chunks`). Chunks are always cached:
+    the cache is how a chunk's task hands its people to its take's."""
+    build = config.build.model_copy(update={"cache_detections": True})
+    return config.model_copy(update={"video": video, "build": build})
+
+
 def _create(config: Config, path: Path) -> Detector:
     try:
         factory = DETECTORS.get(config.detector.name)
@@ -181,7 +194,7 @@ def _create(config: Config, path: Path) -> Detector:
     if "threads" in inspect.signature(factory).parameters:  # plug-ins may not take it
         extra["threads"] = config.build.inference_threads
     try:
-        return factory(config.detector, video=path, **extra)
+        return factory(config.detector.settings(), video=path, **extra)
     except GesturebankError as exc:
         raise type(exc)(f"{path}: {exc}") from None
 
@@ -228,7 +241,9 @@ def detect_people(
     key = None
     store = cache or DetectionCache()
     if config.build.cache_detections and getattr(det, "cacheable", True):
-        params = {s: getattr(config, s).model_dump(mode="json") for s in ("detector", "video")}
+        own = config.detector.settings()  # the chosen detector's settings, not the others'
+        params: dict[str, Any] = {"detector": None if own is None else own.model_dump(mode="json")}
+        params["video"] = config.video.model_dump(mode="json")
         params["shots"] = config.shots.model_dump(mode="json")
         # a detector's `version` changes when its code gives other output for the same video
         params["version"] = getattr(det, "version", 0)
@@ -353,7 +368,7 @@ def extract_take(
     info = probe(path)
     t0 = time.perf_counter()
     times = preview_times(info, config)
-    plan = [] if chunks is None else video_chunks(str(path), config)
+    plan = [] if chunks is None else take_chunks(str(path), config)
     if chunks is not None and plan:
         found = _detect_chunks(path, config, plan, chunks)
     else:

@@ -11,6 +11,7 @@ Raises on failure; the builder turns that into a `failed` record.
 
 from __future__ import annotations
 
+import itertools
 import logging
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -24,11 +25,10 @@ from gesturebank.clip import Clip
 from gesturebank.config import Config
 from gesturebank.datasets.cut import Span, cut_clips, frame_ends, trimmed_share
 from gesturebank.datasets.digest import content_digest, measure_digest
+from gesturebank.datasets.judging import judged_records
 from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.records import ClipRecord, TakeRecord
 from gesturebank.datasets.takes import Take
-from gesturebank.qc.checks import absolute_reasons
-from gesturebank.qc.metrics import clip_metrics
 from gesturebank.qc.usable import usable_frames
 from gesturebank.robot import pepper
 
@@ -136,11 +136,10 @@ def build_take(
             config=config.clips,
         )
         for span in cutting.clips:
-            clip_id = f"{take.take_id}__c{len(clips):03d}"
-            clip = build_clip(
+            whole = build_clip(
                 person_view,
                 span,
-                clip_id,
+                f"{take.take_id}__whole",
                 take.take_id,
                 feats,
                 heard.start_s,
@@ -148,17 +147,20 @@ def build_take(
                 config,
                 profile,
             )
-            # trimmed_fraction: of the whole take, so each of its clips carries it
-            metrics = replace(
-                clip_metrics(clip, profile=profile, qc=config.qc), trimmed_fraction=trimmed
+            # judged, and cut around the stretches that fail (issue 41); trimmed_fraction is of
+            # the whole take, so each of its clips carries it
+            kept, judged = judged_records(
+                whole,
+                config=config,
+                profile=profile,
+                measured=measured,
+                trimmed=trimmed,
+                clip_ids=(f"{take.take_id}__c{len(clips) + k:03d}" for k in itertools.count()),
+                span_ids=(f"{take.take_id}__s{n_spans + k:03d}" for k in itertools.count()),
             )
-            reasons = absolute_reasons(metrics, config.qc)
-            clips.append(clip)
-            rows.append(
-                ClipRecord.of_clip(
-                    clip, metrics=metrics.to_dict(), reasons=reasons, measured=measured
-                )
-            )
+            clips += kept
+            rows += judged
+            n_spans += sum(r.kind == "span" for r in judged)
         for span in cutting.dropped:
             rows.append(
                 ClipRecord(

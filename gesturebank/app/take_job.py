@@ -60,14 +60,14 @@ def chunk_cache(out: Path) -> DetectionCache:
 
 def chunk_jobs(take: Take, config: Config) -> list[ChunkJob]:
     """The chunk detections `take` can start with (its videos longer than build.chunk_s)."""
-    from gesturebank.extract.chunks import video_chunks
+    from gesturebank.app.extract import take_chunks
 
     if take.mocap:
         return []
     jobs = []
     for video in take.videos or (take.video,):
         try:
-            plan = video_chunks(str(video), config)
+            plan = take_chunks(str(video), config)
         except GesturebankError:  # the take's own task fails with the reason
             return []
         jobs += [ChunkJob(take.take_id, video, rng, chunk.own_s) for chunk, rng in plan]
@@ -77,8 +77,7 @@ def chunk_jobs(take: Take, config: Config) -> list[ChunkJob]:
 def run_chunk(job: ChunkJob, out: Path, config: Config) -> None:
     """Detect one chunk into OUT_DIR's chunk cache. A chunk that fails is left to its take's
     task, which detects what the cache lacks itself and fails with the reason."""
-    from gesturebank.app.extract import detect_people
-    from gesturebank.extract.chunks import detecting
+    from gesturebank.app.extract import detect_people, detecting
 
     try:
         detect_people(job.video, detecting(config, job.range), cache=chunk_cache(out))

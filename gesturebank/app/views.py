@@ -17,11 +17,13 @@ from gesturebank.datasets.head import FaceHead
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.geometry import Camera
+from gesturebank.lift.clip_confidence import lifter_traits
 from gesturebank.mocap import MOCAP
 from gesturebank.mocap.front_view import front_view
 from gesturebank.poses import Pose2D, Pose3D
 from gesturebank.qc.usable import still_spiking
 from gesturebank.repair import repair_pose2d, repair_pose3d, validity
+from gesturebank.repair.snaps import others_of, unsnap
 from gesturebank.skeletons import COCO17, get_skeleton, to_coco17
 
 if TYPE_CHECKING:
@@ -91,10 +93,10 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
     from gesturebank.extract.identity import gather
     from gesturebank.lift import LIFTERS
 
-    if config.lifter.name == "multiview":  # known before the slow extraction starts
+    if lifter_traits(config.lifter.name).several_views:  # known before the slow extraction
         raise InputError(
-            f"{take.video}: the multiview lifter needs a multi-camera take (a folder with a "
-            "calibration file and two or more videos)"
+            f"{take.video}: the {config.lifter.name} lifter needs a multi-camera take (a folder "
+            "with a calibration file and two or more videos)"
         )
     ext = extract_take(take.video, config, chunks=chunks)
     if ext.audio is None:
@@ -107,7 +109,11 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
         tracks = [ext.tracked.report.main_ids]
     views = []
     for track in tracks:
-        pose, report = repair_pose2d(gather(ext.multi, ids, track), config=config.repair)
+        # a joint snapped onto another person for 1-3 frames is set missing first (issue 41)
+        own, snapped = unsnap(
+            gather(ext.multi, ids, track), others_of(ext.multi, ids, track), config=config.repair
+        )
+        pose, report = repair_pose2d(own, config=config.repair)
         valid = _coco17_mask(
             validity(pose, visible_confidence=config.repair.visible_confidence), pose.skeleton
         )
@@ -117,8 +123,8 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
             TakeView(
                 pose2d=pose,
                 valid=valid,
-                repaired=_coco17_mask(report.repaired, pose.skeleton),
-                repairs=report.counts(),
+                repaired=_coco17_mask(report.repaired | snapped, pose.skeleton),
+                repairs={**report.counts(), "snaps": int(snapped.sum())},
                 cuts=ext.shots.cuts,
                 speaker=track,
                 role=ext.tracked.role_of(track),
@@ -161,7 +167,7 @@ def face_head(
         return None
     axes, centre, residual = heads.of(track)
     focal, principal, _ = pinhole(
-        np.zeros((0, 2)), image_size, camera, fov_deg=config.fitted.fov_deg
+        np.zeros((0, 2)), image_size, camera, fov_deg=config.lifter.fitted.fov_deg
     )
     if camera is not None:
         centre = camera.undistort_points(centre)
@@ -229,7 +235,7 @@ def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> Tak
     assert isinstance(lifter, MultiviewLifter)  # the audio choice below needs its camera offsets
     pose3d, report = lifter.lift_with_report(TakeViews(tuple(poses), cameras, tuple(audios)))
     pose3d, report3d = repair_pose3d(pose3d, config=config.repair)
-    ref = config.multiview.reference_camera
+    ref = config.lifter.multiview.reference_camera
     if take.audio is not None:
         audio = read_audio(take.audio, sample_rate=config.audio.sample_rate)
         if audio is None:

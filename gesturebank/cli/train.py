@@ -236,7 +236,7 @@ def compare(
     acceleration, jerk, Hellinger distances and FGD — its autoencoder's version in the title —
     and BEAT's beat consistency), each the mean over subjects.
     """
-    from gesturebank.train.eval.compare import compare_command
+    from gesturebank.app.compare import compare_command
 
     with user_errors():
         config = (

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 
+from gesturebank.app.train_progress import EpochBar
 from gesturebank.config import TrainConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.store import Dataset
@@ -163,8 +164,9 @@ def train_command(
         parts = {"train": train_segments, "val": val_segments}  # once --out is known writable
         for warning in data_warnings(model, cfg, parts, float(ds.info.rates.pose_hz)):
             (on_warning or log.warning)(warning)
+        bar = None if quiet else EpochBar()
         result = train(
-            net, train_segments, val_segments, cfg, quiet=quiet, description=what, epochs=epochs
+            net, train_segments, val_segments, cfg, progress=bar, description=what, epochs=epochs
         )
         export_onnx(net, tmp)
         write_loss_png(tmp / LOSS_PNG, history=result.history, title=f"{what}: loss per epoch")

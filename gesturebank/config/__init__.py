@@ -35,8 +35,17 @@ from gesturebank.config.datasets import (
     ProcessingConfig,
     SplitsConfig,
 )
-from gesturebank.config.extract import DetectorConfig, ShotsConfig, TrackingConfig, VideoConfig
+from gesturebank.config.extract import (
+    BlazePoseConfig,
+    DetectorConfig,
+    MediaPipeConfig,
+    OpenPoseJsonConfig,
+    ShotsConfig,
+    TrackingConfig,
+    VideoConfig,
+)
 from gesturebank.config.lift import (
+    OLD_LIFTER_SECTIONS,
     BoardConfig,
     FittedConfig,
     GeometricConfig,
@@ -49,7 +58,7 @@ from gesturebank.config.mocap import MocapConfig, MocapUnits
 from gesturebank.config.qc import MetricName, QCConfig
 from gesturebank.config.repair import RepairConfig
 from gesturebank.config.robot import PlaybackConfig, RenderConfig, RetargetConfig, RobotConfig
-from gesturebank.config.section import Section
+from gesturebank.config.section import PluginSections, Section, deprecated_key, nest
 from gesturebank.config.synth import SynthConfig, SynthLook
 from gesturebank.config.train import (
     Aud2MotionConfig,
@@ -74,6 +83,7 @@ __all__ = [
     "Aud2PoseConfig",
     "Aud2Repr2PoseConfig",
     "AudioConfig",
+    "BlazePoseConfig",
     "BoardConfig",
     "BuildConfig",
     "CVAEConfig",
@@ -91,11 +101,14 @@ __all__ = [
     "LearnedConfig",
     "LifterConfig",
     "MLPConfig",
+    "MediaPipeConfig",
     "MetricName",
     "MocapConfig",
     "MocapUnits",
     "MultiviewConfig",
+    "OpenPoseJsonConfig",
     "PlaybackConfig",
+    "PluginSections",
     "ProcessingConfig",
     "QCConfig",
     "RMSpropScheduleConfig",
@@ -132,11 +145,6 @@ class Config(Section):
     repair: RepairConfig = Field(default_factory=RepairConfig)
     clips: ClipsConfig = Field(default_factory=ClipsConfig)
     lifter: LifterConfig = Field(default_factory=LifterConfig)
-    geometric: GeometricConfig = Field(default_factory=GeometricConfig)
-    fitted: FittedConfig = Field(default_factory=FittedConfig)
-    resolved: ResolvedConfig = Field(default_factory=ResolvedConfig)
-    learned: LearnedConfig = Field(default_factory=LearnedConfig)
-    multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
     board: BoardConfig = Field(default_factory=BoardConfig)
     robot: RobotConfig = Field(default_factory=RobotConfig)
     retarget: RetargetConfig = Field(default_factory=RetargetConfig)
@@ -155,6 +163,12 @@ class Config(Section):
     @model_validator(mode="before")
     @classmethod
     def _moved(cls, data: Any) -> Any:
+        # [geometric] … [multiview] became [lifter.geometric] … (read for one release)
+        for old in OLD_LIFTER_SECTIONS:
+            if isinstance(data, dict) and old in data:
+                deprecated_key(f"[{old}]", f"[lifter.{old}]")
+                rest = {k: v for k, v in data.items() if k != old}
+                data = nest(rest, "lifter", {old: data[old]})
         # playback.sim_fps became render.frame_rate (datasets and config files with it still load)
         playback = data.get("playback") if isinstance(data, dict) else None
         if isinstance(playback, dict) and "sim_fps" in playback:
@@ -164,7 +178,7 @@ class Config(Section):
         return data
 
     def to_json_dict(self) -> dict[str, Any]:
-        return self.model_dump(mode="json")
+        return self.model_dump(mode="json", by_alias=True)
 
     def digest(self, *sections: str) -> str:
         """sha256 of the given sections (all when none), to key caches and resumable builds."""

@@ -1,26 +1,15 @@
-"""Options of the 3D lifters: which one (`[lifter]`), each lifter's own section (`[geometric]`,
-`[fitted]`, `[resolved]`, `[learned]`, `[multiview]`) and the calibration board (`[board]`).
+"""Options of the 3D lifters: which one (`[lifter]`), each lifter's own section
+(`[lifter.geometric]`, `[lifter.fitted]`, `[lifter.resolved]`, `[lifter.learned]`,
+`[lifter.multiview]`, a plug-in's `[lifter.NAME]`) and the calibration board (`[board]`).
 """
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import ClassVar, Literal
 
 from pydantic import Field, model_validator
 
-from gesturebank.config.section import Section
-
-
-class LifterConfig(Section):
-    name: str = Field(
-        "learned",
-        description="3D lifter of single-view takes: 'learned' (a temporal convolution net "
-        "trained on projected motion capture; the most accurate on the truth benchmark), "
-        "'blazepose-world' (BlazePose's own 3D landmarks), 'fitted' (a skeleton fitted to the 2D "
-        "with BlazePose's 3D as prior), 'resolved' (each arm bone's depth sign decoded over the "
-        "take), 'geometric' (assumptions) or a plug-in name; multi-camera takes always use "
-        "'multiview'.",
-    )
+from gesturebank.config.section import PluginSections, Section
 
 
 class GeometricConfig(Section):
@@ -379,6 +368,32 @@ class MultiviewConfig(Section):
         if self.reject_error_px is not None and self.reject_error_px < self.max_error_px:
             raise ValueError("reject_error_px must be at least max_error_px")
         return self
+
+
+class LifterConfig(PluginSections):
+    """`[lifter]`: which lifter lifts single-view takes (`name`), and each lifter's own
+    `[lifter.NAME]` (a plug-in's validated by it)."""
+
+    plugin_group: ClassVar[str] = "gesturebank.lifters"
+
+    name: str = Field(
+        "learned",
+        description="3D lifter of single-view takes: 'learned' (a temporal convolution net "
+        "trained on projected motion capture; the most accurate on the truth benchmark), "
+        "'blazepose-world' (BlazePose's own 3D landmarks), 'fitted' (a skeleton fitted to the 2D "
+        "with BlazePose's 3D as prior), 'resolved' (each arm bone's depth sign decoded over the "
+        "take), 'geometric' (assumptions) or a plug-in name; multi-camera takes always use "
+        "'multiview'.",
+    )
+    geometric: GeometricConfig = Field(default_factory=GeometricConfig)
+    fitted: FittedConfig = Field(default_factory=FittedConfig)
+    resolved: ResolvedConfig = Field(default_factory=ResolvedConfig)
+    learned: LearnedConfig = Field(default_factory=LearnedConfig)
+    multiview: MultiviewConfig = Field(default_factory=MultiviewConfig)
+
+
+# The top-level lifter sections of the release before, now `[lifter.NAME]` (Config reads them).
+OLD_LIFTER_SECTIONS = ("geometric", "fitted", "resolved", "learned", "multiview")
 
 
 class BoardConfig(Section):

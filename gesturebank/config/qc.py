@@ -116,10 +116,14 @@ class QCConfig(Section):
         ge=0,
         description="Left/right exchanges of the arms left after repair tolerated in a clip.",
     )
+    # 0.75 before issue 41, when a jump cost its whole clip; now it costs its frames and 0.2 s
+    # either side (a stretch check), and kept clips of the real footage held jumps of 0.71
+    # ("behind") and 0.51 ("lowres") shoulder widths, glitches nobody makes.
     max_spike: float = Field(
-        0.75,
+        0.5,
         gt=0,
-        description="Largest one-frame jump of a seen keypoint out and back, in shoulder widths.",
+        description="Largest one-frame jump of a seen keypoint out and back, in shoulder widths "
+        "(in the 2D and in the 3D); a larger one is cut out with qc.stretch_margin_s either side.",
     )
     max_frozen_fraction: float = Field(
         0.1, ge=0, le=1, description="Largest share of frames where the pose is exactly repeated."
@@ -206,6 +210,23 @@ class QCConfig(Section):
         gt=0,
         description="Absolute ceiling on the raw jerk J (Eq. 3.21, rad² s⁻⁵); none = only the "
         "dataset-relative check.",
+    )
+    # Issue 41: a check of scope "stretch" (qc.table) cuts the clip around the stretch that
+    # fails it. The margin covers the frames either side of a glitch that the filters smear it
+    # into (the 100 Hz low-pass's step response settles within ~0.15 s at 4 Hz); more only
+    # costs footage.
+    stretch_margin_s: float = Field(
+        0.2,
+        ge=0,
+        description="Seconds dropped either side of a stretch cut out by a stretch check "
+        "(frozen at a limit, sideways, facing away, depth uncertain, jitter, glitches, no "
+        "speech); the pieces left become clips again when they last clips.min_s.",
+    )
+    stretch_rounds: int = Field(
+        3,
+        ge=0,
+        description="How often a piece that fails again is cut again before it is rejected "
+        "whole. 0 = the old rule: a clip failing any check is rejected whole.",
     )
     outlier_metrics: list[MetricName] = Field(
         ["jerk_raw", "jerk"],

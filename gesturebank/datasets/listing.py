@@ -23,9 +23,11 @@ from rich.padding import Padding
 from rich.table import Table
 from rich.text import Text
 
+from gesturebank.datasets.manifest import take_records
 from gesturebank.datasets.reader import Dataset, ManifestRow
 from gesturebank.datasets.records import STATUSES, Status
 from gesturebank.errors import InputError
+from gesturebank.qc.stretches import is_cut_reason
 
 if TYPE_CHECKING:
     from gesturebank.robot.timeline import Timeline
@@ -106,7 +108,9 @@ def list_clips(
     subject: str | None = None,
     take: str | None = None,
 ) -> list[ClipRow]:
-    """The clips with arrays of `data` in manifest order, those given filters keep. An unknown
+    """The clips with arrays of `data` in manifest order, those given filters keep; with status
+    "rejected" also the stretches the QC cut out of clips (`cut_stretches`), the rows
+    then by take and time. An unknown
     subject or take is an InputError naming the nearest ones."""
     rows = [_row(r) for r in data.clips(None)]
     if status is not None and status not in STATUSES:
@@ -117,6 +121,8 @@ def list_clips(
     ):
         if value is not None and value not in known:
             raise InputError(f"{data.path}: no {flag[2:]} {value!r}{_nearest(value, known)}")
+    if status == "rejected":  # the stretches the QC cut out of clips too
+        rows = sorted([*rows, *cut_stretches(data)], key=lambda r: (r.take_id, r.start_s))
     return [
         r
         for r in rows
@@ -124,6 +130,30 @@ def list_clips(
         and (subject is None or r.subject == subject)
         and (take is None or r.take_id == take)
     ]
+
+
+def cut_stretches(data: Dataset) -> list[ClipRow]:
+    """The stretches the QC cut out of clips (issue 41: spans of the take records whose reason
+    is `qc.stretches.is_cut_reason`), as rows with status "rejected" and no arrays."""
+    rows = []
+    for record in take_records(data.path):
+        for c in record.clips:
+            if c.kind == "span" and c.qc_reasons and is_cut_reason(c.qc_reasons[0]):
+                rows.append(
+                    ClipRow(
+                        c.clip_id,
+                        record.take_id,
+                        record.subject,
+                        record.source,
+                        c.start_s,
+                        c.end_s,
+                        c.end_s - c.start_s,
+                        "rejected",
+                        c.qc_reasons,
+                        {},
+                    )
+                )
+    return rows
 
 
 def _nearest(name: str, known: set[str] | list[str]) -> str:

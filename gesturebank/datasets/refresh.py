@@ -10,6 +10,7 @@ measured with other measuring settings (`qc.analysis_rate_hz`, …) are loaded a
 
 from __future__ import annotations
 
+import itertools
 import json
 import logging
 from collections.abc import Sequence
@@ -23,9 +24,10 @@ from gesturebank.config import Config
 from gesturebank.datasets import store
 from gesturebank.datasets.card import read_takes_toml, write_card
 from gesturebank.datasets.digest import content_digest, measure_digest
+from gesturebank.datasets.judging import judged_records, write_clip
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
-from gesturebank.qc.checks import verdicts
+from gesturebank.qc.checks import failures, verdicts
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.metrics import clip_metrics
 from gesturebank.robot import pepper
@@ -52,6 +54,45 @@ def _remeasure(
             c = replace(c, metrics=metrics, measured=digest)
         clips.append(c)
     return store.with_clips(record, clips)
+
+
+def _cut(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecord:
+    """The record with every clip that fails stretch checks only cut around the failing
+    stretches (`datasets.judging`, as the build does): its pieces written beside it, its file
+    removed, a span for each stretch cut out. Loosening the thresholds later does not join the
+    pieces again; rebuilding the take does."""
+    profile = pepper.load_profile(config.robot.profile)
+    rows: list[store.ClipRecord] = []
+    changed = False
+    for c in record.clips:
+        failed = [] if c.kind != "clip" else failures(ClipMetrics.from_dict(c.metrics), config.qc)
+        if not failed or any(f.scope == "take" for f in failed) or config.qc.stretch_rounds <= 0:
+            rows.append(c)
+            continue
+        path = store.clip_npz(out, record.take_id, c.clip_id)
+        clip = store.read_clip(path)
+        trimmed = c.metrics.get("trimmed_fraction")
+        kept, judged = judged_records(
+            clip,
+            config=config,
+            profile=profile,
+            measured=c.measured,
+            trimmed=None if trimmed is None else float(trimmed),
+            clip_ids=(f"{c.clip_id}p{k}" for k in itertools.count()),
+            span_ids=(f"{c.clip_id}s{k}" for k in itertools.count()),
+            keep_id=True,
+        )
+        if len(judged) == 1:  # not cut: rejected whole, as judged below
+            rows.append(c)
+            continue
+        for piece in kept:
+            write_clip(store.clip_npz(out, record.take_id, piece.clip_id), piece)
+        path.unlink()
+        rows += judged
+        changed = True
+    if not changed:
+        return record
+    return store.with_clips(record, sorted(rows, key=lambda r: r.start_s))
 
 
 def _judge(records: list[store.TakeRecord], config: Config) -> list[store.TakeRecord]:
@@ -142,7 +183,7 @@ def refresh(
             videos_dir = out
     terms = read_takes_toml(videos_dir)  # before anything is rewritten: a bad file stops it here
     before = store.take_records(out, take_ids)
-    measured = [_remeasure(out, r, config, recheck=recheck) for r in before]
+    measured = [_cut(out, _remeasure(out, r, config, recheck=recheck), config) for r in before]
     records = _judge(measured, config)
     for old, new in zip(before, records, strict=True):
         if _text(new) != _text(old):  # as text: NaN metrics compare equal

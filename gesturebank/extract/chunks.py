@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from gesturebank.config import Config, VideoConfig
+from gesturebank.config import BuildConfig, VideoConfig
 from gesturebank.extract.shots import Shots
 from gesturebank.poses import MultiPose2D
 
@@ -61,35 +61,28 @@ def chunk_video_config(chunk: Chunk, video: VideoConfig, *, half_frame_s: float)
     return video.model_copy(update={"start_s": start, "end_s": end})
 
 
-def video_chunks(path: str, config: Config) -> list[tuple[Chunk, VideoConfig]]:
-    """The chunks `path` is detected in under `config` (build.chunk_s), each with the video
-    settings that detect it (`detecting`); [] when it is detected in one pass (short, chunking
-    off, or a detector that reads precomputed keypoints instead of frames). Reads only the
-    container's packets."""
+def video_chunks(
+    path: str, *, video: VideoConfig, build: BuildConfig, detector: str
+) -> list[tuple[Chunk, VideoConfig]]:
+    """The chunks `path` is detected in under `build.chunk_s` by the detector named `detector`,
+    each with the video settings that detect it (`app.extract.detecting`); [] when it is
+    detected in one pass (short, chunking off, or a detector that reads precomputed keypoints
+    instead of frames). Reads only the container's packets."""
     from gesturebank.extract.detectors import DETECTORS
     from gesturebank.extract.video import frame_timestamps, probe, select_indices
 
-    chunk_s = config.build.chunk_s
-    if chunk_s is None or not getattr(DETECTORS.get(config.detector.name), "needs_pixels", True):
+    chunk_s = build.chunk_s
+    if chunk_s is None or not getattr(DETECTORS.get(detector), "needs_pixels", True):
         return []
     info = probe(path)
-    end = config.video.end_s if config.video.end_s is not None else info.duration_s
-    if np.isfinite(end) and end - config.video.start_s <= chunk_s:
+    end = video.end_s if video.end_s is not None else info.duration_s
+    if np.isfinite(end) and end - video.start_s <= chunk_s:
         return []  # short: the headers say so, no need to read the packets
     every = frame_timestamps(path)
-    selected = every[select_indices(every, config.video)]
-    chunks = plan_chunks(
-        timestamps=selected, chunk_s=chunk_s, overlap_s=config.build.chunk_overlap_s
-    )
+    selected = every[select_indices(every, video)]
+    chunks = plan_chunks(timestamps=selected, chunk_s=chunk_s, overlap_s=build.chunk_overlap_s)
     half = float(np.min(np.diff(every))) / 2 if len(every) > 1 else 0.0
-    return [(c, chunk_video_config(c, config.video, half_frame_s=half)) for c in chunks]
-
-
-def detecting(config: Config, video: VideoConfig) -> Config:
-    """`config` detecting one chunk (`video` from `video_chunks`). Chunks are always cached:
-    the cache is how a chunk's task hands its people to its take's."""
-    build = config.build.model_copy(update={"cache_detections": True})
-    return config.model_copy(update={"video": video, "build": build})
+    return [(c, chunk_video_config(c, video, half_frame_s=half)) for c in chunks]
 
 
 def _heights(points: np.ndarray) -> np.ndarray:

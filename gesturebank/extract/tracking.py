@@ -44,6 +44,11 @@ import numpy as np
 
 from gesturebank.config import SpeechConfig, TrackingConfig
 from gesturebank.errors import DetectionError
+from gesturebank.extract.bystanders import (
+    bystanders_left_out,
+    front_share,
+    seen_from_the_front,
+)
 from gesturebank.extract.identity import (
     Switch,
     find_switches,
@@ -220,6 +225,7 @@ class _Scene:
         w, h = multi.image_size
         off = np.linalg.norm(centre - np.array([w / 2, h / 2]), axis=-1) / (np.hypot(w, h) / 2)
         self.size = np.linalg.norm(hi - lo, axis=-1)  # (T, P) px, NaN = no upper body
+        self.front = seen_from_the_front(coco[..., :2])  # (T, P) the torso turned to us
         self.central = np.clip(1.0 - off, 0.0, 1.0)
         self.conf = np.nan_to_num(ub[..., 2], nan=0.0).mean(axis=-1)
         self._speed: dict[int, tuple[int, np.ndarray]] = {}
@@ -415,10 +421,12 @@ def _by_roles(
 
     A track speaks in the shot when its role is "speaking" for at least min_speaking_s; then
     the speaker at each frame is whoever of those speaks (ties: the best total score), held
-    through pauses (`turns`). Nobody speaks: alone (no two candidates in one frame), the
-    candidates are chosen among as before; among several at once, the one candidate seen
-    facing the camera (FACING_SHARE of its frames), and with none or several of them nobody
-    (main_id -1, reason "nobody")."""
+    through pauses (`turns`). Nobody speaks: people with their back to us when others face us,
+    and bystanders (much smaller than the biggest who faces us, or at the edge of the picture:
+    `bystanders_left_out`) are left out; alone (no two of the rest in one frame), the dominant
+    one is chosen (role unknown); among several at once, the one whose face is seen facing the
+    camera (FACING_SHARE of its frames), and with none or several of them nobody (main_id -1,
+    reason "nobody")."""
     min_s = (speech or SpeechConfig()).min_speaking_s
     ts = scene.ts[start:stop]
     step = frame_step(scene.ts)
@@ -449,12 +457,16 @@ def _by_roles(
             )
         return out, True
     cands = _candidates(scores)
-    together = [(scene.ids[start:stop] == k).any(axis=1) for k in cands]
+    # small, far or edge-of-frame people are bystanders: they never veto (issue 41)
+    front = front_share(scene.ids[start:stop], scene.front[start:stop], cands)
+    rivals = bystanders_left_out(cands, front, scene.config)
+    together = [(scene.ids[start:stop] == k).any(axis=1) for k in rivals]
     # one person is alone even when the tracker broke them into several tracks one after another
-    if len(cands) <= 1 or int(np.sum(together, axis=0).max()) <= 1:
-        return _choose(scene, start, stop, shot=shot, reason="shot", exclude=frozenset()), False
+    if len(rivals) <= 1 or int(np.sum(together, axis=0).max()) <= 1:
+        exclude = frozenset(cands) - frozenset(rivals)
+        return _choose(scene, start, stop, shot=shot, reason="shot", exclude=exclude), False
     facing = []
-    for k in cands:
+    for k in rivals:
         m = roles.column(k)
         seen = (scene.ids[start:stop] == k).any(axis=1)
         if (

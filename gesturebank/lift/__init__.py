@@ -5,7 +5,8 @@ multi-view one two or more with their cameras. Lifters register by name in `LIFT
 registered factory is called with the whole `Config` (`LIFTERS.create(name, config)`, by the
 orchestration): the built-ins register their `from_config` classmethod, which hands their own
 sections to `__init__` as keyword-only arguments. Plug-ins add theirs through the entry-point
-group `gesturebank.lifters` (README "Plug-ins").
+group `gesturebank.lifters` (README "Plug-ins"). What the build must know of a lifter is its
+`traits` (`LifterTraits`, `lift.clip_confidence.lifter_traits(name)`), never its name.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from gesturebank.registry import Registry
 if TYPE_CHECKING:
     from gesturebank.audio.io import Audio
     from gesturebank.camera_files import Camera, CameraGroup
+    from gesturebank.lift.depth_confidence import DepthCalibration
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,6 +73,23 @@ class TakeViews:
                 f"({self.cameras.names}); give the view's own camera"
             )
         return None if self.cameras is None else self.cameras[0]
+
+
+@dataclass(frozen=True)
+class LifterTraits:
+    """What the orchestration and QC must know of a lifter, declared by the lifter (its class
+    attribute `traits`) instead of switched on its name.
+
+    several_views: lifts a multi-camera take (2+ calibrated views) and nothing else;
+    measured_depth: its 3D is measured, not inferred (triangulated, motion capture): the depth
+    confidence is 1 and its output is not repaired again as a lifter's glitches;
+    depth_calibration: its depth confidence measured against truth, giving the expected hand
+    error (`lift.depth_confidence`; None: not calibrated, NaN).
+    """
+
+    several_views: bool = False
+    measured_depth: bool = False
+    depth_calibration: DepthCalibration | None = None
 
 
 class Lifter(Protocol):

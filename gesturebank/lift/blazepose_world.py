@@ -12,7 +12,8 @@ import numpy as np
 
 from gesturebank.config import Config
 from gesturebank.errors import InputError
-from gesturebank.lift import TakeViews
+from gesturebank.lift import LifterTraits, TakeViews
+from gesturebank.lift.depth_confidence import BLAZEPOSE_WORLD
 from gesturebank.poses import Pose3D
 from gesturebank.skeletons import COCO17, get_skeleton
 
@@ -21,6 +22,7 @@ class BlazePoseWorldLifter:
     """Has no options: the detector made the 3D (its section is `detector`)."""
 
     name = "blazepose-world"
+    traits = LifterTraits(depth_calibration=BLAZEPOSE_WORLD)
 
     @classmethod
     def from_config(cls, config: Config) -> BlazePoseWorldLifter:

@@ -33,15 +33,17 @@ visibility is left out.
 The detector's own relative depth is no evidence for `blazepose-world` (its
 depth *is* BlazePose's), so it is not used either.
 
-`CALIBRATION` maps the confidence to what it meant on the project's own renders
-(`benchmarks/depth_confidence.py`): per lifter, the mean confidence of each bin, the share of
+A `DepthCalibration` maps the confidence to what it meant on the project's own renders
+(`benchmarks/depth_confidence.py`): the mean confidence of each bin, the share of
 clearly-towards/away bones lifted with the wrong sign there, and the Pepper hand error (cm)
-there. `expected_hand_error_cm` interpolates it; a lifter without a row has no expectation.
+there. A lifter declares its own in its traits (`BLAZEPOSE_WORLD`, `LEARNED`, `RESOLVED` here);
+`hand_error_cm` interpolates it; a lifter without one has no expectation.
 """
 
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
@@ -89,49 +91,54 @@ def pose_confidence(*, xy: np.ndarray, joints: np.ndarray) -> np.ndarray:
     return depth_confidence(share=out_of_plane_share(xy=xy, joints=joints))
 
 
-# lifter → (mean confidence of each bin, the share of clearly-towards/away arm bones lifted with
-# the wrong sign there, the Pepper hand error cm there). Bins 0–0.1–0.2–0.3–0.4–0.5–0.6–0.8–1
-# of the tuning renders (test.bvh 0–10, 21–31 and 148–158 s at 0/30/60°, BlazePose, 2700
-# frames), made by
+class DepthCalibration(NamedTuple):
+    """A lifter's depth confidence measured against truth, per confidence bin: the mean
+    confidence of each bin, the share of clearly-towards/away arm bones lifted with the wrong
+    sign there, the Pepper hand error cm there. A lifter that has one names it in its traits
+    (`lift.LifterTraits.depth_calibration`)."""
+
+    middles: tuple[float, ...]
+    wrong_sign: tuple[float, ...]
+    hand_cm: tuple[float, ...]
+
+
+# Bins 0–0.1–0.2–0.3–0.4–0.5–0.6–0.8–1 of the tuning renders (test.bvh 0–10, 21–31 and 148–158 s
+# at 0/30/60°, BlazePose, 2700 frames), made by
 #     .venv/bin/python benchmarks/depth_confidence.py --set tune --lifter blazepose-world
 # Mean expected against measured hand error, and Spearman ρ of confidence and hand error per
 # frame: tune 10.9 / 10.8 cm, ρ −0.51; test.bvh 31–51 s (--set acceptance, 1800 frames)
 # 11.2 / 8.8 cm, ρ −0.49; test2 0–10 s and test3 20–30 s (--set holdout, 1800 frames)
 # 8.9 / 7.8 cm, ρ −0.11. Off the tuning stretches it over-predicts (errs towards caution), and
 # on other motions it ranks frames only weakly.
-CALIBRATION: dict[str, tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]] = {
-    "blazepose-world": (
-        (0.052, 0.144, 0.245, 0.347, 0.452, 0.557, 0.700, 0.951),
-        (0.221, 0.104, 0.115, 0.093, 0.122, 0.128, 0.102, 0.099),
-        (13.93, 11.80, 11.34, 10.54, 10.80, 8.46, 7.51, 6.88),
-    ),
-    # --lifter learned: calibrated on held-out data only (issue 39): test.bvh 31–51 s at 0/30/60°
-    # (--set acceptance, 1800 frames), which its net never trained on; made by
-    #     .venv/bin/python benchmarks/depth_confidence.py --set acceptance --lifter learned
-    # (6.1 cm over all its frames; not yet checked on test2/test3). Its error falls with the
-    # confidence (6.5 → 4.1 cm) but less than blazepose-world's (the net reads depth from motion,
-    # not from a bone's 2D length).
-    "learned": (
-        (0.051, 0.149, 0.256, 0.340, 0.448, 0.531, 0.628),
-        (0.05, 0.11, 0.05, 0.07, 0.07, 0.0, 0.0),
-        (6.5, 7.4, 6.2, 6.0, 5.3, 4.6, 4.1),
-    ),
-    # --lifter resolved, same renders and detections (its last bin holds 5 frames)
-    "resolved": (
-        (0.052, 0.141, 0.247, 0.350, 0.453, 0.545, 0.657, 0.836),
-        (0.128, 0.068, 0.101, 0.108, 0.113, 0.102, 0.018, 0.0),
-        (11.08, 8.98, 10.18, 8.81, 8.76, 7.49, 7.01, 8.43),
-    ),
-}
+BLAZEPOSE_WORLD = DepthCalibration(
+    (0.052, 0.144, 0.245, 0.347, 0.452, 0.557, 0.700, 0.951),
+    (0.221, 0.104, 0.115, 0.093, 0.122, 0.128, 0.102, 0.099),
+    (13.93, 11.80, 11.34, 10.54, 10.80, 8.46, 7.51, 6.88),
+)
+# --lifter learned: calibrated on held-out data only (issue 39): test.bvh 31–51 s at 0/30/60°
+# (--set acceptance, 1800 frames), which its net never trained on; made by
+#     .venv/bin/python benchmarks/depth_confidence.py --set acceptance --lifter learned
+# (6.1 cm over all its frames; not yet checked on test2/test3). Its error falls with the
+# confidence (6.5 → 4.1 cm) but less than blazepose-world's (the net reads depth from motion,
+# not from a bone's 2D length).
+LEARNED = DepthCalibration(
+    (0.051, 0.149, 0.256, 0.340, 0.448, 0.531, 0.628),
+    (0.05, 0.11, 0.05, 0.07, 0.07, 0.0, 0.0),
+    (6.5, 7.4, 6.2, 6.0, 5.3, 4.6, 4.1),
+)
+# --lifter resolved, same renders and detections (its last bin holds 5 frames)
+RESOLVED = DepthCalibration(
+    (0.052, 0.141, 0.247, 0.350, 0.453, 0.545, 0.657, 0.836),
+    (0.128, 0.068, 0.101, 0.108, 0.113, 0.102, 0.018, 0.0),
+    (11.08, 8.98, 10.18, 8.81, 8.76, 7.49, 7.01, 8.43),
+)
 
 
-def expected_hand_error_cm(*, confidence: np.ndarray, lifter: str) -> float:
-    """Mean Pepper hand error (cm) that frames of `confidence` (T,) meant for `lifter` on the
-    renders (`CALIBRATION`, interpolated between its bins, held beyond them); NaN for a lifter
-    without a calibration or no frames."""
-    table = CALIBRATION.get(lifter)
+def hand_error_cm(*, confidence: np.ndarray, calibration: DepthCalibration | None) -> float:
+    """Mean Pepper hand error (cm) that frames of `confidence` (T,) meant on the renders by a
+    lifter's `calibration` (interpolated between its bins, held beyond them); NaN without a
+    calibration or frames."""
     c = np.asarray(confidence, np.float64)
-    if table is None or not len(c):
+    if calibration is None or not len(c):
         return float("nan")
-    middles, _, hand_cm = table
-    return float(np.mean(np.interp(c, middles, hand_cm)))
+    return float(np.mean(np.interp(c, calibration.middles, calibration.hand_cm)))

@@ -107,7 +107,7 @@ class FittedLifter:
     @classmethod
     def from_config(cls, config: Config) -> FittedLifter:
         """The registry's factory (gesturebank.lift): the `fitted` and `geometric` sections."""
-        return cls(fitted=config.fitted, geometric=config.geometric)
+        return cls(fitted=config.lifter.fitted, geometric=config.lifter.geometric)
 
     def lift(self, views: TakeViews) -> Pose3D:
         """One view of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring). With

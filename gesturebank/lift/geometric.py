@@ -320,7 +320,7 @@ class GeometricLifter:
     @classmethod
     def from_config(cls, config: Config) -> GeometricLifter:
         """The registry's factory (gesturebank.lift): the `geometric` section."""
-        return cls(geometric=config.geometric)
+        return cls(geometric=config.lifter.geometric)
 
     def lift(self, views: TakeViews) -> Pose3D:
         """One view of any skeleton → Pose3D (T, 17, 3), frame "image-ortho" (module docstring)."""

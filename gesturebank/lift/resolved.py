@@ -39,7 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gesturebank.config import Config, FittedConfig, GeometricConfig, LearnedConfig, ResolvedConfig
-from gesturebank.lift import TakeViews
+from gesturebank.lift import LifterTraits, TakeViews
+from gesturebank.lift.depth_confidence import RESOLVED
 from gesturebank.lift.depth_sign import (
     behind_cost,
     decode_path,
@@ -91,6 +92,7 @@ class _Scene:
 
 class ResolvedLifter:
     name = "resolved"
+    traits = LifterTraits(depth_calibration=RESOLVED)
 
     def __init__(
         self,
@@ -112,8 +114,9 @@ class ResolvedLifter:
     def from_config(cls, config: Config) -> ResolvedLifter:
         """The registry's factory (gesturebank.lift): `resolved`, `fitted`, `geometric`,
         `learned`."""
-        return cls(resolved=config.resolved, fitted=config.fitted, geometric=config.geometric,
-                   learned=config.learned)  # fmt: skip
+        own = config.lifter
+        return cls(resolved=own.resolved, fitted=own.fitted, geometric=own.geometric,
+                   learned=own.learned)  # fmt: skip
 
     def lift(self, views: TakeViews) -> Pose3D:
         """One view of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring)."""

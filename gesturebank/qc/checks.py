@@ -20,17 +20,33 @@ with a tiny MAD does not reject ordinary variation). Needs `outlier_min_clips` c
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Literal
+from collections.abc import Iterator, Mapping
+from typing import Literal, NamedTuple
 
 import numpy as np
 
 from gesturebank.config import QCConfig
 from gesturebank.qc.clip_metrics import ClipMetrics, number
 from gesturebank.qc.invariants import invariant_reasons
-from gesturebank.robot.pepper import JOINTS
+from gesturebank.qc.table import CHECKS, Check, Scope, by_metric
 
 Verdict = tuple[Literal["accepted", "rejected"], list[str]]
+
+
+class _ThresholdView(Mapping[str, tuple[str, Literal["max", "min"]]]):
+    """`THRESHOLDS`, kept equal to the table as checks are added."""
+
+    def _items(self) -> dict[str, tuple[str, Literal["max", "min"]]]:
+        return {c.metric: (c.field, c.side) for c in CHECKS if c.field is not None}
+
+    def __getitem__(self, key: str) -> tuple[str, Literal["max", "min"]]:
+        return self._items()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
 
 
 # A clip whose head and both arms were each unseen too long (clips.max_part_unseen_fraction):
@@ -42,48 +58,34 @@ NO_PART = (
 
 LABELS = {"jerk_raw": "raw jerk", "jerk": "processed jerk"}  # in the outlier reasons
 
-# The absolute checks as `absolute_reasons` applies them: metric → (QCConfig field, "max" | "min").
-# The dashboard shows each metric beside its threshold from this table (a test keeps the two in
-# step); a field that is None (max_jerk_raw by default) is no check.
-THRESHOLDS: dict[str, tuple[str, Literal["max", "min"]]] = {
-    "head_unknown_fraction": ("max_head_unknown_fraction", "max"),
-    "arms_unknown_fraction": ("max_arms_unknown_fraction", "max"),
-    "bone_cv_max": ("max_bone_cv", "max"),
-    "out_of_reach_fraction": ("max_limit_fraction", "max"),  # opt-in (None: reported only)
-    "frozen_at_limit_s": ("max_frozen_at_limit_s", "max"),
-    "jitter_fraction": ("max_jitter_fraction", "max"),
-    "swap_events": ("max_swap_events", "max"),
-    "spike_max": ("max_spike", "max"),
-    "frozen_fraction": ("max_frozen_fraction", "max"),
-    "motion_range": ("min_motion_range", "min"),
-    "facing_away_fraction": ("max_facing_away_fraction", "max"),
-    "sideways_fraction": ("max_sideways_fraction", "max"),
-    "shoulder_width": ("min_shoulder_width", "min"),
-    "image_change": ("min_image_change", "min"),
-    "people": ("max_people", "max"),
-    "speech_fraction": ("min_speech_fraction", "min"),
-    "expected_hand_error_cm": ("max_expected_hand_error_cm", "max"),
-    "trimmed_fraction": ("max_trimmed_fraction", "max"),
-    "jerk_raw": ("max_jerk_raw", "max"),
-}
+# The absolute checks by metric: metric → (QCConfig field, "max" | "min"), read from the one
+# table of checks (`qc.table.CHECKS`); a field that is None (max_jerk_raw by default) is no check.
+THRESHOLDS: Mapping[str, tuple[str, Literal["max", "min"]]] = _ThresholdView()
+
+
+class Failure(NamedTuple):
+    """One failed check of a clip: the check (None for the whole-clip rules outside the table:
+    no part seen, the invariants, the dataset-relative outliers) and its reason."""
+
+    check: Check | None
+    reason: str
+
+    @property
+    def scope(self) -> Scope:
+        return "take" if self.check is None else self.check.scope
 
 
 def threshold(key: str, config: QCConfig) -> tuple[Literal["max", "min"], float] | None:
     """("max" | "min", limit) of the absolute check on metric `key`; None when it has none."""
-    if key not in THRESHOLDS:
-        return None
-    field, side = THRESHOLDS[key]
-    limit = getattr(config, field)
-    return None if limit is None else (side, float(limit))
+    check = by_metric(key)
+    limit = None if check is None else check.limit(config)
+    return None if check is None or limit is None else (check.side, limit)
 
 
 def fails(key: str, value: float | None, config: QCConfig) -> bool:
     """Whether metric `key` at `value` fails its absolute check (NaN and None fail nothing)."""
-    check = threshold(key, config)
-    if check is None or value is None or not math.isfinite(value):
-        return False
-    side, limit = check
-    return value > limit if side == "max" else value < limit
+    check = by_metric(key)
+    return check is not None and check.fails(value, config)
 
 
 def is_outlier_reason(key: str, reason: str) -> bool:
@@ -91,113 +93,24 @@ def is_outlier_reason(key: str, reason: str) -> bool:
     return reason.startswith(f"{LABELS.get(key, key)} ") and "× dataset median" in reason
 
 
-def absolute_reasons(metrics: ClipMetrics, config: QCConfig) -> list[str]:
-    """Reasons (empty when none) of the absolute checks on one clip's metrics; NaN metrics are
-    not measured and fail nothing."""
-    c = config
+def failures(metrics: ClipMetrics, config: QCConfig) -> list[Failure]:
+    """The absolute checks one clip's metrics fail (`qc.table.CHECKS`, in its order, then the
+    invariants); NaN metrics are not measured and fail nothing."""
     m = metrics
-    reasons = []
-
-    def over(value: float | None, limit: float, text: str) -> None:
-        if number(value) > limit:
-            reasons.append(text.format(v=value, lim=limit))
-
-    def under(value: float | None, limit: float, text: str) -> None:
-        if number(value) < limit:
-            reasons.append(text.format(v=value, lim=limit))
-
-    if c.max_head_unknown_fraction is not None:  # opt-in: judged by part by default
-        over(
-            m.head_unknown_fraction,
-            c.max_head_unknown_fraction,
-            "head unseen in {v:.0%} of the clip (max {lim:.0%})",
-        )
-    if c.max_arms_unknown_fraction is not None:
-        over(
-            m.arms_unknown_fraction,
-            c.max_arms_unknown_fraction,
-            "both arms unseen in {v:.0%} of the clip (max {lim:.0%})",
-        )
+    out = []
     parts = (m.head_unknown_fraction, m.left_arm_unknown_fraction, m.right_arm_unknown_fraction)
     if all(number(p) >= 1.0 for p in parts):  # every part masked: nothing left to learn from
-        reasons.append(NO_PART)
-    over(m.bone_cv_max, c.max_bone_cv, "3D bone length varies by {v:.0%} (max {lim:.0%})")
-    if c.max_limit_fraction is not None:  # opt-in: reach is reported, not judged, by default
-        over(
-            m.out_of_reach_fraction,
-            c.max_limit_fraction,
-            "a joint beyond the robot's reach in {v:.0%} of frames (max {lim:.0%})",
-        )
-    if m.frozen_at_limit_s > (c.max_frozen_at_limit_s or math.inf):
-        # a joint not measured (NaN) is never the one named
-        frozen = {
-            j: s if math.isfinite(s) else -1.0
-            for j, s in zip(JOINTS, m.frozen_at_limit_s_per_joint, strict=True)
-        }
-        joint = max(JOINTS, key=lambda j: frozen[j])
-        reasons.append(
-            f"robot frozen at a limit: {joint} held within {c.frozen_limit_tol:g} rad of its "
-            f"limit for {m.frozen_at_limit_s:.1f} s while the person's angle moves more than "
-            f"{c.frozen_min_motion:g} rad (max {c.max_frozen_at_limit_s:g} s)"
-        )
-    over(
-        m.jitter_fraction,
-        c.max_jitter_fraction,
-        f"jitter: {{v:.0%}} of raw motion power above {c.jitter_above_hz:g} Hz (max {{lim:.0%}})",
-    )
-    over(m.swap_events, c.max_swap_events, "left/right arms swapped {v:.0f}× (max {lim:.0f})")
-    over(
-        m.spike_max, c.max_spike, "keypoint jumps {v:.2f} shoulder widths in one frame (max {lim})"
-    )
-    over(
-        m.frozen_fraction,
-        c.max_frozen_fraction,
-        "pose frozen (exactly repeated) in {v:.0%} of frames (max {lim:.0%})",
-    )
-    if m.motion_range < c.min_motion_range:
-        reasons.append(
-            f"static: no joint moves more than {np.degrees(m.motion_range):.1f}° "
-            f"(min {np.degrees(c.min_motion_range):.1f}°)"
-        )
-    over(
-        m.facing_away_fraction,
-        c.max_facing_away_fraction,
-        "facing away in {v:.0%} of frames (max {lim:.0%})",
-    )
-    over(
-        m.sideways_fraction,
-        c.max_sideways_fraction,
-        "seen from the side in {v:.0%} of frames (max {lim:.0%})",
-    )
-    under(
-        m.shoulder_width,
-        c.min_shoulder_width,
-        "too small: shoulders {v:.1%} of the frame height (min {lim:.1%})",
-    )
-    under(m.image_change, c.min_image_change, "still picture: image change {v:.3f} (min {lim:g})")
-    over(m.people, c.max_people, "too many people: {v:.1f} on average (max {lim:g})")
-    if c.min_speech_fraction is not None:
-        under(
-            m.speech_fraction,
-            c.min_speech_fraction,
-            "no speech: speech heard in {v:.0%} of the clip (min {lim:.0%})",
-        )
-    if c.max_expected_hand_error_cm is not None:
-        over(
-            m.expected_hand_error_cm,
-            c.max_expected_hand_error_cm,
-            "depth uncertain: expected hand error {v:.1f} cm (depth confidence "
-            f"{m.depth_confidence:.2f}; max {{lim:g}} cm)",
-        )
-    over(
-        m.trimmed_fraction,
-        c.max_trimmed_fraction,
-        "audio and video overlap in part: trimming to their common span drops {v:.0%} of the "
-        "take's video (max {lim:.0%})",
-    )
-    if c.max_jerk_raw is not None:
-        over(m.jerk_raw, c.max_jerk_raw, "raw jerk {v:.3g} rad²/s⁵ (max {lim:.3g})")
-    return reasons + invariant_reasons(m.invariants, c)
+        out.append(Failure(None, NO_PART))
+    for check in CHECKS:
+        value = m.value(check.metric)
+        if check.fails(value, config):
+            out.append(Failure(check, check.text(value, m, config)))
+    return out + [Failure(None, r) for r in invariant_reasons(m.invariants, config)]
+
+
+def absolute_reasons(metrics: ClipMetrics, config: QCConfig) -> list[str]:
+    """Reasons (empty when none) of the absolute checks on one clip's metrics (`failures`)."""
+    return [f.reason for f in failures(metrics, config)]
 
 
 def robust_z(values: np.ndarray) -> tuple[np.ndarray, float]:

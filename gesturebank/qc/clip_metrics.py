@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 from gesturebank.qc.invariants import InvariantMetrics
 from gesturebank.robot.pepper import JOINTS
@@ -47,6 +47,7 @@ class ClipMetrics:
                            for the clip's lifter)
     trimmed_fraction:      of the whole take the clip is cut from (set by the build; None when
                            the clip alone was measured)
+    extra:                 metrics of checks added to `qc.table` (a plug-in's), by name
     """
 
     duration_s: float
@@ -79,12 +80,22 @@ class ClipMetrics:
     depth_confidence: float
     expected_hand_error_cm: float
     trimmed_fraction: float | None = None
+    extra: Mapping[str, float] = field(default_factory=dict)
 
     def value(self, name: str) -> float:
-        """The single-number metric `name` (one of `METRIC_NAMES`), NaN when not measured."""
+        """The single-number metric `name` (one of `METRIC_NAMES`, or an `extra` one), NaN when
+        not measured."""
+        if name in self.extra:
+            return number(self.extra[name])
         if name not in METRIC_NAMES:
             raise KeyError(f"no single-number clip metric {name!r}")
         return number(getattr(self, name))
+
+    @property
+    def frozen_joint(self) -> str:
+        """The joint held longest at a limit (a joint not measured, NaN, is never the one)."""
+        held = [s if math.isfinite(s) else -1.0 for s in self.frozen_at_limit_s_per_joint]
+        return JOINTS[max(range(len(JOINTS)), key=lambda j: held[j])]
 
     def to_dict(self) -> dict[str, float]:
         """The flat mapping stored on disk: `jerk_raw/<Joint>`, `jerk/<Joint>`,
@@ -128,6 +139,7 @@ class ClipMetrics:
         m["expected_hand_error_cm"] = self.expected_hand_error_cm
         if self.trimmed_fraction is not None:
             m["trimmed_fraction"] = self.trimmed_fraction
+        m.update(self.extra)
         return m
 
     @classmethod
@@ -173,9 +185,13 @@ class ClipMetrics:
             depth_confidence=get("depth_confidence"),
             expected_hand_error_cm=get("expected_hand_error_cm"),
             trimmed_fraction=None if trimmed is None else float(trimmed),
+            extra={
+                k: number(v) for k, v in metrics.items() if "/" not in k and k not in _FIELD_NAMES
+            },  # a plug-in check's metric, stored beside the others
         )
 
 
 # The single-number metrics, by field name: what a check or `qc.outlier_metrics` can name
 # (config.MetricName lists the same names; a test keeps the two equal).
 METRIC_NAMES = tuple(f.name for f in fields(ClipMetrics) if f.type in ("float", "float | None"))
+_FIELD_NAMES = frozenset(f.name for f in fields(ClipMetrics))

@@ -34,17 +34,26 @@ from numpy.typing import NDArray
 from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, part_mask, parts_of
 from gesturebank.config import ProcessingConfig, QCConfig
 from gesturebank.filters import resample_to_clock, unwrap_angles
-from gesturebank.geometry import torso_vectors
-from gesturebank.lift.depth_confidence import expected_hand_error_cm
+from gesturebank.geometry import Camera
+from gesturebank.lift.clip_confidence import expected_hand_error_cm
 from gesturebank.qc.clip_metrics import ClipMetrics
 from gesturebank.qc.invariants import invariant_metrics
+from gesturebank.qc.table import CHECKS
+from gesturebank.qc.views import (  # the framing functions, here since they were first written
+    _share,
+    _shoulder_width,
+    facing_away,
+    facing_away_from_all,
+    sideways,
+    sideways_from_all,
+    take_cameras,
+)
 from gesturebank.robot.pepper import INDEX, JOINTS, RobotProfile
 from gesturebank.robot.reach import out_of_reach, unlimited_angles
 from gesturebank.skeletons import COCO17, to_coco17
 
 if TYPE_CHECKING:
-    from gesturebank.geometry import Camera
-    from gesturebank.poses import Pose3D
+    pass
 
 F64 = NDArray[np.float64]
 # Gaps in the raw angles bridged before the jerk is measured: the processing's default, not the
@@ -168,9 +177,17 @@ def swap_events(points: np.ndarray, *, ratio: float = 0.5, min_move: float = 0.5
     the arms moved more than `min_move` shoulder widths (`same`) but exchanging the sides explains
     the step (`cross < ratio · same`). Swapping back counts as another event.
     """
+    return int(np.sum(swap_steps(points, ratio=ratio, min_move=min_move)))
+
+
+def swap_steps(
+    points: np.ndarray, *, ratio: float = 0.5, min_move: float = 0.5
+) -> NDArray[np.bool_]:
+    """`(T − 1,)` the steps between consecutive frames of `points (T, 17, D)` that are
+    left/right exchanges of the arms (`swap_events` counts them)."""
     p = np.asarray(points, dtype=np.float64)
     if len(p) < 2:
-        return 0
+        return np.zeros(max(len(p) - 1, 0), dtype=bool)
     left = p[:, [_I["left_elbow"], _I["left_wrist"]]]
     right = p[:, [_I["right_elbow"], _I["right_wrist"]]]
 
@@ -180,8 +197,7 @@ def swap_events(points: np.ndarray, *, ratio: float = 0.5, min_move: float = 0.5
     same = dist(left[1:], left[:-1]) + dist(right[1:], right[:-1])
     cross = dist(left[1:], right[:-1]) + dist(right[1:], left[:-1])
     with np.errstate(invalid="ignore"):
-        events = (same > min_move * _scale(p)) & (cross < ratio * same)
-    return int(np.sum(events))
+        return np.asarray((same > min_move * _scale(p)) & (cross < ratio * same))
 
 
 def frozen_fraction(points: np.ndarray, *, tol: float = 1e-6) -> float:
@@ -272,109 +288,6 @@ def motion_range(angles: np.ndarray) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# Framing (the clip filters of youtube-gesture-dataset)
-
-
-def _torso_axes(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per frame `(T,)`: the right → left shoulder vector `(T, 2)`, the torso's up vector
-    `(T, 2)` (mid-hips → mid-shoulders, or mid-shoulders → nose where the hips are unseen) and
-    whether both were seen. Image coordinates (y down); the body may lean any way."""
-    ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
-    lh, rh = _I["left_hip"], _I["right_hip"]
-    across, up = torso_vectors(xy[:, ls], xy[:, rs], xy[:, lh], xy[:, rh])
-    hips = valid[:, lh] & valid[:, rh]
-    up = np.where(hips[:, None], up, xy[:, nose] - (xy[:, ls] + xy[:, rs]) / 2)
-    seen = valid[:, ls] & valid[:, rs] & (hips | valid[:, nose])
-    return across, up, seen
-
-
-def facing_away(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:
-    """`(T,)` frames where the person faces away from the camera: seen from the front, their
-    left shoulder lies to the right of the torso's up direction; from behind, to the left
-    (youtube-gesture-dataset's rule — right shoulder right of the left — made independent of a
-    lean). `xy (T, 17, 2)` COCO-17 pixels, `valid (T, 17)`."""
-    turn, seen = _turn(xy, valid)
-    with np.errstate(invalid="ignore"):
-        return np.asarray(seen & (turn > 0))
-
-
-def _turn(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """`(T,)` the torso's turn (< 0 seen from the front, > 0 from behind, image y down) and
-    whether the torso was seen."""
-    across, up, seen = _torso_axes(xy, valid)
-    return across[:, 0] * up[:, 1] - across[:, 1] * up[:, 0], seen
-
-
-def sideways(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:
-    """`(T,)` frames where the nose lies beyond a shoulder along the shoulder line (a side view;
-    youtube-gesture-dataset's "nose outside the shoulders", measured along the shoulders rather
-    than the image's x axis so that a lean is not a side view)."""
-    along, seen = _along(xy, valid)
-    with np.errstate(invalid="ignore"):
-        return np.asarray(seen & (np.abs(along) > 0.5))
-
-
-def _along(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """`(T,)` where the nose lies along the shoulder line (0 between the shoulders, ±0.5 on a
-    shoulder) and whether the nose and both shoulders were seen."""
-    ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
-    across = xy[:, ls] - xy[:, rs]
-    offset = xy[:, nose] - (xy[:, ls] + xy[:, rs]) / 2
-    seen = valid[:, ls] & valid[:, rs] & valid[:, nose]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sum(offset * across, axis=-1) / np.sum(across * across, axis=-1), seen
-
-
-# A multi-camera take is judged by its 3D as each of its cameras sees it: the triangulated joints
-# projected into every camera. Facing away and sideways only mean something relative to a camera,
-# so the take's rule is the single camera's rule applied to every camera at once: a frame faces
-# away when it faces away from every camera (one camera seeing the front is enough to triangulate
-# the hands in front of the body), and is seen from the side when every camera sees it so. A
-# camera the torso lies behind (its projection is NaN) sees neither the front nor a square view.
-
-
-def facing_away_from_all(views: Sequence[np.ndarray], valid: np.ndarray) -> NDArray[np.bool_]:
-    """`(T,)` frames whose torso faces away from every camera: `views` one `(T, 17, 2)` COCO-17
-    projection per camera of the same 3D pose, `valid (T, 17)` its seen joints."""
-    away = np.ones(len(valid), dtype=bool)
-    seen = np.zeros(len(valid), dtype=bool)
-    for xy in views:
-        turn, seen = _turn(xy, valid)
-        with np.errstate(invalid="ignore"):
-            away &= ~(turn < 0)  # NaN: this camera does not see the front
-    return np.asarray(seen & away)
-
-
-def sideways_from_all(views: Sequence[np.ndarray], valid: np.ndarray) -> NDArray[np.bool_]:
-    """`(T,)` frames that every camera of `views` (as `facing_away_from_all`) sees from the
-    side: in none of them does the nose lie between the shoulders."""
-    side = np.ones(len(valid), dtype=bool)
-    seen = np.zeros(len(valid), dtype=bool)
-    for xy in views:
-        along, seen = _along(xy, valid)
-        with np.errstate(invalid="ignore"):
-            side &= ~(np.abs(along) <= 0.5)
-    return np.asarray(seen & side)
-
-
-def take_cameras(pose3d: Pose3D) -> list[Camera]:
-    """The cameras a multi-camera take's 3D was triangulated from; [] for a single camera."""
-    return [] if pose3d.cameras is None else list(pose3d.cameras)
-
-
-def _shoulder_width(xy: np.ndarray, shoulders: np.ndarray, height: float) -> float:
-    """Median shoulder width of `xy (T, 17, 2)` pixels over the `shoulders` frames, as a share
-    of the frame `height`; NaN when there are none."""
-    width = np.linalg.norm(xy[:, _I["left_shoulder"]] - xy[:, _I["right_shoulder"]], axis=-1)
-    return float(np.median(width[shoulders]) / float(height)) if shoulders.any() else float("nan")
-
-
-def _share(flags: np.ndarray, among: np.ndarray) -> float:
-    n = int(np.sum(among))
-    return float(np.sum(flags) / n) if n else float("nan")
-
-
-# --------------------------------------------------------------------------------------------------
 # One clip
 
 
@@ -415,20 +328,16 @@ class ReachMetrics(NamedTuple):
     frozen_at_limit_s: float
 
 
-def reach_metrics(
+def reach_frames(
     clip: Clip, *, profile: RobotProfile, qc: QCConfig, rate_hz: float
-) -> ReachMetrics:
-    """Motion beyond the robot's reach, reported: per joint (`out_of_reach/<Joint>`) the share
-    of its known frames in which the person's low-passed angle lies beyond its limits, and
-    `out_of_reach_fraction` (frames with any joint beyond); per joint the longest time frozen at
-    a limit (`frozen_at_limit_s/<Joint>`) and its maximum `frozen_at_limit_s` (`frozen_spans_s`:
-    the robot held within qc.frozen_limit_tol of a limit while the person's angle moves more
-    than qc.frozen_min_motion)."""
-    nan = float("nan")
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], F64]:
+    """On the clip's 100 Hz clock `(N, 11)`: the person's angle beyond the robot's reach, the
+    robot's joint held within qc.frozen_limit_tol of a limit (both where the joint is known),
+    and the person's (unlimited, low-passed) angle."""
     n = len(clip.times)
     known = np.asarray(clip.mask, dtype=bool)
     if n < 2 or len(clip.raw_angles) < 2:
-        person = np.full((n, len(JOINTS)), nan)
+        person = np.full((n, len(JOINTS)), np.nan)
     else:
         processing = ProcessingConfig(rate_hz=rate_hz, cutoff_hz=min(4.0, rate_hz / 4))
         person, _ = unlimited_angles(
@@ -441,6 +350,22 @@ def reach_metrics(
     beyond = out_of_reach(person, profile) & known
     a = np.asarray(clip.angles, dtype=np.float64)
     held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
+    return beyond, held, np.asarray(person, dtype=np.float64)
+
+
+def reach_metrics(
+    clip: Clip, *, profile: RobotProfile, qc: QCConfig, rate_hz: float
+) -> ReachMetrics:
+    """Motion beyond the robot's reach, reported: per joint (`out_of_reach/<Joint>`) the share
+    of its known frames in which the person's low-passed angle lies beyond its limits, and
+    `out_of_reach_fraction` (frames with any joint beyond); per joint the longest time frozen at
+    a limit (`frozen_at_limit_s/<Joint>`) and its maximum `frozen_at_limit_s` (`frozen_spans_s`:
+    the robot held within qc.frozen_limit_tol of a limit while the person's angle moves more
+    than qc.frozen_min_motion)."""
+    nan = float("nan")
+    n = len(clip.times)
+    beyond, held, person = reach_frames(clip, profile=profile, qc=qc, rate_hz=rate_hz)
+    known = np.asarray(clip.mask, dtype=bool)
     frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
     return ReachMetrics(
         out_of_reach_fraction=float(beyond.any(axis=1).mean()) if n else nan,
@@ -453,11 +378,17 @@ def reach_metrics(
     )
 
 
+def is_mocap(clip: Clip) -> bool:
+    """Whether the clip's 3D is motion capture (measured, no camera): the view checks (facing
+    away, sideways), set by what a view costs a lift, and the depth check do not apply."""
+    return bool(clip.pose3d.meta.get("source") == "bvh")
+
+
 def clip_hand_error_cm(clip: Clip) -> float:
     """The Pepper hand error (cm) the clip's depth confidence predicts for its lifter (the 3D
     pose's `lifter`); 0 for motion capture (measured 3D), NaN for a lifter not calibrated."""
     meta = clip.pose3d.meta
-    if meta.get("source") == "bvh":
+    if is_mocap(clip):
         return 0.0
     return expected_hand_error_cm(confidence=clip.depth_confidence, lifter=meta.get("lifter", ""))
 
@@ -465,6 +396,57 @@ def clip_hand_error_cm(clip: Clip) -> float:
 def _part_unknown(known: np.ndarray, part: str) -> float:
     """Share of the 100 Hz clock in which no angle of `part` is known (NaN for no frames)."""
     return float(np.mean(~known[:, part_columns(part)].any(axis=1))) if len(known) else math.nan
+
+
+def analysis_angles(clip: Clip, qc: QCConfig) -> F64:
+    """The clip's raw angles `(N, 11)` on the uniform analysis clock (qc.analysis_rate_hz, from
+    the first video frame), unwrapped; those of a part masked whole (issue 32) are glimpses the
+    clip does not keep (a hand rising into a head-and-shoulders frame now and then): NaN."""
+    raw = np.where(part_mask(parts_of(np.asarray(clip.mask, bool))), clip.raw_angles, np.nan)
+    if len(raw) < 2:
+        return np.empty((0, len(JOINTS)))
+    # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
+    return uniform(unwrap_angles(raw), clip.timestamps, qc.analysis_rate_hz, max_gap_s=_MAX_GAP_S)
+
+
+class JudgedPoints(NamedTuple):
+    """The keypoints a clip is judged by (`judged_points`), per video frame."""
+
+    valid: NDArray[np.bool_]  # (T, 17) seen, and of a body part the clip keeps
+    xy: F64  # (T, 17, 2) the stored 2D, COCO-17 pixels
+    seen_xy: F64  # (T, 17, 2) the same, NaN where not valid
+    joints: F64  # (T, 17, 3) the 3D, NaN where not valid
+    cameras: list[Camera]  # a multi-camera take's cameras ([] for one camera)
+    shoulders: NDArray[np.bool_]  # (T,) both shoulders seen
+
+    @property
+    def shapes(self) -> list[F64]:
+        """What spikes, swaps and freezes are looked for in: one camera's 2D and its 3D, or the
+        triangulated 3D alone (one camera's 2D glitch is outvoted by the others)."""
+        return [self.joints] if self.cameras else [self.seen_xy, self.joints]
+
+
+def judged_points(clip: Clip) -> JudgedPoints:
+    """The clip's keypoints as the QC judges them: those of a part masked whole (issue 32) are
+    left out, as if unseen (the clip does not keep them)."""
+    known = np.asarray(clip.mask, dtype=bool)
+    valid = np.asarray(clip.valid, dtype=bool).copy()
+    for part in set(PARTS) - parts_of(known):
+        valid[:, [_I[k] for k in PART_KEYPOINTS[part]]] = False
+    xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
+    seen_xy = np.where(valid[..., None], xy, np.nan)
+    joints = np.where(valid[..., None], np.asarray(clip.pose3d.joints, np.float64), np.nan)
+    shoulders = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
+    return JudgedPoints(valid, xy, seen_xy, joints, take_cameras(clip.pose3d), shoulders)
+
+
+def view_flags(points: JudgedPoints) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """`(T,)` frames facing away and seen from the side: by the clip's own 2D, or for a
+    multi-camera take by its 3D as every camera sees it (`facing_away_from_all`)."""
+    if points.cameras:
+        views = [c.project(points.joints) for c in points.cameras]
+        return facing_away_from_all(views, points.valid), sideways_from_all(views, points.valid)
+    return facing_away(points.xy, points.valid), sideways(points.xy, points.valid)
 
 
 def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetrics:
@@ -482,13 +464,7 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     rate = 1.0 / float(np.median(np.diff(clip.times))) if len(clip.times) > 1 else 100.0
     hz = qc.analysis_rate_hz
     known = np.asarray(clip.mask, dtype=bool)
-    # the raw angles of a part masked whole (issue 32) are glimpses the clip does not keep (a
-    # hand rising into a head-and-shoulders frame now and then): not its motion, not judged
-    raw = np.where(part_mask(parts_of(known)), clip.raw_angles, np.nan)
-    raw_u = np.empty((0, len(JOINTS)))
-    if len(raw) >= 2:
-        # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
-        raw_u = uniform(unwrap_angles(raw), clip.timestamps, hz, max_gap_s=_MAX_GAP_S)
+    raw_u = analysis_angles(clip, qc)
     j_raw = jerkiness_per_joint(raw_u, hz) if len(raw_u) else np.full(len(JOINTS), nan)
     j_proc = jerkiness_per_joint(clip.angles, rate)
     jerk_raw = float(np.nansum(j_raw)) if np.isfinite(j_raw).any() else nan
@@ -497,33 +473,21 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
     head = known[:, [INDEX["HeadPitch"], INDEX["HeadYaw"]]].any(axis=1)
     arms = known[:, [INDEX["LShoulderPitch"], INDEX["RShoulderPitch"]]].any(axis=1)
 
-    # keypoints of a part masked whole (issue 32) are not judged: the clip does not keep them
-    valid = np.asarray(clip.valid, dtype=bool).copy()
-    for part in set(PARTS) - parts_of(known):
-        valid[:, [_I[k] for k in PART_KEYPOINTS[part]]] = False
-    torso = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
-    xy = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2].astype(np.float64)
-    seen_xy = np.where(valid[..., None], xy, np.nan)
-    joints = np.where(valid[..., None], np.asarray(clip.pose3d.joints, np.float64), np.nan)
+    pts = judged_points(clip)
+    valid, xy, joints, shoulders = pts.valid, pts.xy, pts.joints, pts.shoulders
     cv = bone_cv(joints)
-    cameras = take_cameras(clip.pose3d)
-    # One camera: its own 2D and the 3D lifted from it. Several: the triangulated 3D only (one
-    # camera's 2D glitch is outvoted by the others, and the 3D is what the dataset keeps).
-    shapes = [joints] if cameras else [seen_xy, joints]
+    shapes = pts.shapes
     upper = [_I[j] for j in MOTION_KEYPOINTS]
-
-    shoulders = valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]]
-    if cameras:  # the 3D as every camera sees it; the person's size in the best camera
-        views = [c.project(joints) for c in cameras]
+    away, side = view_flags(pts)
+    if pts.cameras:  # the person's size in the best camera
+        views = [c.project(joints) for c in pts.cameras]
         both = [_I["left_shoulder"], _I["right_shoulder"]]  # a camera they lie behind: unseen
-        away, side = facing_away_from_all(views, valid), sideways_from_all(views, valid)
         sizes = [
             _shoulder_width(v, shoulders & np.isfinite(v[:, both, 0]).all(axis=1), c.size[1])
-            for v, c in zip(views, cameras, strict=True)
+            for v, c in zip(views, pts.cameras, strict=True)
         ]
         width_share = max(sizes, key=lambda w: w if np.isfinite(w) else -np.inf)
     else:
-        away, side = facing_away(xy, valid), sideways(xy, valid)
         width_share = _shoulder_width(xy, shoulders, clip.pose2d.image_size[1])
     change = np.asarray(clip.change, dtype=np.float64)
     reach = reach_metrics(clip, profile=profile, qc=qc, rate_hz=rate)
@@ -537,7 +501,7 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         arms_unknown_fraction=float(np.mean(~arms)) if len(known) else nan,
         left_arm_unknown_fraction=_part_unknown(known, "left_arm"),
         right_arm_unknown_fraction=_part_unknown(known, "right_arm"),
-        torso_gap_s=longest_run_s(~torso, clip.timestamps),
+        torso_gap_s=longest_run_s(~shoulders, clip.timestamps),
         bone_cv_max=float(np.nanmax(cv)) if np.isfinite(cv).any() else nan,
         swap_events=float(max(swap_events(p) for p in shapes)),
         frozen_fraction=max(frozen_fraction(p[:, upper]) for p in shapes),
@@ -549,8 +513,9 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         invariants=invariant_metrics(clip, profile=profile, qc=qc, jerk=jerk, jerk_raw=jerk_raw),
         jitter_fraction=high_freq_fraction(raw_u, hz, qc.jitter_above_hz) if len(raw_u) else nan,
         motion_range=motion_range(clip.angles),
-        facing_away_fraction=_share(away, shoulders),
-        sideways_fraction=_share(side, shoulders & valid[:, _I["nose"]]),
+        # motion capture has no camera: a view cannot cost its measured 3D anything (issue 41)
+        facing_away_fraction=nan if is_mocap(clip) else _share(away, shoulders),
+        sideways_fraction=nan if is_mocap(clip) else _share(side, shoulders & valid[:, _I["nose"]]),
         shoulder_width=width_share,
         image_change=(
             float(np.median(change[np.isfinite(change)])) if np.isfinite(change).any() else nan
@@ -561,4 +526,5 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
             float(np.mean(clip.depth_confidence)) if len(clip.depth_confidence) else nan
         ),
         expected_hand_error_cm=clip_hand_error_cm(clip),
+        extra={c.metric: float(c.measure(clip, qc, profile)) for c in CHECKS if c.measure},
     )

@@ -2,7 +2,7 @@
   'use strict';
   var D = JSON.parse(document.getElementById('data').textContent);
   var COLOUR = {kept: '#2e7d32', accepted: '#2e7d32', rejected: '#c62828',
-                dropped: '#9e9e9e', failed: '#6d4c41'};
+                cut: '#ef6c00', dropped: '#9e9e9e', failed: '#6d4c41'};
   var TRACKS = ['#90caf9', '#ce93d8', '#ffcc80', '#80deea', '#b0bec5', '#fff59d'];  // no red, green
 
   function esc(s) {

@@ -22,6 +22,7 @@ from gesturebank.clip import HEAD_SOURCES, ROLES, Clip
 from gesturebank.datasets import store
 from gesturebank.datasets.cut import frame_ends
 from gesturebank.errors import InputError
+from gesturebank.qc.stretches import is_cut_reason
 from gesturebank.robot.retarget import NEEDS
 from gesturebank.skeletons import COCO17, COCO17_BONES, to_coco17
 
@@ -81,10 +82,13 @@ def reason_kind(text: str) -> str:
 
 
 def kind_of(c: store.ClipRecord) -> str:
-    """kept | rejected (clips with arrays) | dropped | failed (spans)."""
+    """kept | rejected (clips with arrays) | cut (a stretch the QC cut out of a clip, issue 41)
+    | dropped | failed (spans)."""
     if c.kind == "clip":
         return "kept" if c.qc_status == "accepted" else "rejected"
-    return "failed" if c.qc_status == "failed" else "dropped"
+    if c.qc_status == "failed":
+        return "failed"
+    return "cut" if c.qc_reasons and is_cut_reason(c.qc_reasons[0]) else "dropped"
 
 
 def parts_of(record: store.TakeRecord) -> tuple[store.ClipRecord, ...]:

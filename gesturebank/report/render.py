@@ -26,6 +26,7 @@ from gesturebank.clip import Clip
 from gesturebank.config import QCConfig
 from gesturebank.datasets import store
 from gesturebank.qc import checks
+from gesturebank.qc.table import CHECKS, UNITS, by_metric
 from gesturebank.report.data import (
     PAGES_DIR,
     PLOT_RATE_HZ,
@@ -44,34 +45,23 @@ log = logging.getLogger(__name__)
 
 _CSP = "default-src 'none'; img-src data:; style-src 'unsafe-inline'; script-src 'unsafe-inline'"
 
-# Metrics of a clip as shown: key, label, format of the scaled value, scale.
-_METRICS = (
+# Metrics of a clip as shown: key, label, format of the scaled value, scale. Those a check
+# judges take their label and unit from the table of checks (`qc.table`); these are reported.
+_REPORTED = (
     ("duration_s", "duration", "{:.2f} s", 1.0),
-    ("jerk_raw", "raw jerk", "{:.3g} rad²/s⁵", 1.0),
     ("jerk", "processed jerk", "{:.3g} rad²/s⁵", 1.0),
-    ("head_unknown_fraction", "head unseen", "{:.0f} %", 100.0),
-    ("arms_unknown_fraction", "both arms unseen", "{:.0f} %", 100.0),
     ("left_arm_unknown_fraction", "left arm unseen", "{:.0f} %", 100.0),
     ("right_arm_unknown_fraction", "right arm unseen", "{:.0f} %", 100.0),
     ("torso_gap_s", "longest torso gap", "{:.2f} s", 1.0),
-    ("bone_cv_max", "bone length variation", "{:.1f} %", 100.0),
-    ("out_of_reach_fraction", "beyond reach", "{:.0f} %", 100.0),
-    ("frozen_at_limit_s", "frozen at a limit", "{:.1f} s", 1.0),
-    ("jitter_fraction", "raw power above the jitter band", "{:.1f} %", 100.0),
-    ("swap_events", "left/right swaps", "{:.0f}", 1.0),
-    ("spike_max", "largest spike", "{:.2f} shoulder widths", 1.0),
-    ("frozen_fraction", "frozen pose", "{:.0f} %", 100.0),
-    ("motion_range", "motion range", "{:.1f}°", float(np.degrees(1.0))),
-    ("facing_away_fraction", "facing away", "{:.0f} %", 100.0),
-    ("sideways_fraction", "seen from the side", "{:.0f} %", 100.0),
-    ("shoulder_width", "shoulder width", "{:.1f} % of the frame height", 100.0),
-    ("image_change", "image change", "{:.3f}", 1.0),
-    ("people", "people in the frame", "{:.1f}", 1.0),
-    ("speech_fraction", "speech heard", "{:.0f} %", 100.0),
     ("depth_confidence", "depth confidence", "{:.2f}", 1.0),
-    ("expected_hand_error_cm", "expected hand error", "{:.1f} cm", 1.0),
-    ("trimmed_fraction", "take's video outside its audio", "{:.0f} %", 100.0),
 )
+
+
+def _metric_rows() -> list[tuple[str, str, str, float]]:
+    """(key, label, format, scale) of every metric the page shows by name, checks' first."""
+    checked = [(c.metric, c.label, *UNITS[c.unit]) for c in CHECKS]
+    return [*checked, *(r for r in _REPORTED if r[0] not in {c[0] for c in checked})]
+
 
 # The page's style, and its script that draws every chart from the page's JSON (id "data") and
 # sorts tables whose header is clicked; inlined into every page (pages work offline and alone).
@@ -150,13 +140,17 @@ def _summary(records: Sequence[store.TakeRecord]) -> str:
     usable = sum(r.usable_s for r in records)
     visible = sum(r.visible_s for r in records)
     dropped_s = sum(lost_s(c) for c in parts if kind_of(c) == "dropped")
+    cut_s = sum(lost_s(c) for c in parts if kind_of(c) == "cut")
     cells = [
         ("usable seconds", f"{usable:.1f}"),
         ("seconds the speaker was visible", f"{visible:.1f}"),
         ("share kept", f"{usable / visible:.0%}" if visible > 0 else "–"),
         ("clips kept", str(count["kept"])),
         ("clips rejected", str(count["rejected"])),
-        ("stretches dropped", f"{count['dropped']} ({dropped_s:.1f} s)"),
+        # the spans of every kind (dataset.json's stretches_dropped); those the QC cut out of
+        # clips (issue 41) are also counted alone
+        ("stretches dropped", f"{count['dropped'] + count['cut']} ({dropped_s + cut_s:.1f} s)"),
+        ("of them cut by the QC", f"{count['cut']} ({cut_s:.1f} s)"),
         ("takes failed", str(sum(bool(r.failed) for r in records))),
     ]
     head = "".join(f"<th>{_e(k)}</th>" for k, _ in cells)
@@ -340,8 +334,9 @@ def _threshold_text(key: str, fmt: str, scale: float, qc: QCConfig) -> str:
 def _verdict(key: str, value: float | None, reasons: Sequence[str], qc: QCConfig) -> str:
     """'✗ over the max', '✗ under the min', '✗ outlier', '✓' (checked, passed) or ''."""
     failed = []
-    if checks.fails(key, value, qc):
-        failed.append("over the max" if checks.THRESHOLDS[key][1] == "max" else "under the min")
+    check = by_metric(key)
+    if check is not None and check.fails(value, qc):
+        failed.append("over the max" if check.side == "max" else "under the min")
     if any(checks.is_outlier_reason(key, r) for r in reasons):
         failed.append("outlier")
     if failed:
@@ -353,8 +348,9 @@ def _verdict(key: str, value: float | None, reasons: Sequence[str], qc: QCConfig
 def _metrics_table(metrics: Mapping[str, float], reasons: Sequence[str], qc: QCConfig) -> str:
     """The clip's metrics (not the per-joint ones), each beside its threshold; the rows of the
     checks it failed are marked (class 'fail', ✗)."""
-    shown = {k for k, *_ in _METRICS}
-    rows_of = [(k, label, fmt, scale) for k, label, fmt, scale in _METRICS if k in metrics]
+    named = _metric_rows()
+    shown = {k for k, *_ in named}
+    rows_of = [(k, label, fmt, scale) for k, label, fmt, scale in named if k in metrics]
     rows_of += [
         (k, _readable(k), "{:.4g}", 1.0) for k in sorted(metrics) if "/" not in k and k not in shown
     ]
@@ -462,7 +458,8 @@ def take_page(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key:
         f"<p class='failed'>The take failed: {_e(record.failed)}</p>" if record.failed else "",
         "<h2>Timeline</h2>",
         "<div id='timeline'></div>",
-        f"<p class='note'>{_tag('kept')} {_tag('rejected')} {_tag('dropped')} dashed lines: "
+        f"<p class='note'>{_tag('kept')} {_tag('rejected')} {_tag('cut')} {_tag('dropped')} "
+        "(cut: a stretch the QC cut out of a clip, the rest kept) dashed lines: "
         "shot cuts (from the main-speaker report); ▲ preview frames. Hover a segment for its "
         "reasons.</p>",
         _SPEAKER_NOTE if choices else "",

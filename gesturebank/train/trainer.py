@@ -22,11 +22,10 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import torch
-from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import FrameDataset, Segment, WindowDataset, masked_mse
@@ -64,6 +63,17 @@ class TrainResult:
         )
 
 
+class EpochProgress(Protocol):
+    """Where a training run shows its epochs (the command's progress bar, `app.train_progress`;
+    none: silently): `begin` once per stage, `epoch` after each, `end` with the epochs run."""
+
+    def begin(self, description: str, max_epochs: int) -> None: ...
+
+    def epoch(self, epoch: int, losses: str) -> None: ...
+
+    def end(self, epochs: int) -> None: ...
+
+
 def make_dataset(schedule: Schedule, segments: Sequence[Segment]) -> FrameDataset | WindowDataset:
     if schedule.seq_len is not None:
         return WindowDataset(segments, schedule.seq_len, schedule.stride)
@@ -76,7 +86,7 @@ def train(
     val_segments: Sequence[Segment],
     config: TrainConfig,
     *,
-    quiet: bool = False,
+    progress: EpochProgress | None = None,
     description: str = "training",
     epochs: int | None = None,
 ) -> TrainResult:
@@ -88,14 +98,14 @@ def train(
 
     `epochs` (`train --epochs`) replaces the schedule's `max_epochs`, of every stage.
 
-    Progress: a live bar on a terminal; otherwise (a log, a pipe) one plain line per epoch.
+    `progress` is shown each epoch's losses (None: nothing is shown).
 
     The model must have been created under the same seed for a fully reproducible run (the
     commands build it inside `torch_settings`).
     """
     if not isinstance(model, SpeechToMotion):
         raise InputError(f"{type(model).__name__}: not a speech-to-motion model (train.contract)")
-    run = (model, train_segments, val_segments, config, quiet)
+    run = (model, train_segments, val_segments, config, progress)
     if not isinstance(model, Staged):
         return _train_stage(*run, description, epochs)
     done: list[TrainResult] = []
@@ -122,7 +132,7 @@ def _train_stage(
     train_segments: Sequence[Segment],
     val_segments: Sequence[Segment],
     config: TrainConfig,
-    quiet: bool,
+    progress: EpochProgress | None,
     description: str,
     epochs: int | None,
 ) -> TrainResult:
@@ -143,21 +153,10 @@ def _train_stage(
     best = (float("inf"), 0, copy.deepcopy(model.state_dict()))
     history: list[dict[str, float]] = []
     start = time.perf_counter()
-    console = Console()
-    plain = not quiet and not console.is_terminal  # a log gets a line per epoch, not a bar
-    progress = Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        TextColumn("epoch {task.completed:.0f}/{task.total:.0f}"),
-        TextColumn("{task.fields[losses]}"),
-        TimeElapsedColumn(),
-        disable=quiet or plain,
-        transient=False,
-        console=console,
-    )
     epoch, stopped = 0, MAX_EPOCHS
-    with torch_settings(config.seed, config.threads), progress:
-        task = progress.add_task(description, total=max_epochs, losses="")
+    with torch_settings(config.seed, config.threads):
+        if progress is not None:
+            progress.begin(description, max_epochs)
         for epoch in range(1, max_epochs + 1):
             model.train()
             order = torch.from_numpy(rng.permutation(len(data)))
@@ -179,14 +178,8 @@ def _train_stage(
             if val_loss < best[0]:
                 best = (val_loss, epoch, copy.deepcopy(model.state_dict()))
             losses = f"train {train_loss:.5f}  val {val_loss:.5f}  best {best[0]:.5f}@{best[1]}"
-            progress.update(task, completed=epoch, losses=losses)
-            if plain:
-                console.print(
-                    f"{description}: epoch {epoch}/{max_epochs}  {losses}",
-                    highlight=False,
-                    markup=False,
-                    soft_wrap=True,
-                )
+            if progress is not None:
+                progress.epoch(epoch, losses)
             if epoch - max(best[1], stalled_since) >= schedule.patience:
                 lower = lr * schedule.lr_factor if schedule.lr_factor else 0.0
                 if lower < schedule.min_lr * (1 - 1e-6):
@@ -196,7 +189,8 @@ def _train_stage(
                 lr, stalled_since = lower, epoch
                 for group in optimiser.param_groups:
                     group["lr"] = lr
-        progress.update(task, total=epoch)
+        if progress is not None:
+            progress.end(epoch)
     model.load_state_dict(best[2])
     model.eval()
     seconds = time.perf_counter() - start

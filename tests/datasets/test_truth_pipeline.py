@@ -10,7 +10,7 @@ Measured with the default lifter (`learned`, issue 39's model; `benchmarks/pipel
 wrong depth sign of the 280 that point clearly towards or away from the camera (8 with
 `blazepose-world`, whose clip measured 12.8° and 8.9 cm). Bounds: 1.5× these, and at most 1 %
 of them wrong. The clip's depth confidence (0.12 on average: forearms towards the camera)
-expects a hand error of 6.6 cm (`lift.depth_confidence.CALIBRATION`, made on test.bvh 31–51 s
+expects a hand error of 6.6 cm (`lift.depth_confidence.LEARNED`, made on test.bvh 31–51 s
 at 1280×720, where the net measured 6.1 cm); its raw angles measure 3.2 cm on this short, small
 clip. The expectation errs towards caution, so the bound is: not below the measurement by more
 than 2.5 cm, not above it by more than 3.5 cm.

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gesturebank.config import DetectorConfig, VideoConfig
+from gesturebank.config import BlazePoseConfig, MediaPipeConfig, VideoConfig
 from gesturebank.errors import DetectionError
 from gesturebank.extract.detectors import DETECTORS, Frame
 from gesturebank.extract.detectors import blazepose as bp
@@ -119,7 +119,7 @@ def test_missing_runtime_is_one_line_with_the_install_command(
         importlib.util, "find_spec", lambda n, *a: None if n == "ai_edge_litert" else real(n, *a)
     )
     with pytest.raises(DetectionError) as err:
-        DETECTORS.create("blazepose", DetectorConfig())
+        DETECTORS.create("blazepose", BlazePoseConfig())
     msg = str(err.value)
     assert "pip install ai-edge-litert==2.3.0" in msg and "\n" not in msg
 
@@ -134,7 +134,7 @@ def test_missing_model_names_the_file_and_the_install(
         importlib.util, "find_spec", lambda n, *a: empty if n == "mediapipe" else real(n, *a)
     )
     with pytest.raises(DetectionError) as err:
-        DETECTORS.create("blazepose", DetectorConfig())
+        DETECTORS.create("blazepose", BlazePoseConfig())
     msg = str(err.value)
     assert str(tmp_path / "modules" / "pose_detection" / "pose_detection.tflite") in msg
     assert "pip install --no-deps mediapipe==0.10.14" in msg and "\n" not in msg
@@ -142,12 +142,12 @@ def test_missing_model_names_the_file_and_the_install(
         importlib.util, "find_spec", lambda n, *a: None if n == "mediapipe" else real(n, *a)
     )
     with pytest.raises(DetectionError, match="mediapipe==0.10.14"):
-        DETECTORS.create("blazepose", DetectorConfig())
+        DETECTORS.create("blazepose", BlazePoseConfig())
 
 
 def test_no_frames_is_a_detection_error() -> None:
     with pytest.raises(DetectionError, match="blazepose: no frames"):
-        DETECTORS.create("blazepose", DetectorConfig(), threads=1).detect_people(iter([]))
+        DETECTORS.create("blazepose", BlazePoseConfig(), threads=1).detect_people(iter([]))
 
 
 # ---------------------------------------------------------------- real media, against mediapipe
@@ -163,8 +163,8 @@ def runs(samples: Path) -> dict[str, tuple[Pose2D, MultiPose2D]]:
     for the five videos, hence the `slow` marks of the tests that use it)."""
     videos = {c: samples / "pose2sim" / "Demo_SinglePerson" / "videos" / f"{c}.mp4" for c in SINGLE}
     videos["sports2d"] = samples / "sports2d" / "Demo" / "demo.mp4"
-    mp = DETECTORS.create("mediapipe", DetectorConfig())
-    ours = DETECTORS.create("blazepose", DetectorConfig())
+    mp = DETECTORS.create("mediapipe", MediaPipeConfig())
+    ours = DETECTORS.create("blazepose", BlazePoseConfig())
     out = {}
     for name, path in videos.items():
         frames = _frames(path)
@@ -273,7 +273,7 @@ def test_detector_runs_on_the_frames_own_clock(samples: Path, monkeypatch) -> No
     """detect_every_s counts video seconds: the same frames on a clock twice as slow see the
     person detector about twice as often; the output keeps the given timestamps."""
     frames = _cam01(samples)[:40]
-    det = DETECTORS.create("blazepose", DetectorConfig(detect_every_s=0.5))
+    det = DETECTORS.create("blazepose", BlazePoseConfig(detect_every_s=0.5))
     calls: list[int] = []
     real = det.find_people
     monkeypatch.setattr(det, "find_people", lambda image: calls.append(1) or real(image))
@@ -287,8 +287,8 @@ def test_detector_runs_on_the_frames_own_clock(samples: Path, monkeypatch) -> No
 
 def test_smoothing_follows_the_config(samples: Path) -> None:
     frames = _cam01(samples)
-    smooth = DETECTORS.create("blazepose", DetectorConfig()).detect(iter(frames))
-    raw = DETECTORS.create("blazepose", DetectorConfig(smoothing=False)).detect(iter(frames))
+    smooth = DETECTORS.create("blazepose", BlazePoseConfig()).detect(iter(frames))
+    raw = DETECTORS.create("blazepose", BlazePoseConfig(smoothing=False)).detect(iter(frames))
     np.testing.assert_array_equal(smooth.keypoints[0], raw.keypoints[0])  # the first passes
     jitter = [
         np.nanmedian(np.abs(np.diff(p.keypoints[:, UPPER, :2], n=2, axis=0))) for p in (smooth, raw)
@@ -299,7 +299,7 @@ def test_smoothing_follows_the_config(samples: Path) -> None:
 
 def _multi(samples: Path, cam: str) -> MultiPose2D:
     frames = _frames(samples / "pose2sim" / "Demo_MultiPerson" / "videos" / f"{cam}.mp4")
-    return DETECTORS.create("blazepose", DetectorConfig()).detect_people(iter(frames))
+    return DETECTORS.create("blazepose", BlazePoseConfig()).detect_people(iter(frames))
 
 
 @pytest.mark.parametrize("cam", ["cam01", "cam02", "cam03", "cam04"])
@@ -331,7 +331,7 @@ def test_small_people_finds_the_far_bystander_and_no_ghost(samples: Path, cam: s
     before MIN_SMALL_PERSON and `inside`: a pose on a wall camera's mount in every frame of
     cam03, one on the man's cap in 18 % of cam04's)."""
     frames = _frames(samples / "pose2sim" / "Demo_MultiPerson" / "videos" / f"{cam}.mp4")
-    config = DetectorConfig(small_people=True)
+    config = BlazePoseConfig(small_people=True)
     multi = DETECTORS.create("blazepose", config).detect_people(iter(frames))
     base = _multi(samples, cam)
     assert multi.ids is not None
@@ -369,7 +369,7 @@ def test_a_face_fitted_onto_another_person_keeps_both_tracks(samples: Path) -> N
     his track's face lands on hers while his torso stays his; both tracks go on (before: the
     woman's track was dropped as a duplicate at ~0.9 s, both found in 72 % of these frames)."""
     frames = _frames(samples / "pose2sim" / "Demo_MultiPerson" / "videos" / "cam03.mp4")
-    multi = DETECTORS.create("blazepose", DetectorConfig()).detect_people(iter(frames))
+    multi = DETECTORS.create("blazepose", BlazePoseConfig()).detect_people(iter(frames))
     early = multi.timestamps < 1.3
     assert early.sum() >= 35 and np.all(multi.present[early].sum(axis=1) == 2)
     hips = np.nanmean(multi.keypoints[early][:, :, [23, 24], :2], axis=2)  # (N, 2, 2)
@@ -378,5 +378,5 @@ def test_a_face_fitted_onto_another_person_keeps_both_tracks(samples: Path) -> N
 
 def test_max_people_keeps_the_strongest(samples: Path) -> None:
     frames = _frames(samples / "pose2sim" / "Demo_MultiPerson" / "videos" / "cam04.mp4")[:20]
-    multi = DETECTORS.create("blazepose", DetectorConfig(max_people=1)).detect_people(iter(frames))
+    multi = DETECTORS.create("blazepose", BlazePoseConfig(max_people=1)).detect_people(iter(frames))
     assert multi.keypoints.shape[1] == 1 and multi.present.all()

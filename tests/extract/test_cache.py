@@ -173,8 +173,8 @@ def test_pipeline_reuses_cached_detections(monkeypatch: pytest.MonkeyPatch, tmp_
     )
     np.testing.assert_array_equal(first.multi.keypoints, again.multi.keypoints)
     np.testing.assert_array_equal(first.shots.change, again.shots.change)  # cached with them
-    config.detector.min_detection_confidence = 0.3  # another setting: detect again
-    extract_take(video, config, cache=store)
+    config.detector.blazepose.min_detection_confidence = 0.3  # another detector's setting
+    assert extract_take(video, config, cache=store).info.cache_hit and CountingDetector.runs == 1
     config.video.stride = 2  # other frames: detect again
     extract_take(video, config, cache=store)
     config.shots.threshold = 20.0  # other shot cuts: detect again
@@ -183,4 +183,4 @@ def test_pipeline_reuses_cached_detections(monkeypatch: pytest.MonkeyPatch, tmp_
     extract_take(video, config, cache=store)
     config.build.cache_detections = False
     extract_take(video, config, cache=store)
-    assert CountingDetector.runs == 6
+    assert CountingDetector.runs == 5

@@ -128,14 +128,15 @@ def test_a_chunked_detection_has_the_frames_and_people_of_one_pass(
 
     Not asserted, because chunks cannot give it: the far person is tracked from the first frame
     in one pass, but the person detector alone does not find him at the third chunk's start."""
-    from gesturebank.app.extract import detect_people, extract_take
-    from gesturebank.extract.chunks import detecting
+    from gesturebank.app.extract import detect_people, detecting, extract_take
 
     video = samples / "sports2d" / "Demo" / "demo.mp4"
     config = Config.model_validate({"build": {"chunk_s": 2.6, "chunk_overlap_s": 1.0}})
     found = detect_people(video, config, cache=DetectionCache(tmp_path / "one"))
     one, shots_one = found.multi, found.shots
-    plan = video_chunks(str(video), config)
+    plan = video_chunks(
+        str(video), video=config.video, build=config.build, detector=config.detector.name
+    )
     assert len(plan) == 3
     chunks = DetectionCache(tmp_path / "chunks")
     for _, video_config in plan[1:]:  # what the build's chunk tasks do; the first is left out

@@ -15,7 +15,13 @@ import numpy as np
 import pytest
 
 from gesturebank.app.extract import detect_people, extract_take
-from gesturebank.config import Config, DetectorConfig, VideoConfig
+from gesturebank.config import (
+    Config,
+    DetectorConfig,
+    MediaPipeConfig,
+    OpenPoseJsonConfig,
+    VideoConfig,
+)
 from gesturebank.errors import ConfigError, DetectionError, InputError
 from gesturebank.extract.cache import DetectionCache
 from gesturebank.extract.detectors import DETECTORS
@@ -44,7 +50,7 @@ def test_every_builtin_takes_config_video_and_threads(tmp_path: Path) -> None:
     write_grey_video(video, n=2)
     (tmp_path / "grey_json").mkdir()
     for name in ("blazepose", "mediapipe", "openpose-json"):
-        det = DETECTORS.create(name, DetectorConfig(), video=video, threads=1)
+        det = DETECTORS.create(name, DetectorConfig().settings(name), video=video, threads=1)
         assert det.name == name
 
 
@@ -132,7 +138,7 @@ def test_unbundled_model_is_refused_before_mediapipe_runs(
 
     monkeypatch.setattr(mp_pose, "Pose", forbidden)
     with pytest.raises(ConfigError) as err:
-        DETECTORS.create("mediapipe", DetectorConfig(model_complexity=complexity))
+        DETECTORS.create("mediapipe", MediaPipeConfig(model_complexity=complexity))
     msg = str(err.value)
     assert f"model_complexity={complexity}" in msg and "pip install --no-deps mediapipe" in msg
 
@@ -147,7 +153,7 @@ def test_missing_mediapipe_says_how_to_install(monkeypatch: pytest.MonkeyPatch) 
         lambda name, *a: None if name == "mediapipe" else real(name, *a),
     )
     with pytest.raises(DetectionError) as err:
-        DETECTORS.create("mediapipe", DetectorConfig())
+        DETECTORS.create("mediapipe", MediaPipeConfig())
     assert "pip install --no-deps mediapipe==0.10.14" in str(err.value)
     assert "protobuf>=4.25.3,<5" in str(err.value)
 
@@ -182,7 +188,7 @@ def plausible(kp: np.ndarray, skeleton: str, min_conf: float = 0.5) -> np.ndarra
 
 @pytest.fixture(scope="module")
 def cam01_pose(samples: Path):
-    det = DETECTORS.create("mediapipe", DetectorConfig())
+    det = DETECTORS.create("mediapipe", MediaPipeConfig())
     video = samples / "pose2sim" / "Demo_SinglePerson" / "videos" / "cam01.mp4"
     return det.detect(iter_frames(video, VideoConfig(max_fps=None)))  # all 100 frames
 
@@ -272,7 +278,7 @@ def test_openpose_json_frame_order_is_numeric_and_video_clock_is_used(tmp_path: 
         (folder / f"take_f{i}.json").write_text(json.dumps(doc))
     video = tmp_path / "take.mp4"
     write_grey_video(video, n=12)
-    det = DETECTORS.create("openpose-json", DetectorConfig(), video=video)
+    det = DETECTORS.create("openpose-json", OpenPoseJsonConfig(), video=video)
     multi = det.detect_people()
     np.testing.assert_allclose(multi.keypoints[:, 0, 0, 0], np.arange(1, 13))
     assert np.all(multi.keypoints[..., 2] == 1.0)

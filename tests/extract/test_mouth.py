@@ -14,7 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from gesturebank.audio.io import read_audio
-from gesturebank.config import DetectorConfig, SpeechConfig, VideoConfig
+from gesturebank.config import BlazePoseConfig, SpeechConfig, VideoConfig
 from gesturebank.extract import mouth
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.speech import speech_envelope
@@ -136,7 +136,7 @@ def cam04(samples: Path) -> tuple[list[tuple[float, np.ndarray]], np.ndarray, st
     the BlazePose keypoints of the person whose face is seen most, skeleton name."""
     path = samples / "pose2sim" / "Demo_MultiPerson" / "videos" / "cam04.mp4"
     frames = list(iter_frames(path, VideoConfig(end_s=2.0)))
-    multi = DETECTORS.create("blazepose", DetectorConfig(), threads=1).detect_people(iter(frames))
+    multi = DETECTORS.create("blazepose", BlazePoseConfig(), threads=1).detect_people(iter(frames))
     boxes = [
         sum(_box_of(multi.keypoints[i, p], multi.skeleton) is not None for i in range(len(frames)))
         for p in range(multi.keypoints.shape[1])
@@ -201,7 +201,7 @@ def test_people_who_do_not_speak_are_not_speakers(samples: Path, cam04) -> None:
     assert audio is not None
     env = speech_envelope(audio=audio, timestamps=times, smooth_s=0.1)
     rate = 1 / float(np.median(np.diff(times)))
-    multi = DETECTORS.create("blazepose", DetectorConfig(), threads=1).detect_people(iter(lab))
+    multi = DETECTORS.create("blazepose", BlazePoseConfig(), threads=1).detect_people(iter(lab))
     for person in range(multi.keypoints.shape[1]):
         openings = mouth.mouth_openings(
             (f for _, f in lab),

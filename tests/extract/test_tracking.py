@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from gesturebank.audio.io import Audio, read_audio
-from gesturebank.config import DetectorConfig, TrackingConfig
+from gesturebank.config import BlazePoseConfig, TrackingConfig
 from gesturebank.errors import DetectionError
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.identity import find_switches, link, shot_index, split_at_cuts
@@ -473,7 +473,7 @@ def test_blazepose_on_the_two_person_demo_keeps_the_man(samples: Path) -> None:
     """The multi-person detector on the real Sports2D demo with real (unrelated) speech."""
     pytest.importorskip("gesturebank.extract.detectors.blazepose")
     video = samples / "talking" / "outdoor" / "sports2d_arctic.mp4"
-    detector = DETECTORS.create("blazepose", DetectorConfig(max_people=2))
+    detector = DETECTORS.create("blazepose", BlazePoseConfig(max_people=2))
     multi = detector.detect_people(iter_frames(video))
     tracked = main_speaker(multi, audio=read_audio(video, sample_rate=16000))
     report = tracked.report

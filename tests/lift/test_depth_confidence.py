@@ -7,11 +7,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gesturebank.lift.clip_confidence import expected_hand_error_cm, lifter_traits
 from gesturebank.lift.depth_confidence import (
     ARM_BONES,
-    CALIBRATION,
     depth_confidence,
-    expected_hand_error_cm,
     out_of_plane_share,
     pose_confidence,
 )
@@ -99,8 +98,20 @@ def test_arms_pointing_at_the_camera_lower_a_lifted_frame() -> None:
 
 def test_expected_hand_error_follows_the_calibration() -> None:
     """The table's own points come back; below its lowest bin it holds the end; an unknown
-    lifter has no expectation."""
-    for lifter, (middles, wrong, hand_cm) in CALIBRATION.items():
+    lifter has no expectation. The calibrated lifters are the three measured (their traits)."""
+    calibrated = {
+        name: lifter_traits(name).depth_calibration
+        for name in ("blazepose-world", "learned", "resolved", "fitted", "geometric", "multiview")
+    }
+    assert [name for name, table in calibrated.items() if table is not None] == [
+        "blazepose-world",
+        "learned",
+        "resolved",
+    ]
+    for lifter, table in calibrated.items():
+        if table is None:
+            continue
+        middles, wrong, hand_cm = table
         assert list(middles) == sorted(middles) and len(middles) == len(hand_cm) == len(wrong)
         for c, cm in zip(middles, hand_cm, strict=True):
             got = expected_hand_error_cm(confidence=np.full(10, c), lifter=lifter)

@@ -23,14 +23,20 @@ def still(n: int = 3) -> Pose2D:
 
 def test_the_registry_makes_every_lifter_from_the_config_with_its_own_sections() -> None:
     config = Config.model_validate(
-        {"geometric": {"units": "m"}, "fitted": {"fov_deg": 40.0}, "multiview": {"min_cameras": 3}}
+        {
+            "lifter": {
+                "geometric": {"units": "m"},
+                "fitted": {"fov_deg": 40.0},
+                "multiview": {"min_cameras": 3},
+            }
+        }
     )
     lifters = {name: LIFTERS.create(name, config) for name in BUILT_IN}
     assert [lifter.name for lifter in lifters.values()] == BUILT_IN
-    assert lifters["geometric"].options == config.geometric  # type: ignore[attr-defined]
-    assert lifters["fitted"].options == config.fitted  # type: ignore[attr-defined]
-    assert lifters["fitted"].geometric == config.geometric  # type: ignore[attr-defined]
-    assert lifters["multiview"].options == config.multiview  # type: ignore[attr-defined]
+    assert lifters["geometric"].options == config.lifter.geometric  # type: ignore[attr-defined]
+    assert lifters["fitted"].options == config.lifter.fitted  # type: ignore[attr-defined]
+    assert lifters["fitted"].geometric == config.lifter.geometric  # type: ignore[attr-defined]
+    assert lifters["multiview"].options == config.lifter.multiview  # type: ignore[attr-defined]
 
 
 @pytest.mark.parametrize("name", MONOCULAR)

@@ -144,7 +144,7 @@ def test_the_learned_nets_bones_as_evidence_resolve_the_60_degree_view(samples: 
     views = TakeViews.of(project_view(joints, cam, times), CameraGroup([cam]))
     scores = []
     for weight in (0.0, 16.0):
-        config = Config.model_validate({"resolved": {"learned_weight": weight}})
+        config = Config.model_validate({"lifter": {"resolved": {"learned_weight": weight}}})
         lifted = LIFTERS.create("resolved", config).lift(views)
         scores.append(score_lift(lifted, joints, cam, retarget=config.retarget))
     alone, guided = scores

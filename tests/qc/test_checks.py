@@ -158,7 +158,10 @@ def test_refresh_rejudges_every_clip_and_keeps_rejected_ones(tmp_path) -> None:
         f"subj{i}_take": [synthetic_clip(seed=i, clip_id=f"subj{i}_take__c000")] for i in range(6)
     }
     bad = rederive(corrupt(synthetic_clip(seed=0, clip_id="bad_take__c000"), "swap", 2, seed=1))
-    out = write_dataset(tmp_path, {**clips, "bad_take": [bad]})
+    # judged whole (qc.stretch_rounds = 0): a clip cut around a failing stretch (issue 41) is
+    # re-admitted by rebuilding, not by loosening (test_stretches_cut_when_rejudging)
+    whole = Config.model_validate({"qc": {"stretch_rounds": 0}})
+    out = write_dataset(tmp_path, {**clips, "bad_take": [bad]}, config=whole)
     ds = open_dataset(out)
     rows = {r.clip.clip_id: r for r in ds.clips(None)}
     assert len(rows) == 7  # the rejected clip stays in the dataset, flagged
@@ -175,6 +178,7 @@ def test_refresh_rejudges_every_clip_and_keeps_rejected_ones(tmp_path) -> None:
                 "max_jitter_fraction": 1.0,
                 "max_bone_cv": 1.0,
                 "outlier_z": 1e9,
+                "stretch_rounds": 0,
             }
         }
     )

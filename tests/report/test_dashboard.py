@@ -145,9 +145,16 @@ def _mix_take(out: Path, clips: list[Clip]) -> None:
     store.write_record(out, record)
 
 
-# The whole-clip rules on (opt-in since issue 32), so that an unseen head is a threshold shown
+# The whole-clip rules on (opt-in since issue 32), so that an unseen head is a threshold shown;
+# clips judged whole (no stretch cut, issue 41), so that they stay rejected clips to be shown
 WHOLE = Config.model_validate(
-    {"qc": {"max_head_unknown_fraction": 0.5, "max_arms_unknown_fraction": 0.5}}
+    {
+        "qc": {
+            "max_head_unknown_fraction": 0.5,
+            "max_arms_unknown_fraction": 0.5,
+            "stretch_rounds": 0,
+        }
+    }
 )
 
 

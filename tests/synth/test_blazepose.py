@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from gesturebank.config import DetectorConfig, MocapConfig, SynthConfig
+from gesturebank.config import BlazePoseConfig, MocapConfig, SynthConfig
 from gesturebank.extract.detectors import DETECTORS
 from gesturebank.extract.video import iter_frames
 from gesturebank.synth.score import score_2d
@@ -35,7 +35,7 @@ def test_blazepose_finds_the_figure(
         [Performer(test_bvh)], config=config, mocap=MocapConfig(), speech=speech, cache=tmp_path
     )
     video = truth.videos[0]
-    detector = DETECTORS.create("blazepose", DetectorConfig(), video=video)
+    detector = DETECTORS.create("blazepose", BlazePoseConfig(), video=video)
     pose = detector.detect(iter_frames(video)).to_coco17()
     score = score_2d(pose.keypoints, truth.joints2d[0])
     assert score.found >= 0.95

@@ -11,11 +11,12 @@ import pytest
 from rich.console import Console
 from typer.testing import CliRunner
 
+from gesturebank.app.compare import compare_command
 from gesturebank.cli import app
 from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
-from gesturebank.train.eval.compare import COLUMNS, compare_command
+from gesturebank.train.eval.compare import COLUMNS
 from gesturebank.train.eval.evaluate import LEGEND, MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
 
 BASELINES = [NATURAL, MEAN_POSE, SHUFFLED, SHIFTED]

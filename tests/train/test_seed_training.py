@@ -157,7 +157,7 @@ def test_every_seed_model_trains_on_real_media_and_compare_tables_them(
     No quality claim: the demo's speech and motion are unrelated."""
     from rich.console import Console
 
-    from gesturebank.train.eval.compare import compare_command
+    from gesturebank.app.compare import compare_command
 
     cfg = TINY.model_copy(update={"cvae": TINY.cvae.model_copy(update={"max_epochs": 3})})
     dirs = []

@@ -6,11 +6,13 @@ person. Detectors that can see several people also implement `detect_people(fram
 MultiPose2D` (both types in `gesturebank.poses`); `extract.tracking` then picks the main speaker.
 Detectors are created by name:
 
-    DETECTORS.create(name, config: DetectorConfig, video=path_or_None) -> Detector
+    DETECTORS.create(name, settings, video=path_or_None) -> Detector
 
-A third-party package adds one through the entry-point group `gesturebank.detectors`, whose
-object is such a factory (usually the class). Built-ins are imported only when asked for, so
-`import gesturebank` does not import mediapipe.
+where `settings` is the detector's own `[detector.NAME]` section (`DetectorConfig.settings()`:
+`BlazePoseConfig` …; None for a plug-in that declares no `section_model`). A third-party package
+adds one through the entry-point group `gesturebank.detectors`, whose object is such a factory
+(usually the class; its `section_model`, a pydantic model, validates its section). Built-ins
+are imported only when asked for, so `import gesturebank` does not import mediapipe.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from gesturebank.config import DetectorConfig
+from gesturebank.config import MediaPipeConfig
 from gesturebank.errors import ConfigError, DetectionError
 from gesturebank.extract.detectors import Frame
 from gesturebank.poses import MultiPose2D, Pose2D
@@ -80,18 +80,18 @@ class MediaPipeDetector:
 
     def __init__(
         self,
-        config: DetectorConfig | None = None,
+        config: MediaPipeConfig | None = None,
         *,
         video: object = None,
         threads: int | None = None,  # mediapipe's graph sets its own; accepted for the convention
     ) -> None:
-        self.config = config or DetectorConfig()
+        self.config = config or MediaPipeConfig()
         # Checked before mediapipe is touched: any other complexity makes it download a model.
         if self.config.model_complexity != BUNDLED_COMPLEXITY:
             raise ConfigError(
-                f"detector.model_complexity={self.config.model_complexity}: only "
+                f"detector.mediapipe.model_complexity={self.config.model_complexity}: only "
                 f"{BUNDLED_COMPLEXITY} (BlazePose Full) is bundled with mediapipe 0.10.14 and "
-                "gesturebank never downloads models; set detector.model_complexity = 1 "
+                "gesturebank never downloads models; set detector.mediapipe.model_complexity = 1 "
                 f"(mediapipe install: {INSTALL})"
             )
         _check_install()

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.config import DetectorConfig, TrackingConfig
+from gesturebank.config import OpenPoseJsonConfig, TrackingConfig
 from gesturebank.errors import ConfigError, InputError
 from gesturebank.extract.detectors import Frame
 from gesturebank.poses import MultiPose2D, Pose2D
@@ -127,7 +127,7 @@ class OpenPoseJsonDetector:
 
     def __init__(
         self,
-        config: DetectorConfig | None = None,
+        config: OpenPoseJsonConfig | None = None,
         *,
         video: str | os.PathLike[str] | None = None,
         folder: str | os.PathLike[str] | None = None,
@@ -136,7 +136,7 @@ class OpenPoseJsonDetector:
         tracking: TrackingConfig | None = None,
         threads: int | None = None,  # the constructor convention of every detector; no model
     ) -> None:
-        self.config = config or DetectorConfig()
+        self.config = config or OpenPoseJsonConfig()
         self.video = None if video is None else Path(video)
         if folder is None:
             if self.video is None:

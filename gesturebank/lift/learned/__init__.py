@@ -38,7 +38,8 @@ import numpy as np
 
 from gesturebank.config import Config, FittedConfig, GeometricConfig, LearnedConfig
 from gesturebank.errors import InputError
-from gesturebank.lift import TakeViews
+from gesturebank.lift import LifterTraits, TakeViews
+from gesturebank.lift.depth_confidence import LEARNED
 from gesturebank.lift.fitted import pinhole
 from gesturebank.lift.learned import features as F
 from gesturebank.lift.scoring import MIRROR
@@ -80,6 +81,7 @@ def _session(path: str, threads: int) -> tuple[ort.InferenceSession, dict[str, A
 
 class LearnedLifter:
     name = "learned"
+    traits = LifterTraits(depth_calibration=LEARNED)
 
     def __init__(
         self,
@@ -97,7 +99,11 @@ class LearnedLifter:
     @classmethod
     def from_config(cls, config: Config) -> LearnedLifter:
         """The registry's factory (gesturebank.lift): `learned`, `fitted`, `geometric`."""
-        return cls(learned=config.learned, fitted=config.fitted, geometric=config.geometric)
+        return cls(
+            learned=config.lifter.learned,
+            fitted=config.lifter.fitted,
+            geometric=config.lifter.geometric,
+        )
 
     def lift(self, views: TakeViews) -> Pose3D:
         """One view of any skeleton → Pose3D (T, 17, 3), camera frame (module docstring)."""

@@ -23,7 +23,7 @@ import numpy as np
 from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.errors import CalibrationError, InputError
-from gesturebank.lift import TakeViews
+from gesturebank.lift import LifterTraits, TakeViews
 from gesturebank.lift.multiview.bundle import BundleReport, refine_cameras
 from gesturebank.lift.multiview.refine import Refinement, refine, reprojection
 from gesturebank.lift.multiview.robust import (
@@ -108,6 +108,7 @@ class MultiviewLifter:
     """Triangulating lifter; its section is `multiview` (None: the defaults)."""
 
     name = "multiview"
+    traits = LifterTraits(several_views=True, measured_depth=True)
 
     def __init__(self, *, multiview: MultiviewConfig | None = None) -> None:
         self.options = multiview or MultiviewConfig()
@@ -115,7 +116,7 @@ class MultiviewLifter:
     @classmethod
     def from_config(cls, config: Config) -> MultiviewLifter:
         """The registry's factory (gesturebank.lift): the `multiview` section."""
-        return cls(multiview=config.multiview)
+        return cls(multiview=config.lifter.multiview)
 
     def lift(self, views: TakeViews) -> Pose3D:
         """One Pose2D per camera of `views.cameras` (same order), with the cameras' audio

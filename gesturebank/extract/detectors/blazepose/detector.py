@@ -8,7 +8,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from gesturebank.config import DetectorConfig
+from gesturebank.config import BlazePoseConfig
 from gesturebank.errors import DetectionError
 from gesturebank.extract.detectors import Frame
 from gesturebank.extract.detectors.blazepose.inference import TfliteModel, model_paths
@@ -47,12 +47,12 @@ class BlazePoseDetector:
 
     def __init__(
         self,
-        config: DetectorConfig | None = None,
+        config: BlazePoseConfig | None = None,
         *,
         video: object = None,
         threads: int | None = None,
     ) -> None:
-        self.config = config or DetectorConfig()
+        self.config = config or BlazePoseConfig()
         self.threads = threads or os.cpu_count() or 1
         detector_path, landmark_path = model_paths()
         self._detector = TfliteModel(detector_path, self.threads)

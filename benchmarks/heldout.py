@@ -1,0 +1,190 @@
+"""The whole build on held-out renders, reported as a measuring instrument's error (issue 39).
+
+Renders of test2.bvh (never trained or tuned on): its calm first 20 s and its most vigorous 20 s,
+a level camera and one 0.5 m above the chest looking down, both looks (T-shirt, long sleeves),
+1280×720. Each goes through `build-dataset` with its defaults (clips split into parts of at most
+5 s, the bootstrap's units), and every stored clip, accepted or not, is scored against the truth
+through the build's processing. Per render: the accepted seconds, arm MAE, Pepper hand error,
+wrong depth signs, head direction, and the stored 2D against BlazePose run on each frame alone
+(worst-joint 90th percentile, % of the torso; frames with left and right exchanged). Pooled, per
+Pepper joint: bias, 95 % limits of agreement, ICC(2,1) and MAE, each with a 95 % bootstrap
+interval over clips (`lift.agreement`).
+
+    .venv/bin/python benchmarks/heldout.py [--quick]
+
+--quick: the fast stretch's first 3.5 s, level and elevated, one look, 640×360 (seconds with the
+renders and detections cached).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from fidelity import IMAGE, TRUTH_BVH, detect_cached, render_truth
+from rich.console import Console
+from rich.table import Table
+
+from gesturebank.app.build import build_dataset
+from gesturebank.config import Config, SynthConfig
+from gesturebank.datasets import open as open_dataset
+from gesturebank.datasets.process import process_angles
+from gesturebank.datasets.takes import discover_takes
+from gesturebank.lift.agreement import Interval, agreement, bootstrap_over_clips
+from gesturebank.lift.scoring import ARM_JOINTS, camera_axes, score_angles, sign_errors
+from gesturebank.mocap.bvh import read_bvh
+from gesturebank.mocap.pose import motion_pose
+from gesturebank.robot import pepper
+from gesturebank.robot.pepper import JOINTS
+from gesturebank.samples import default_samples_dir
+from gesturebank.skeletons import COCO17
+from gesturebank.synth.score import score_2d, worst_joint_p90
+from gesturebank.synth.truth import Truth
+
+# The held-out agreement (issue 39): test2.bvh's calm first 20 s and its most vigorous 20 s,
+# a level camera and one ELEVATED_M above the chest looking down, both looks, the whole build.
+HELDOUT, HELDOUT_S = "test2", 20.0
+ELEVATED_M = 0.5
+CAMERAS = {"level": 0.0, "elevated": float(np.rad2deg(np.arcsin(ELEVATED_M / 3.0)))}  # at 3 m
+LOOKS = ("tshirt", "sleeves")
+QUICK_HELDOUT_S, QUICK_HELDOUT = 3.5, (640, 360)  # a clip lasts at least 3 s (clips.min_s)
+CLIP_S = 5.0  # held-out builds split clips into parts this long at most: the bootstrap units
+DRAWS, QUICK_DRAWS = 1000, 100  # bootstrap draws over clips
+
+
+def most_vigorous_start(config: Config, motion: str, length_s: float) -> float:
+    """Start (s, on a 0.5 s grid) of the `length_s` stretch of `motion`.bvh whose wrists move
+    fastest relative to the mid-shoulder (path length): the fast, expressive held-out motion."""
+    pose = motion_pose(read_bvh(default_samples_dir() / TRUTH_BVH.format(motion)),
+                       config=config.mocap)[0]  # fmt: skip
+    joints, times = pose.joints.astype(np.float64), pose.timestamps
+    wrists = joints[:, [COCO17.index["left_wrist"], COCO17.index["right_wrist"]]]
+    relative = wrists - joints[:, [5, 6]].mean(axis=1, keepdims=True)
+    path = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(relative, axis=0), axis=-1)
+                                            .sum(axis=1))])  # fmt: skip
+    starts = np.arange(0.0, times[-1] - length_s, 0.5)
+    ends = np.searchsorted(times, starts + length_s)
+    return float(starts[np.argmax(path[ends] - path[np.searchsorted(times, starts)])])
+
+
+def build_and_pair(truth: Truth, config: Config, out: Path) -> list[dict[str, np.ndarray]]:
+    """`build-dataset` on the render's video; per stored clip (accepted or not): the stored
+    angles and the truth through the build's processing (`angles`, `truth`, (N, 11) rad on the
+    clip's clock), its stored 2D and the true 2D of its video frames (`2d`, `true 2d`), and
+    `accepted` (0-d bool), and its arm bones' depth signs (`signs`: (bones, 2) deep frames,
+    wrong ones; `lift.scoring.sign_errors`)."""
+    build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
+    dataset = open_dataset(out)
+    profile = pepper.load_profile(config.robot.profile)
+    clips = []
+    for row in (r for r in dataset.rows() if r.clip.kind == "clip"):
+        clip = dataset.load(row.clip.clip_id)
+        true = process_angles(raw=truth.angles, timestamps=truth.times,
+                              clock=clip.times + clip.start_s, processing=config.processing,
+                              retarget=config.retarget, profile=profile)  # fmt: skip
+        frames = np.round((clip.pose2d.timestamps + clip.start_s - truth.times[0]) * truth.fps)
+        frames = np.clip(frames.astype(int), 0, len(truth.times) - 1)
+        clips.append({
+            "angles": clip.angles.astype(np.float64), "truth": true.angles.astype(np.float64),
+            "2d": clip.pose2d.to_coco17().keypoints, "true 2d": truth.joints2d[0][frames],
+            "accepted": np.array(row.clip.qc_status == "accepted"),
+            "signs": np.array([v for v in sign_errors(camera_axes(clip.pose3d),
+                                                      truth.joints3d[frames],
+                                                      truth.cameras[0]).values()]),
+        })  # fmt: skip
+    return clips
+
+
+def heldout_tables(config: Config, *, quick: bool) -> tuple[Table, Table]:
+    """The whole build on held-out renders as a measuring instrument (issue 39): per render,
+    its scores and its stored 2D against BlazePose run on each frame alone; per Pepper joint,
+    bias, 95 % limits of agreement, ICC(2,1) and MAE with bootstrap intervals over clips."""
+    length = QUICK_HELDOUT_S if quick else HELDOUT_S
+    size = QUICK_HELDOUT if quick else IMAGE
+    fast = most_vigorous_start(config, HELDOUT, HELDOUT_S)
+    motions = {"fast": fast} if quick else {"calm": 0.0, "fast": fast}
+    looks = LOOKS[:1] if quick else LOOKS
+    renders = Table(title=f"Held-out renders of {HELDOUT}.bvh (calm: 0–{HELDOUT_S:g} s, fast: its "
+                    f"most vigorous {HELDOUT_S:g} s from {fast:g} s; {length:g} s each, "
+                    f"{size[0]}×{size[1]}) through the whole build, every stored clip scored "
+                    "(accepted or not); 2D: the stored 2D against BlazePose on each frame alone "
+                    "(worst-joint p90, % torso; frames with left and right exchanged)")  # fmt: skip
+    config = config.model_copy(update={"clips": config.clips.model_copy(update={"max_s": CLIP_S})})
+    for col in ("motion", "camera", "look", "clips", "accepted s", "arm MAE °", "hand cm",
+                "wrong sign %", "head °", "2D p90 %: stored / each frame",
+                "L/R exchanged %: stored / each frame"):  # fmt: skip
+        renders.add_column(col, justify="right")
+    pooled: list[dict[str, np.ndarray]] = []
+    with tempfile.TemporaryDirectory(prefix="fidelity-heldout-") as tmp:
+        for kind, start in motions.items():
+            for camera, elevation in CAMERAS.items():
+                for look in looks:
+                    synth = SynthConfig(start_s=start, length_s=length, elevation_deg=elevation,
+                                        look=look, width_px=size[0], height_px=size[1])  # fmt: skip
+                    truth = render_truth(config, synth, HELDOUT)
+                    clips = build_and_pair(truth, config, Path(tmp) / f"{kind}-{camera}-{look}")
+                    pooled += clips
+                    renders.add_row(kind, camera, look, *render_cells(clips, truth, config))
+    return renders, agreement_table(pooled, draws=QUICK_DRAWS if quick else DRAWS)
+
+
+def render_cells(clips: list[dict[str, np.ndarray]], truth: Truth, config: Config) -> list[str]:
+    """One render's row of `heldout_tables` after its motion, camera and look."""
+    if not clips:
+        return ["0", *["-"] * 7]
+    rate = config.processing.rate_hz
+    accepted = sum(len(c["angles"]) for c in clips if c["accepted"]) / rate
+    angles, true = (np.concatenate([c[k] for c in clips]) for k in ("angles", "truth"))
+    per_joint, _, hand, head = score_angles(angles, true)
+    stored = np.concatenate([c["2d"] for c in clips])
+    true_2d = np.concatenate([c["true 2d"] for c in clips])
+    each = detect_cached(config, truth.videos[0], each_frame=True).to_coco17().keypoints
+    signs = np.sum([c["signs"].sum(axis=0) for c in clips], axis=0)
+    return [
+        str(len(clips)), f"{accepted:.1f} / {len(truth.times) / truth.fps:g}",
+        f"{np.nanmean(per_joint[ARM_JOINTS]):.1f}", f"{hand:.1f}",
+        f"{100 * signs[1] / max(signs[0], 1):.0f}", f"{head:.1f}",
+        f"{worst_joint_p90(stored, true_2d):.0f} / {worst_joint_p90(each, truth.joints2d[0]):.0f}",
+        f"{100 * score_2d(stored, true_2d).swapped:.1f} / "
+        f"{100 * score_2d(each, truth.joints2d[0]).swapped:.1f}",
+    ]  # fmt: skip
+
+
+def agreement_table(clips: list[dict[str, np.ndarray]], *, draws: int) -> Table:
+    """Per Pepper joint, the stored angles against the truth over `clips` (°): bias, 95 % limits
+    of agreement, ICC(2,1), MAE, each 'value [95 % bootstrap interval over clips]'; and the head
+    direction's error (°)."""
+    table = Table(title=f"Agreement of the stored angles with the truth, {len(clips)} clips "
+                  "pooled (°; [95 % bootstrap interval, clips resampled]; one clip: "
+                  "none)")  # fmt: skip
+    for col in ("joint", "bias °", "lower limit °", "upper limit °", "ICC(2,1)", "MAE °",
+                "readings"):  # fmt: skip
+        table.add_column(col, justify="right")
+
+    def cell(i: Interval, digits: int = 1) -> str:
+        return i.text(digits) if np.isfinite(i.low) else f"{i.value:.{digits}f}"
+
+    for j, name in enumerate(JOINTS):
+        pairs = [(np.rad2deg(c["angles"][:, j]), np.rad2deg(c["truth"][:, j])) for c in clips]
+        got = agreement(pairs, draws=draws)
+        table.add_row(name, cell(got.bias), cell(got.lower), cell(got.upper), cell(got.icc, 2),
+                      cell(got.mae), str(got.readings))  # fmt: skip
+    head = bootstrap_over_clips([(c["angles"], c["truth"]) for c in clips],
+                                lambda a, t: score_angles(a, t)[3], draws=draws)  # fmt: skip
+    table.add_row("head direction", "", "", "", "", cell(head), "")
+    return table
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one short render pair (seconds)")
+    args = parser.parse_args()
+    console = Console(width=max(Console().width, 160))  # 11 columns: keep them readable
+    for table in heldout_tables(Config(), quick=args.quick):
+        console.print(table)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,138 @@
+"""`gesturebank compare`: several trained models and the baselines on one split, one table.
+
+Every model is scored as `evaluate` scores it (its own post-processing, then the same measures
+on the same segments), with one scoring config for all and one FGD autoencoder; a row is the
+mean over subjects (Table 5.1's averaging). The table is printed and, with `out`, written as
+CSV (`.csv`) or Markdown (`.md`) (`train.eval.compare`); both carry the FGD version.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from gesturebank.config import TrainConfig
+from gesturebank.errors import InputError
+from gesturebank.fileio import output_errors, write_bytes_atomic
+from gesturebank.train import model_folder
+from gesturebank.train.eval.compare import (
+    COLUMNS,
+    FORMATS,
+    PathLike,
+    cells,
+    model_names,
+    to_csv,
+    to_markdown,
+)
+from gesturebank.train.eval.evaluate import (
+    LEGEND,
+    average,
+    baselines,
+    postprocess,
+    score_systems,
+)
+from gesturebank.train.eval.fgd import label as fgd_label
+from gesturebank.train.eval.field import prepare_trained
+from gesturebank.train.eval.tables import Footnotes, footnotes
+from gesturebank.train.torch_runtime import predict as torch_predict
+from gesturebank.train.torch_runtime import torch_settings
+
+
+def compare_command(
+    model_dirs: Sequence[PathLike],
+    dataset: PathLike | None = None,
+    split: str = "test",
+    *,
+    config: TrainConfig | None = None,
+    out: PathLike | None = None,
+    console: Console | None = None,
+) -> dict[str, Any]:
+    """Score `model_dirs` (all trained on one split of one dataset) and the baselines on split
+    part `split`; print one table, write it to `out` (.csv or .md) and return
+    {split, dataset, fgd_version, systems: {name → averaged measures}, notes}.
+
+    `config` sets the scoring (default: the first model's training config).
+    """
+    if not model_dirs:
+        raise InputError("compare needs at least one model folder")
+    if out is not None and Path(out).suffix not in FORMATS:
+        raise InputError(f"{out}: the table is written as .csv or .md")
+    folders = [model_folder.load(d) for d in model_dirs]
+    first = folders[0].info
+    for f in folders[1:]:
+        trained_on = (f.info.variant, f.info.fold, f.info.subject)
+        if trained_on != (first.variant, first.fold, first.subject) or (
+            dataset is None and f.info.dataset != first.dataset
+        ):
+            raise InputError(
+                f"{f.path}: trained on another split or dataset than {folders[0].path}; "
+                "compare scores models of one split"
+            )
+    cfg = config or folders[0].train_config
+    ds, inputs = prepare_trained(folders[0], dataset, part=split, config=cfg)
+    variant: str = first.need(folders[0].path, "variant")
+    segments = inputs.segments
+    rate_hz = float(ds.info.rates.pose_hz)
+    systems: dict[str, list[np.ndarray]] = {}
+    for name, folder in zip(model_names([f.path for f in folders]), folders, strict=True):
+        own = folder.train_config
+        net = folder.torch_model()
+        with torch_settings(own.seed, own.threads):
+            pred01 = [torch_predict(net, s.audio) for s in segments]
+        systems[name] = [postprocess(p, folder.profile, rate_hz, own) for p in pred01]
+    systems |= baselines(
+        segments,
+        mean_pose01=np.asarray(folders[0].norm["mean_pose01"]),
+        profile=folders[0].profile,
+        rate_hz=rate_hz,
+        config=cfg,
+        donors=inputs.donors,
+    )
+    results = score_systems(
+        segments, systems, folders[0].profile, rate_hz, cfg, fgd=inputs.fgd, onsets=inputs.onsets
+    )
+    rows = average(results)
+    version = inputs.fgd.version if inputs.fgd else None
+    part = f"fold {first.fold}" if variant == "si" else f"subject {first.subject}"
+    title = (
+        f"{ds.path.name}, {variant.upper()} {part}, {split}: mean over subjects "
+        f"({fgd_label(inputs.fgd)})"
+    )
+    notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
+    screen = console or Console()
+    screen.print(rich_table(rows, title, notes))
+    for line in [LEGEND, *notes.lines]:
+        screen.print(line, highlight=False, soft_wrap=True)
+    if out is not None:
+        text = (
+            to_csv(rows, version) if Path(out).suffix == ".csv" else to_markdown(rows, title, notes)
+        )
+        with output_errors(out, "the comparison table"):
+            write_bytes_atomic(out, text.encode("utf-8"))
+    return {
+        "split": split,
+        "dataset": str(ds.path.resolve()),
+        "fgd_version": version,
+        "systems": rows,
+        "notes": notes.lines,
+    }
+
+
+def rich_table(
+    rows: dict[str, dict[str, float | None]], title: str, notes: Footnotes | None = None
+) -> Table:
+    """One row per system (models first, then the baselines); headers with ↑/↓/≈ (`LEGEND`),
+    n/a cells with the marks of `notes`."""
+    notes = notes or Footnotes({}, {}, [])
+    t = Table(title=title)
+    t.add_column("System", no_wrap=True)
+    for c in COLUMNS:
+        t.add_column(c.title, justify="right")
+    for name, row in rows.items():
+        t.add_row(name, *cells(name, row, notes))
+    return t
