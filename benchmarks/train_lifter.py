@@ -15,6 +15,14 @@ prints its scores on Pepper.
     .venv/bin/python benchmarks/train_lifter.py [--steps N] [--out FILE] [--quick]
 
 --quick: a few steps into a temporary folder, the same path (seconds; its numbers mean nothing).
+
+The packaged model is not this recipe's yet: it was trained by this script as of commit dc8da7d
+(test.bvh alone, 8,000 steps; its sidecar says so). This recipe's first net (4,000 steps, 40.6 min
+on a busy machine) was measured against it through the whole build on held-out renders
+(benchmarks/heldout.py, same run): calm motion arm 15.2–16.1° against 11.6–13.8°, hand equal
+(5.3–5.7 cm), fast motion equal (22.4–23.0° against 22.6–23.6°); better on Pose2Sim
+Demo_SinglePerson (26.7–32.8° against 31–39°) and from perfect 2D on held-out motion (arm
+13.4–17.2° against 19.2–23.6°), worse on test.bvh. So it did not become the default.
 """
 
 from __future__ import annotations

@@ -4,16 +4,15 @@ through `build_dataset` with its defaults, the kept clip's stored angles against
 angles through the build's own processing, and its lifted arm bones against the true depth
 signs. A regression in any stage (detection, lifting, retargeting, filtering, QC) shows here.
 
-Measured with the default lifter (`learned`, issue 39's model; `benchmarks/pipeline_truth.py
---quick` for the angles): the clip kept whole (3.0 of 3 s); arm-angle MAE 3.9°, Pepper hand error
-2.3 cm (the previous model, trained on test.bvh alone: 2.8°, 2.1 cm); 1 arm bone-frame with the
-wrong depth sign of the 280 that point clearly towards or away from the camera (8 with
-`blazepose-world`, whose clip measured 12.8° and 8.9 cm). Bounds: 1.5× these, and at most 1 %
-of them wrong. The clip's depth confidence (0.12 on average: forearms towards the camera)
-expects a hand error of 6.6 cm (`lift.depth_confidence.LEARNED`, made on test.bvh 31–51 s
-at 1280×720, where the net measured 6.1 cm); its raw angles measure 3.2 cm on this short, small
-clip. The expectation errs towards caution, so the bound is: not below the measurement by more
-than 2.5 cm, not above it by more than 3.5 cm.
+Measured with the default lifter (`learned`; `benchmarks/pipeline_truth.py --quick` for the
+angles): the clip kept whole (3.0 of 3 s); arm-angle MAE 2.8°, Pepper hand error 2.1 cm; no arm
+bone with the wrong depth sign (of the 280 bone-frames that point clearly towards or away from
+the camera; 8 with `blazepose-world`, whose clip measured 12.8° and 8.9 cm). Bounds: 1.5× these,
+and at most 1 % of them wrong. The clip's depth confidence (0.14 on average: forearms
+towards the camera) expects a hand error of 4.0 cm (`lift.depth_confidence.LEARNED`, from
+other stretches of test.bvh); its raw angles measure 2.1 cm. The learned lifter's error hardly
+follows the confidence (its calibration spans 3.3–5.8 cm), so the bound is within 50 % of the
+measurement or 2.5 cm, whichever is larger.
 """
 
 from __future__ import annotations
@@ -37,9 +36,9 @@ from gesturebank.testing.mocap import BVH
 pytestmark = pytest.mark.media
 
 START_S, LENGTH_S = 31.0, 3.0
-ARM_MAE_DEG, HAND_CM, WRONG_SIGN_PCT = 3.9, 2.3, 0.36  # measured (module docstring)
-MAX_WRONG_SIGN_PCT = 1.0  # 1 of 280: a bound of 1.5 × that could not tell noise from regression
-CALIBRATION_BELOW_CM, CALIBRATION_ABOVE_CM = 2.5, 3.5  # (module docstring)
+ARM_MAE_DEG, HAND_CM, WRONG_SIGN_PCT = 2.8, 2.1, 0.0  # measured (module docstring)
+MAX_WRONG_SIGN_PCT = 1.0  # none measured: a bound of 1.5 × 0 could not tell noise from regression
+CALIBRATION_TOLERANCE, CALIBRATION_FLOOR_CM = 0.5, 2.5  # (module docstring)
 
 
 def test_a_rendered_take_through_the_build_stays_near_the_truth(
@@ -96,4 +95,6 @@ def test_a_rendered_take_through_the_build_stays_near_the_truth(
     _, _, raw_hand_cm, _ = score_angles(clip.raw_angles, truth.angles[frames])
     print(f"depth confidence {clip.depth_confidence.mean():.2f}: expected hand error "
           f"{expected:.1f} cm, measured {raw_hand_cm:.1f} cm")  # fmt: skip
-    assert -CALIBRATION_BELOW_CM <= expected - raw_hand_cm <= CALIBRATION_ABOVE_CM
+    assert abs(expected - raw_hand_cm) <= max(
+        CALIBRATION_TOLERANCE * raw_hand_cm, CALIBRATION_FLOOR_CM
+    )

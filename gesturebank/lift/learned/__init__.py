@@ -3,11 +3,9 @@
 The net (after VideoPose3D's dilated temporal convolutions) sees `receptive` frames (2.7 s at
 30 Hz) of the 13 upper-body keypoints around each frame, normalised by features.features, and
 gives the 13 joints relative to the neck in the camera's axes: the depth sign of each bone comes
-from how the 2D moves over time, as learned from made-up gesture motion over the upper body's range
-and motion capture, seen by cameras as people film with BlazePose-like 2D error
-(gesturebank.lift.training.lifter_net, lifter_motion, lifter_views; benchmarks/train_lifter.py). The
-packaged model was trained on 60 % made-up motion and bvhtools' test.bvh outside 31–51 s only,
-never on test2/test3 (its sidecar JSON names the data and the command).
+from how the 2D moves over time, as learned from motion capture seen by random cameras
+(lift.training.lifter_net, benchmarks/train_lifter.py). The packaged model was trained on
+bvhtools' test.bvh outside 31–51 s only (its sidecar JSON names the data and the command).
 
 The view is resampled to 30 Hz for the net and back to its own timestamps; the ends are padded
 with the first and last frame. Output: Pose3D in the camera frame (x right, y down, z forward),
@@ -18,13 +16,10 @@ ankles NaN; frames without both shoulders and both hips NaN. Confidence: the 2D 
 With `mirror_average` the 2D is also lifted flipped left-right (ray x → −x, sides exchanged) and
 the mirrored-back result averaged with the direct one, so the lift is symmetric by construction.
 
-Measured (the packaged model: 4,000 steps, 40.6 min on one core of a busy machine), from perfect 2D
-(benchmarks/fidelity.py --only truth): on held-out motion (test2/test3, --truth-set holdout) at
-0/30/60°/above, arm angles 13.4/16.9/17.2/14.8° (the model trained on test.bvh alone:
-19.2–23.6°), Pepper hand 6.0/6.2/6.3/7.0 cm (5.3–7.0), wrong depth signs 9/8/12/8 % (6–14 %);
-on test.bvh 31–51 s 4.7–5.0 cm and 9.3–9.8° (that model, which learned this take: 1.9–3.0 cm,
-4.6–5.9°). On Pose2Sim Demo_SinglePerson (--only demo) 26.7–32.8° mean Pepper angle error per
-camera (that model 31–39°; blazepose-world 20.8–27.1°). It is the default.
+Measured (benchmarks/fidelity.py, the packaged model: 8,000 steps, 18 min on two cores): from
+BlazePose on the renders of test.bvh 31–41 s at 0/30/60°, Pepper hand error 5.0/4.5/4.5 cm and
+2/3/6 % wrong depth signs (`blazepose-world` 11.9/10.3/8.3 cm, 16–26 %); from true 2D of test.bvh
+31–51 s 1.9–3.0 cm; on held-out motion (test2/test3) 5.3–7.0 cm from true 2D. It is the default.
 """
 
 from __future__ import annotations
