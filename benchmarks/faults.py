@@ -479,7 +479,8 @@ def cases(bench: Bench) -> list[Case]:
         Case("two writers, one OUT_DIR", two_writers),
         *(Case(f"{sig.name} mid-build, 2 workers", lambda b, n, sig=sig: killed(b, n, sig))
           for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL)),
-        Case("train: SI on 1 subject", lambda b, n: train(b, n, says="at least 3 subjects")),
+        Case("train: SI on 1 subject", lambda b, n: train(b, n, "--variant", "si",
+                                                          says="at least 3 subjects")),
         Case("train: --out under a file", lambda b, n: train(
             b, n, "--variant", "sd", "--subject", "good0", "--out", str(b.take / "model"),
             says="not a folder")),

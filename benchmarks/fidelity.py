@@ -352,7 +352,7 @@ def detect_cached(config: Config, video: Path, *, flipped: bool = False,
     if flipped:
         frames = ((t, np.ascontiguousarray(f[:, ::-1])) for t, f in frames)
     if each_frame:
-        pose = BlazePoseDetector(config.detector).detect_each_frame(frames)
+        pose = BlazePoseDetector(config.detector.blazepose).detect_each_frame(frames)
     else:
         pose = DETECTORS.create("blazepose", config.detector, video=video).detect(frames)
     pose.save(cached)

@@ -49,6 +49,7 @@ from rich.table import Table
 
 from gesturebank.config import Config
 from gesturebank.samples import default_samples_dir, fetch_samples
+from gesturebank.train.eval.fgd import FGD_DIR
 
 REPO = Path(__file__).resolve().parents[1]
 DIGESTS = REPO / "tests" / "data" / "same_outputs_demo.json"
@@ -120,6 +121,8 @@ def digests(dataset: Path) -> dict[str, object]:
     out: dict[str, object] = {}
     for path in sorted(p for p in dataset.rglob("*") if p.is_file()):
         name = str(path.relative_to(dataset))
+        if path.relative_to(dataset).parts[0] == FGD_DIR:  # evaluate's cache, not the build's
+            continue
         if path.suffix == ".npz":
             with np.load(path) as arrays:
                 for key in sorted(arrays.files):

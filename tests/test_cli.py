@@ -87,7 +87,7 @@ def test_usage_errors_exit_2_with_one_line(tmp_path: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("x")
     cases = [
-        (("config", "--config", str(bad)), "detector.nmae: unknown key"),
+        (("config", "--config", str(bad)), "detector: nmae: unknown key (did you mean name?)"),
         (("build-dataset", str(tmp_path / "nope"), str(tmp_path / "o")), "no such file or folder"),
         (("build-dataset", str(videos), str(tmp_path / "o")), "no videos found"),
         (("build-dataset", str(videos), str(tmp_path / "o"), "--set", "audio.nfilt=0"), "nfilt"),

@@ -44,6 +44,15 @@ UNRELATED = {
     ("gesturebank.lift.agreement.agreement", "seed"): (
         "the bootstrap's own random draw of clips, not the splits' or the trainer's seed"
     ),
+    ("gesturebank.lift.training.lifter_net.Schedule.__init__", "workers"): (
+        "processes making the lifter's training batches, not the build's workers"
+    ),
+    ("gesturebank.lift.training.lifter_views.CameraRanges.__init__", "distance_m"): (
+        "the range training cameras are drawn from, not a render's camera distance"
+    ),
+    ("gesturebank.lift.training.lifter_views.CameraRanges.__init__", "fov_deg"): (
+        "the range training cameras are drawn from, not a render's or a lifter's field of view"
+    ),
     ("gesturebank.testing.corrupt.corrupt", "seed"): (
         "the corruption's own random draw, not the splits' or the trainer's seed"
     ),

@@ -66,7 +66,7 @@ def test_stored_2d_is_as_good_as_each_frame_alone(samples: Path, tmp_path: Path)
     seen = np.concatenate(frames)
     assert len(seen) >= 0.9 * len(truth.times)
     mine, true = np.concatenate(stored), truth.joints2d[0][seen]
-    each = BlazePoseDetector(config.detector).detect_each_frame(iter_frames(video))
+    each = BlazePoseDetector(config.detector.blazepose).detect_each_frame(iter_frames(video))
     reference = each.to_coco17().keypoints[seen]
 
     p90, p90_each = worst_joint_p90(mine, true), worst_joint_p90(reference, true)
