@@ -14,17 +14,25 @@ worker process and threads): what each worker of a pool of N gets on N cores, so
 shows how the pool itself scales. (Without the confinement its decoding thread runs on the
 other core, and that row would be worth more than one core.)
 
+"peak MB": the largest one process grew to ("per worker": a pool worker's, or the only
+process's when one worker builds alone), and the largest the whole process tree held at once
+(proportional set sizes: pages shared after the fork server's preload count once), sampled from
+/proc every 50 ms. The row "4K UHD" builds two copies of a rendered 3840×2160 take (4 s of
+test.bvh, made by `gesturebank.synth`, cached by checksum) with 2 workers: its tree must stay
+under 1.5 GiB (issue 43).
+
 "face model" is the share of the takes' time the face landmark model took with everything
 around it (the second decode at speech.mouth_rate_hz, the crops, the mouths and, with
 `retarget.head_source = "face"`, the head fits; the take record's `mouth_seconds`). The rows
 "head from body" build without the head from the face (issue 40), so the difference is what the
 head costs.
 
-    .venv/bin/python benchmarks/build.py [--copies 6] [--quick]
+    .venv/bin/python benchmarks/build.py [--copies 6] [--quick] [--no-uhd]
 
 --copies N links each talking demo clip N times (as separate takes) so two workers have work to
 share and the ~1 s start-up (imports) is not what gets measured; the clips themselves come from
-`gesturebank fetch-samples`. --quick: one clip, one copy, one worker and one process.
+`gesturebank fetch-samples`. --quick: one clip, one copy, one worker and one process, no 4K.
+--no-uhd: without the 4K UHD row (its first run renders for a few minutes).
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ import json
 import multiprocessing
 import os
 import tempfile
+import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -43,9 +52,15 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.app.build import build_dataset, dashboard_after_build
-from gesturebank.config import Config
+from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets.takes import discover_takes
+from gesturebank.footage import SPEECH
 from gesturebank.samples import default_samples_dir, fetch_samples
+from gesturebank.synth.take import Performer, cached_render, render_cache
+
+UHD = (3840, 2160)
+UHD_LENGTH_S = 4.0
+UHD_LIMIT_MB = 1.5 * 1024
 
 
 def make_videos(root: Path, copies: int, quick: bool = False) -> Path:
@@ -61,13 +76,108 @@ def make_videos(root: Path, copies: int, quick: bool = False) -> Path:
     return videos
 
 
+class TreeMemory:
+    """Peak memory of this process and every process it starts, read from /proc every
+    `every_s` in a thread (Linux; elsewhere nothing is measured). `tree_mb`: the largest sum of
+    the processes' proportional set sizes (shared pages split among their sharers, so the
+    forkserver's preloaded modules count once); `process_mb`: the largest peak resident set of
+    one process (a worker's, or this process's when it builds alone)."""
+
+    def __init__(self, every_s: float = 0.05) -> None:
+        self.every_s = every_s
+        self.tree_mb = 0.0
+        self.process_mb = 0.0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="memory", daemon=True)
+
+    def __enter__(self) -> TreeMemory:
+        try:  # this process's peak so far is not the run's
+            Path("/proc/self/clear_refs").write_text("5")
+        except OSError:
+            pass
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+        self._sample()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.every_s):
+            self._sample()
+
+    def _sample(self) -> None:
+        pids = _tree(os.getpid())
+        tree = sum(_status_kb(pid, "Pss:", "smaps_rollup") for pid in pids) / 1024
+        self.tree_mb = max(self.tree_mb, tree)
+        for pid in pids:
+            self.process_mb = max(self.process_mb, _status_kb(pid, "VmHWM:", "status") / 1024)
+
+
+def _tree(pid: int) -> list[int]:
+    """`pid` and its descendants (empty where /proc has no children lists)."""
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        out.append(p)
+        for task in Path(f"/proc/{p}/task").glob("*/children"):
+            try:
+                todo += [int(c) for c in task.read_text().split()]
+            except OSError:
+                pass
+    return out
+
+
+def _status_kb(pid: int, field: str, file: str) -> float:
+    try:
+        for line in Path(f"/proc/{pid}/{file}").read_text().splitlines():
+            if line.startswith(field):
+                return float(line.split()[1])
+    except OSError:
+        pass
+    return 0.0
+
+
+def uhd_videos(root: Path, copies: int = 2) -> Path:
+    """`copies` links to a 4K UHD render of test.bvh (cached by checksum), one take each."""
+    samples = default_samples_dir()
+    fetch_samples(samples)
+    synth = SynthConfig.model_validate(
+        {"azimuths_deg": [0.0], "start_s": 31.0, "length_s": UHD_LENGTH_S, "look": "tshirt",
+         "width_px": UHD[0], "height_px": UHD[1]}
+    )  # fmt: skip
+    truth = cached_render(
+        [Performer(samples / "bvhtools/testBvhFiles/test.bvh")],
+        config=synth,
+        mocap=Config().mocap,
+        speech=[samples / rel for rel in SPEECH],
+        cache=render_cache(samples),
+    )
+    video = truth.videos[0]
+    videos = root / "uhd"
+    for i in range(copies):
+        target = videos / f"uhd{i}" / video.name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.symlink_to(video)
+        wav = video.with_suffix(".wav")
+        if wav.is_file():
+            target.with_suffix(".wav").symlink_to(wav)
+    return videos
+
+
 def run(
-    videos: Path, root: Path, workers: int, threads: int | None = None, head: str = "face"
+    videos: Path,
+    root: Path,
+    workers: int,
+    threads: int | None = None,
+    head: str = "face",
+    label: str = "demo",
 ) -> dict[str, float]:
     """Build the takes with `workers` processes; `threads` per worker for decoding and the
     detector's interpreters (None: the default, cores / workers); the head from `head`
     (`retarget.head_source`)."""
-    out = root / f"out-{workers}-{threads}-{head}"
+    out = root / f"out-{label}-{workers}-{threads}-{head}"
     # copies share their content: without the cache each one really runs the detector
     build = {"workers": workers, "cache_detections": False}
     if threads is not None:
@@ -75,14 +185,15 @@ def run(
     config = Config.model_validate({"build": build, "retarget": {"head_source": head}})
     start = time.perf_counter()
     done = [start]
-    summary = build_dataset(
-        discover_takes(videos),
-        videos,
-        out,
-        config,
-        on_result=lambda _: done.append(time.perf_counter()),
-    )
-    summary = dashboard_after_build(summary)  # as build-dataset does
+    with TreeMemory() as memory:
+        summary = build_dataset(
+            discover_takes(videos),
+            videos,
+            out,
+            config,
+            on_result=lambda _: done.append(time.perf_counter()),
+        )
+        summary = dashboard_after_build(summary)  # as build-dataset does
     total = time.perf_counter() - start
     wall = done[-1] - start  # until the last take is written; QC and the dashboard follow
     built = [r for r in summary.results if r.outcome == "built"]
@@ -102,6 +213,8 @@ def run(
         "outside": (take_s - detect_s) / take_s,
         "faces": faces_s / take_s,
         "finalise_s": total - wall,
+        "worker_mb": memory.process_mb,
+        "tree_mb": memory.tree_mb,
     }
 
 
@@ -160,6 +273,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--copies", type=int, default=6, help="links per demo clip (default 6)")
     parser.add_argument("--quick", action="store_true", help="one clip, one worker")
+    parser.add_argument("--no-uhd", action="store_true", help="without the 4K UHD row")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
@@ -175,6 +289,8 @@ def main() -> None:
                 one_core = run_on_one_core(videos, root)  # how the pool itself scales
                 if one_core is not None:
                     rows[("build-dataset, 1 core", n)] = one_core
+        if not (args.quick or args.no_uhd):
+            rows[("build-dataset, 4K UHD", 2)] = run(uhd_videos(root), root, 2, label="uhd")
     first = rows[("build-dataset", 1)]
     table = Table(
         title=f"{int(first['takes'])} takes, {first['video_s']:.1f} s of video "
@@ -182,12 +298,14 @@ def main() -> None:
     )
     columns = ["run", "processes", "takes wall s", "video s / wall s", "2 vs 1", "vs 1 core"]
     for col in (*columns, "vs hand loop", "outside detect", "face model", "then QC + dashboard s",
-                "of build"):  # fmt: skip
+                "of build", "peak MB per worker", "peak MB tree"):  # fmt: skip
         table.add_column(col, justify="right")
     single = rows.get(("build-dataset, 1 core", 1))
     for (name, n), r in sorted(rows.items()):
         own = rows.get((name, 1))
-        hand = rows[("hand loop", n)]["throughput"]
+        hand = rows.get(("hand loop", n), {}).get("throughput", np.nan)
+        if name.endswith("4K UHD"):
+            own = None  # another video: no ratio to the demo clips' rows
         table.add_row(
             name,
             str(n),
@@ -197,13 +315,15 @@ def main() -> None:
             f"{r['throughput'] / single['throughput']:.2f}×"
             if single and name.startswith("build")
             else "",
-            f"{r['throughput'] / hand:.2f}×",
+            f"{r['throughput'] / hand:.2f}×" if np.isfinite(hand) and own else "",
             f"{100 * r['outside']:.1f} %" if "outside" in r else "",
             f"{100 * r['faces']:.1f} %" if "faces" in r else "",
             f"{r['finalise_s']:.1f}" if "finalise_s" in r else "",
             f"{100 * r['finalise_s'] / (r['wall_s'] + r['finalise_s']):.1f} %"
             if "finalise_s" in r
             else "",
+            f"{r['worker_mb']:.0f}" if "worker_mb" in r else "",
+            f"{r['tree_mb']:.0f}" if "tree_mb" in r else "",
         )
     Console(width=170).print(table)
 

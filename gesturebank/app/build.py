@@ -109,6 +109,14 @@ def cannot_write(out: Path, exc: OSError) -> str:
     )
 
 
+def usable_cores() -> int:
+    """The CPUs this process may run on (its affinity, where the platform has one: a build
+    confined to some cores divides those), else the machine's."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
 def with_threads(config: Config, workers: int, cores: int) -> Config:
     """`config` with build.decode_threads and build.inference_threads resolved: as set, else
     the cores each worker has to itself (Ray tasks reserve one CPU each, so 1), so that
@@ -335,8 +343,9 @@ def _build(
     jobs.sort(key=lambda job: sum(v.stat().st_size for v in job[0].videos or [job[0].video]))
     jobs.reverse()
     schedule = Schedule(jobs, config, on_chunk)
-    workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(schedule.first())))
-    config = with_threads(config, workers, os.cpu_count() or 1)
+    cores = usable_cores()
+    workers = min(config.build.workers or cores, max(1, len(schedule.first())))
+    config = with_threads(config, workers, cores)
     results = (
         _ray(schedule, out, videos_dir, config)
         if config.build.executor == "ray"

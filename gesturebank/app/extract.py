@@ -11,8 +11,6 @@ from __future__ import annotations
 import inspect
 import logging
 import os
-import queue
-import threading
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -32,6 +30,7 @@ from gesturebank.extract.detectors import (
     Frame,
     MultiPersonDetector,
 )
+from gesturebank.extract.face_pass import FacePass, FaceWork
 from gesturebank.extract.frame_watch import watcher
 from gesturebank.extract.head_pose import HeadPoses
 from gesturebank.extract.shots import ShotDetector, Shots
@@ -41,6 +40,7 @@ from gesturebank.extract.video import (
     first_frame_time,
     frames_at,
     iter_frames,
+    prefetched,
     probe,
 )
 from gesturebank.extract.video import select_indices as _select
@@ -48,7 +48,6 @@ from gesturebank.poses import MultiPose2D
 
 log = logging.getLogger(__name__)
 
-PREFETCH = 8  # decoded frames queued ahead of the detector (bounded: frames are large)
 N_PREVIEW = 4  # frames kept for the dashboard's preview strip
 PREVIEW_HEIGHT = 240  # px
 
@@ -79,13 +78,15 @@ class Detections:
     """What `detect_people` found in one video: everybody (`multi`, (T, P, K, 3)), the shot
     cuts, the detector's name, whether the detections came from the cache (None: the detector
     is not cached), and the frames decoded on the way for the preview strip — (source time,
-    RGB thumbnail); none when nothing was decoded (a cache hit)."""
+    RGB thumbnail); none when nothing was decoded (a cache hit); the face pass, when it ran
+    during detection."""
 
     multi: MultiPose2D
     shots: Shots
     detector: str
     cache_hit: bool | None
     preview: tuple[tuple[float, np.ndarray], ...] = ()
+    faces: FacePass | None = None  # the face pass made during detection (None: not made)
 
 
 @dataclass(frozen=True)
@@ -101,46 +102,6 @@ class Extraction:
     info: ExtractionInfo
     preview: tuple[tuple[float, np.ndarray], ...] = ()
     heads: HeadPoses | None = None
-
-
-def _prefetched(frames: Iterator[Frame], size: int = PREFETCH) -> Iterator[Frame]:
-    """`frames`, decoded by a background thread up to `size` ahead (PyAV releases the GIL while
-    it decodes, the TFLite interpreters while they run). Errors reach the consumer."""
-    q: queue.Queue[tuple[str, object]] = queue.Queue(maxsize=size)
-    stop = threading.Event()
-
-    def produce() -> None:
-        try:
-            for item in frames:
-                while not stop.is_set():
-                    try:
-                        q.put(("frame", item), timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-                if stop.is_set():
-                    return
-            q.put(("end", None))
-        except BaseException as exc:  # handed to the consumer, who re-raises it
-            q.put(("error", exc))
-
-    thread = threading.Thread(target=produce, name="decode", daemon=True)
-    thread.start()
-    try:
-        while True:
-            kind, item = q.get()
-            if kind == "end":
-                return
-            if kind == "error":
-                raise item  # type: ignore[misc]
-            yield item  # type: ignore[misc]
-    finally:
-        stop.set()
-        while thread.is_alive():  # unblock a producer waiting on a full queue
-            try:
-                q.get_nowait()
-            except queue.Empty:
-                thread.join(timeout=0.05)
 
 
 class _Taps:
@@ -199,14 +160,26 @@ def _create(config: Config, path: Path) -> Detector:
         raise type(exc)(f"{path}: {exc}") from None
 
 
-def _run(det: Detector, path: Path, config: Config, taps: _Taps) -> tuple[MultiPose2D, Shots]:
+def _face_pass(det: Detector, work: FaceWork | None) -> FacePass | None:
+    """A `FacePass` fed by `det` as it detects, when it can report each frame's people."""
+    skeleton = getattr(det, "skeleton", None)
+    if work is None or not isinstance(det, MultiPersonDetector) or skeleton is None:
+        return None
+    if "on_people" not in inspect.signature(det.detect_people).parameters:
+        return None
+    return FacePass(work, skeleton=skeleton)
+
+
+def _run(
+    det: Detector, path: Path, config: Config, taps: _Taps, faces: FacePass | None = None
+) -> tuple[MultiPose2D, Shots]:
     if not getattr(det, "needs_pixels", True) and isinstance(det, MultiPersonDetector):
         # Precomputed keypoints: the video's clock is enough, no decode (and no shot detection).
         multi = det.detect_people(None)  # type: ignore[arg-type]
         multi = multi.take(_select(multi.timestamps, config.video))
         n = len(multi)
         return multi, Shots(multi.timestamps, np.zeros(0), np.full(n, np.nan, np.float32))
-    frames = _prefetched(iter_frames(path, config.video, threads=config.build.decode_threads))
+    frames = prefetched(iter_frames(path, config.video, threads=config.build.decode_threads))
     first = next(frames, None)
     if first is None:
         raise InputError(f"{path}: no decodable video frames (in the selected time range)")
@@ -217,7 +190,9 @@ def _run(det: Detector, path: Path, config: Config, taps: _Taps) -> tuple[MultiP
 
     stream = taps(all_frames())
     if isinstance(det, MultiPersonDetector):
-        multi = det.detect_people(stream)
+        # on_people: only passed to a detector whose signature has it (`_face_pass`)
+        extra = {} if faces is None else {"on_people": faces}
+        multi = det.detect_people(stream, **extra)
     else:
         multi = MultiPose2D.from_pose2d(det.detect(stream))
     return multi, taps.shots.result()
@@ -229,10 +204,12 @@ def detect_people(
     *,
     cache: DetectionCache | None = None,
     preview_times: np.ndarray | None = None,
+    faces: FaceWork | None = None,
 ) -> Detections:
     """Everybody the configured detector finds in the selected frames, and the shot cuts,
     through the cache (config.build.cache_detections); the preview frames are the ones decoded
-    on the way at `preview_times`.
+    on the way at `preview_times`; with `faces`, the face pass run on the frames as they are
+    detected (when the detector reports each frame's people and nothing came from the cache).
     """
     config = config or Config()
     path = Path(video_path)
@@ -252,8 +229,9 @@ def detect_people(
         log.info("%s: detection cache %s", path, "miss" if cached is None else "hit")
         if cached is not None:
             return Detections(cached[0], cached[1], det.name, True)
+    face_pass = _face_pass(det, faces)
     try:
-        multi, shots = _run(det, path, config, taps)
+        multi, shots = _run(det, path, config, taps, face_pass)
     except GesturebankError as exc:
         if str(path) in str(exc):
             raise
@@ -263,7 +241,8 @@ def detect_people(
             store.save(key, multi, shots)
         except OSError as exc:  # e.g. a full disk: the cache only saves time, the take goes on
             log.warning("%s: detection cache not written (%s)", path, exc.strerror or exc)
-    return Detections(multi, shots, det.name, None if key is None else False, tuple(taps.preview))
+    hit = None if key is None else False
+    return Detections(multi, shots, det.name, hit, tuple(taps.preview), face_pass)
 
 
 def _detect_chunks(
@@ -303,13 +282,33 @@ def _audio(path: Path, sample_rate: int) -> tuple[Audio | None, str | None]:
     return audio, (None if audio is None else str(source))
 
 
+def face_work(config: Config) -> FaceWork | None:
+    """What the face pass measures under `config` (None: nothing, no face model)."""
+    r = config.retarget
+    want_heads = r.head_source == "face"
+    if not (config.speech.mouths or want_heads):
+        return None
+    return FaceWork(
+        config.speech,
+        config.speech.mouths,
+        (r.head_max_face_turn, r.head_min_face_px) if want_heads else None,
+        # the head's own pass reads the mouth for nothing; alone, the mouth decides nothing
+        mouth_alone=want_heads,
+    )
+
+
 def _who_speaks(
-    path: Path, multi: MultiPose2D, shots: Shots, audio: Audio | None, config: Config
+    path: Path,
+    multi: MultiPose2D,
+    shots: Shots,
+    audio: Audio | None,
+    config: Config,
+    found: FacePass | None = None,
 ) -> tuple[Tracked, HeadPoses | None, float]:
-    """The main speaker per shot, with everybody's roles when speech.mouths is on (a second,
-    cheaper decode at speech.mouth_rate_hz), or the person a `<stem>.people.toml` names;
-    everybody's head from the same face-model runs (retarget.head_source = "face"); and the
-    seconds the faces took."""
+    """The main speaker per shot, with everybody's roles when speech.mouths is on, or the
+    person a `<stem>.people.toml` names; everybody's head from the same face-model runs
+    (retarget.head_source = "face"); and the seconds the faces took. found: the face pass made
+    during detection (None: a second, cheaper decode at speech.mouth_rate_hz makes it)."""
     from gesturebank.extract.people_file import chosen_track, read_people_file
     from gesturebank.extract.roles import measure_people
 
@@ -317,11 +316,10 @@ def _who_speaks(
     spec = read_people_file(path)
     keep = None if spec is None else chosen_track(spec, multi=multi, ids=ids)
     roles, heads, mouth_s = None, None, 0.0
-    r = config.retarget
-    want_heads = r.head_source == "face"
-    if (config.speech.mouths or want_heads) and (ids >= 0).any():
+    work = face_work(config)
+    if work is not None and (ids >= 0).any():
         t0 = time.perf_counter()
-        roles, found = measure_people(
+        roles, heads = measure_people(
             video=path,
             multi=multi,
             ids=ids,
@@ -329,11 +327,13 @@ def _who_speaks(
             video_config=config.video,
             config=config.speech,
             threads=config.build.decode_threads,
-            mouths=config.speech.mouths,
-            head_limits=(r.head_max_face_turn, r.head_min_face_px) if want_heads else None,
+            mouths=work.mouths,
+            head_limits=work.head_limits,
+            mouth_alone=work.mouth_alone,
+            found=found,
         )
-        heads = found if want_heads else None
-        mouth_s = time.perf_counter() - t0
+        heads = heads if work.head_limits is not None else None
+        mouth_s = time.perf_counter() - t0 + (found.seconds if found is not None else 0.0)
     tracked = main_speaker(
         multi,
         config.tracking,
@@ -372,9 +372,12 @@ def extract_take(
     if chunks is not None and plan:
         found = _detect_chunks(path, config, plan, chunks)
     else:
-        found = detect_people(path, config, cache=cache, preview_times=times)
+        found = detect_people(
+            path, config, cache=cache, preview_times=times, faces=face_work(config)
+        )
     multi, shots, preview = found.multi, found.shots, list(found.preview)
-    detect_s = time.perf_counter() - t0
+    # the face pass made during detection is the faces' time, not the detector's
+    detect_s = time.perf_counter() - t0 - (found.faces.seconds if found.faces else 0.0)
     if not preview and len(times):  # detections from the cache: the frames were not decoded
         preview = [(t, thumbnail(image)) for t, image in frames_at(path, times.tolist())]
     if len(multi) == 0:
@@ -383,7 +386,7 @@ def extract_take(
     if anybody == 0:
         raise DetectionError(f"{path}: no person detected in any of {len(multi)} frames")
     audio, source = _audio(path, config.audio.sample_rate) if with_audio else (None, None)
-    tracked, heads, mouth_s = _who_speaks(path, multi, shots, audio, config)
+    tracked, heads, mouth_s = _who_speaks(path, multi, shots, audio, config, found.faces)
     if tracked.report.main_switches:
         log.warning("%s: %d identity switches", path, len(tracked.report.main_switches))
     present = np.isfinite(tracked.pose.keypoints[..., 0]).any(axis=1)

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -74,13 +75,33 @@ def chunk_jobs(take: Take, config: Config) -> list[ChunkJob]:
     return jobs
 
 
+@contextmanager
+def thread_budget(config: Config) -> Iterator[None]:
+    """Inside, OpenCV's thread pool (the crops, resizes and colour conversions around the
+    models) holds build.inference_threads threads, the worker's budget (`app.build.with_threads`:
+    the cores divided among the workers), as the interpreters do; unset: left as it is."""
+    threads = config.build.inference_threads
+    if threads is None:
+        yield
+        return
+    import cv2
+
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(threads)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
+
 def run_chunk(job: ChunkJob, out: Path, config: Config) -> None:
     """Detect one chunk into OUT_DIR's chunk cache. A chunk that fails is left to its take's
     task, which detects what the cache lacks itself and fails with the reason."""
     from gesturebank.app.extract import detect_people, detecting
 
     try:
-        detect_people(job.video, detecting(config, job.range), cache=chunk_cache(out))
+        with thread_budget(config):
+            detect_people(job.video, detecting(config, job.range), cache=chunk_cache(out))
     except GesturebankError as exc:
         log.info("%s: chunk not detected (%s)", job.take_id, exc)
 
@@ -124,7 +145,8 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
 
     start = time.perf_counter()
     try:
-        built = build_take(take, source, config, chunks=chunk_cache(out))
+        with thread_budget(config):
+            built = build_take(take, source, config, chunks=chunk_cache(out))
     except GesturebankError as exc:
         reason = str(exc)
     except Exception as exc:  # a bug or a library error must not stop the other takes

@@ -153,8 +153,10 @@ class BuildConfig(Section):
     inference_threads: int | None = Field(
         None,
         ge=1,
-        description="Threads of each detector model interpreter (none = CPU cores / workers, so "
-        "workers × threads ≈ cores; 1 for Ray tasks).",
+        description="A worker's thread budget for computing: the threads of each detector model "
+        "interpreter and of OpenCV's pool (the crops and resizes around the models). None = the "
+        "cores this process may use / workers, so that workers × threads ≈ cores and no two "
+        "workers' pools fight over a core; 1 for Ray tasks.",
     )
     cache_detections: bool = Field(
         True,

@@ -23,7 +23,6 @@ and smaller than the mouth does (`head_limits`); their meshes give no mouth open
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -32,15 +31,9 @@ import numpy as np
 from gesturebank.audio.vad import RATE_HZ, speech_activity
 from gesturebank.config import SpeechConfig, VideoConfig
 from gesturebank.extract.detectors.blazepose import Roi
-from gesturebank.extract.head_pose import (
-    MIN_HEAD_PRESENCE,
-    HeadPoses,
-    fit_head,
-    head_box,
-    mesh_roi,
-    spread_heads,
-)
-from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, face_box, speaking_score
+from gesturebank.extract.face_pass import FacePass, FaceWork
+from gesturebank.extract.head_pose import HeadPoses, head_box, spread_heads
+from gesturebank.extract.mouth import face_box, speaking_score
 from gesturebank.extract.speech import speech_envelope
 from gesturebank.poses import MultiPose2D
 
@@ -142,73 +135,67 @@ class FaceSamples:
     residual: np.ndarray
 
 
-def measure_faces(
-    frames: Iterable[tuple[float, np.ndarray]],
-    *,
-    timestamps: np.ndarray,
-    boxes: Boxes,
-    n_tracks: int,
-) -> FaceSamples:
-    """The face model once per crop on the frames given: mouth openings and head fits. A frame
-    whose timestamp is not one of `timestamps` is skipped."""
-    model: FaceLandmarker | None = None
-    rows: list[int] = []
-    values: list[np.ndarray] = []
-    axes: list[np.ndarray] = []
-    centres: list[np.ndarray] = []
-    residuals: list[np.ndarray] = []
-    for t, image in frames:
-        i = int(np.clip(np.searchsorted(timestamps, t - _MATCH_S), 0, len(timestamps) - 1))
-        if abs(float(timestamps[i]) - t) > _MATCH_S:
-            continue
-        row = np.full(n_tracks, np.nan)
-        head = np.full((n_tracks, 3, 3), np.nan)
-        centre = np.full((n_tracks, 2), np.nan)
-        residual = np.full(n_tracks, np.nan)
-        for m, roi, mouth in boxes.get(i, ()):
-            model = model or FaceLandmarker()
-            mesh = model(image, roi)
-            if mouth and mesh.presence >= MIN_FACE_PRESENCE:
-                row[m] = mesh.opening
-            mesh = model(image, mesh_roi(mesh.points))  # again, on the crop the mesh gives
-            if mesh.presence >= MIN_HEAD_PRESENCE:
-                fit = fit_head(mesh.points3d)
-                head[m], centre[m], residual[m] = fit.axes, fit.centre, fit.residual
-        rows.append(i)
-        values.append(row)
-        axes.append(head)
-        centres.append(centre)
-        residuals.append(residual)
-    if not rows:
-        m = n_tracks
-        return FaceSamples(
-            np.zeros(0, np.int64),
-            np.zeros((0, m)),
-            np.zeros((0, m, 3, 3)),
-            np.zeros((0, m, 2)),
-            np.zeros((0, m)),
-        )
-    return FaceSamples(
-        np.asarray(rows, np.int64),
-        np.stack(values),
-        np.stack(axes),
-        np.stack(centres),
-        np.stack(residuals),
-    )
+def face_samples(found: FacePass, *, ids: np.ndarray, track_ids: np.ndarray) -> FaceSamples:
+    """What `found` measured, per track of `ids (T, P)` (the slots' track ids; `track_ids (M,)`
+    the columns)."""
+    column = {int(k): m for m, k in enumerate(track_ids)}
+    s_n, m_n = len(found.rows), len(track_ids)
+    opening = np.full((s_n, m_n), np.nan)
+    axes = np.full((s_n, m_n, 3, 3), np.nan)
+    centre = np.full((s_n, m_n, 2), np.nan)
+    residual = np.full((s_n, m_n), np.nan)
+    for s, (i, faces_there) in enumerate(zip(found.rows, found.faces, strict=True)):
+        for face in faces_there:
+            m = column.get(int(ids[i, face.slot]))
+            if m is None:
+                continue
+            opening[s, m] = face.opening
+            axes[s, m], centre[s, m], residual[s, m] = face.axes, face.centre, face.residual
+    return FaceSamples(np.asarray(found.rows, np.int64), opening, axes, centre, residual)
 
 
-def measure_openings(
-    frames: Iterable[tuple[float, np.ndarray]],
+def sampled_frames(timestamps: np.ndarray, rate_hz: float) -> np.ndarray:
+    """Indices of the frames at `timestamps` a `FacePass` of `rate_hz` samples."""
+    probe = FacePass(FaceWork(SpeechConfig(mouth_rate_hz=rate_hz), False, None), skeleton="")
+    out = []
+    for i, t in enumerate(np.asarray(timestamps, np.float64)):
+        if probe.wants(float(t)):
+            probe.last_t = float(t)
+            out.append(i)
+    return np.asarray(out, np.int64)
+
+
+def second_pass(
     *,
-    timestamps: np.ndarray,
-    boxes: Boxes,
-    n_tracks: int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Mouth openings on the frames given: (rows (S,) frame indices into `timestamps`, opening
-    (S, M), NaN where a track had no crop there or the model found no face). A frame whose
-    timestamp is not one of `timestamps` is skipped."""
-    found = measure_faces(frames, timestamps=timestamps, boxes=boxes, n_tracks=n_tracks)
-    return found.rows, found.opening
+    video: Path,
+    multi: MultiPose2D,
+    ids: np.ndarray,
+    work: FaceWork,
+    video_config: VideoConfig,
+    threads: int | None,
+) -> FacePass:
+    """`FacePass` over the frames of `video` that `multi` was detected on (`video_config`: the
+    same selection), decoded again (a decoding thread ahead of the face model); only the
+    sampled frames are converted to RGB."""
+    from gesturebank.extract.video import iter_frames, prefetched
+
+    ts = np.asarray(multi.timestamps, np.float64)
+    found = FacePass(work, skeleton=multi.skeleton)
+    wanted = ts[sampled_frames(ts, work.speech.mouth_rate_hz)]
+
+    def index(t: float) -> int:
+        return int(np.clip(np.searchsorted(ts, t - _MATCH_S), 0, len(ts) - 1))
+
+    def sampled(t: float) -> bool:
+        i = int(np.clip(np.searchsorted(wanted, t - _MATCH_S), 0, len(wanted) - 1))
+        return bool(len(wanted)) and abs(float(wanted[i]) - t) <= _MATCH_S
+
+    frames = iter_frames(video, video_config, threads=threads, only=sampled)
+    for t, image in prefetched(frames):
+        i = index(t)
+        if abs(float(ts[i]) - t) <= _MATCH_S:
+            found(i, float(ts[i]), image, multi.keypoints[i], ids[i])
+    return found
 
 
 def sampled_roles(
@@ -302,36 +289,41 @@ def measure_people(
     threads: int | None = None,
     mouths: bool,
     head_limits: tuple[float, float] | None = None,
+    mouth_alone: bool = True,
+    found: FacePass | None = None,
 ) -> tuple[Roles | None, HeadPoses]:
     """Every track's roles (with `mouths`; else None) and head poses (faces within
-    `head_limits`, see `faces`; None: the mouths' faces only) from one pass of the face model
-    over the frames of `video` that `multi` was detected on (`video_config`: the same
-    selection), at most mouth_rate_hz frames a second; the head is interpolated between them.
-    threads: FFmpeg decoding threads (None: FFmpeg's choice)."""
-    from gesturebank.extract.video import iter_frames
-
+    `head_limits`, see `faces`; None: no head) from one pass of the face model over the frames
+    `multi` was detected on, at most mouth_rate_hz frames a second; the head is interpolated
+    between them. found: that pass, made during detection (`extract.face_pass`); None: made
+    here, decoding `video` again (`video_config`: the detection's selection; threads: FFmpeg
+    decoding threads, None: FFmpeg's choice). mouth_alone: see `face_pass.FaceWork`."""
     ts = np.asarray(multi.timestamps, np.float64)
     track_ids = np.unique(ids[ids >= 0]).astype(np.int64)
     m_n, t_n = len(track_ids), len(ts)
     facing, boxes = faces(
         multi=multi, ids=ids, track_ids=track_ids, config=config, head_limits=head_limits
     )
-    if not mouths:  # the head's crops only
-        boxes = {t: [(m, roi, False) for m, roi, _ in b] for t, b in boxes.items()}
-    found = measure_faces((), timestamps=ts, boxes={}, n_tracks=m_n)
-    if boxes:  # else nothing to measure: no decoding
-        cap = config.mouth_rate_hz
-        selection = video_config.model_copy(
-            update={"max_fps": min(cap, video_config.max_fps or cap)}
-        )
-        found = measure_faces(
-            iter_frames(video, selection, threads=threads), timestamps=ts, boxes=boxes, n_tracks=m_n
-        )
-    heads = HeadPoses(track_ids, *spread_heads(found.rows, found.axes, found.centre,
-                                               found.residual, t_n))  # fmt: skip
+    work = FaceWork(config, mouths, head_limits, mouth_alone)
+    crowded = bool(((ids >= 0).sum(axis=1) >= 2).any())
+    if found is None:
+        found = FacePass(work, skeleton=multi.skeleton)
+        # nothing to measure (no crop; mouths only, nobody with company): no decoding
+        if boxes and (head_limits is not None or (mouths and (mouth_alone or crowded))):
+            found = second_pass(
+                video=video,
+                multi=multi,
+                ids=ids,
+                work=work,
+                video_config=video_config,
+                threads=threads,
+            )
+    sampled = face_samples(found, ids=ids, track_ids=track_ids)
+    heads = HeadPoses(track_ids, *spread_heads(sampled.rows, sampled.axes, sampled.centre,
+                                               sampled.residual, t_n))  # fmt: skip
     if not mouths:
         return None, heads
-    rows, opening = found.rows, found.opening
+    rows, opening = sampled.rows, sampled.opening
     score = np.full((t_n, m_n), np.nan, np.float32)
     role = np.full((t_n, m_n), UNKNOWN, np.int8)
     measured = np.zeros((t_n, m_n), bool)

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Iterator, Sequence
+import queue
+import threading
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,6 +24,10 @@ from gesturebank.errors import InputError
 log = logging.getLogger(__name__)
 
 PathLike = str | os.PathLike[str]
+# Decoded frames queued ahead of their consumer: at most PREFETCH, and at most PREFETCH_BYTES
+# of them (but 2), so a 4K UHD video (25 MB a frame) queues 2, not 200 MB per worker.
+PREFETCH = 8
+PREFETCH_BYTES = 64 * 2**20
 
 
 @dataclass(frozen=True)
@@ -153,7 +159,11 @@ def select_indices(timestamps: np.ndarray, config: VideoConfig) -> np.ndarray:
 
 
 def iter_frames(
-    path: PathLike, config: VideoConfig | None = None, *, threads: int | None = None
+    path: PathLike,
+    config: VideoConfig | None = None,
+    *,
+    threads: int | None = None,
+    only: Callable[[float], bool] | None = None,
 ) -> Iterator[tuple[float, np.ndarray]]:
     """Yield `(timestamp_s, frame)` for the frames selected by `config` (time range, stride,
     `max_fps`), one at a time.
@@ -161,7 +171,8 @@ def iter_frames(
     frame: (H, W, 3) uint8 RGB, rotated as the display matrix says. timestamp_s: pts × time_base.
     Frames whose timestamp does not increase (broken muxers) are dropped with a warning, so the
     timestamps are strictly increasing. threads: FFmpeg decoding threads (None = FFmpeg's choice,
-    one per core); the frames are the same whatever the count.
+    one per core); the frames are the same whatever the count. only: of the selected frames,
+    those whose timestamp it accepts (the rest are not converted to RGB; None: all).
     """
     config = config or VideoConfig()
     name = os.fspath(path)
@@ -192,6 +203,8 @@ def iter_frames(
                 kept += 1
                 if (kept - 1) % config.stride or not cap.keep(t):
                     continue  # skipped frames are never converted to RGB (the costly part)
+                if only is not None and not only(t):
+                    continue
                 yield t, _to_rgb(frame)
         except av.FFmpegError as exc:
             raise InputError(f"{name}: video is corrupt or truncated ({av_reason(exc)})") from None
@@ -351,3 +364,49 @@ def _first_video_time(container: av.container.InputContainer) -> float | None:
     except av.FFmpegError:
         return None
     return None
+
+
+def prefetched(
+    frames: Iterator[tuple[float, np.ndarray]], size: int = PREFETCH
+) -> Iterator[tuple[float, np.ndarray]]:
+    """`frames`, decoded by a background thread up to `size` ahead (and PREFETCH_BYTES; PyAV
+    releases the GIL while it decodes, the TFLite interpreters while they run). Errors reach
+    the consumer."""
+    q: queue.Queue[tuple[str, object]] = queue.Queue(maxsize=size)
+    stop = threading.Event()
+
+    def produce() -> None:
+        try:
+            for n, item in enumerate(frames):
+                if n == 0:  # the first frame's size bounds how many wait (nothing is queued yet)
+                    with q.mutex:
+                        q.maxsize = min(size, max(2, PREFETCH_BYTES // max(1, item[1].nbytes)))
+                while not stop.is_set():
+                    try:
+                        q.put(("frame", item), timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            q.put(("end", None))
+        except BaseException as exc:  # handed to the consumer, who re-raises it
+            q.put(("error", exc))
+
+    thread = threading.Thread(target=produce, name="decode", daemon=True)
+    thread.start()
+    try:
+        while True:
+            kind, item = q.get()
+            if kind == "end":
+                return
+            if kind == "error":
+                raise item  # type: ignore[misc]
+            yield item  # type: ignore[misc]
+    finally:
+        stop.set()
+        while thread.is_alive():  # unblock a producer waiting on a full queue
+            try:
+                q.get_nowait()
+            except queue.Empty:
+                thread.join(timeout=0.05)

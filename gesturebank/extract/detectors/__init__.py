@@ -17,7 +17,7 @@ are imported only when asked for, so `import gesturebank` does not import mediap
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -27,6 +27,9 @@ from gesturebank.registry import Registry
 
 Frame = tuple[float, np.ndarray]
 """(timestamp_s, (H, W, 3) uint8 RGB image)."""
+# A detector's optional per-frame report: (frame index, t, RGB image, keypoints (P, K, 3),
+# track ids (P,)), called as each frame's people are found (`extract.face_pass`).
+PeopleHook = Callable[[int, float, np.ndarray, np.ndarray, np.ndarray], None]
 
 
 @runtime_checkable

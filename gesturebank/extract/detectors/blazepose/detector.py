@@ -10,7 +10,7 @@ import numpy as np
 
 from gesturebank.config import BlazePoseConfig
 from gesturebank.errors import DetectionError
-from gesturebank.extract.detectors import Frame
+from gesturebank.extract.detectors import Frame, PeopleHook
 from gesturebank.extract.detectors.blazepose.inference import TfliteModel, model_paths
 from gesturebank.extract.detectors.blazepose.postprocess import (
     NMS_IOU,
@@ -102,9 +102,14 @@ class BlazePoseDetector:
 
     # -- video
 
-    def detect_people(self, frames: Iterable[Frame]) -> MultiPose2D:
+    def detect_people(
+        self, frames: Iterable[Frame], on_people: PeopleHook | None = None
+    ) -> MultiPose2D:
         """Everybody, tracked: keypoints (T, P, 33, 3) x px, y px, visibility; world (T, P, 33, 3)
-        metres; ids (T, P) track ids (-1 = empty slot); NaN where a slot is empty."""
+        metres; ids (T, P) track ids (-1 = empty slot); NaN where a slot is empty.
+        on_people(index, t, image, keypoints (P, 33, 3), ids (P,)): each frame's people as
+        they are found, with the frame (the face pass, `extract.face_pass`, runs there instead
+        of decoding the video again)."""
         tracker = Tracker(self)
         times: list[float] = []
         people: list[np.ndarray] = []
@@ -114,6 +119,8 @@ class BlazePoseDetector:
         for t, image in frames:
             size = size or (image.shape[1], image.shape[0])
             kp, wd, tid = tracker.step(float(t), image)
+            if on_people is not None:
+                on_people(len(times), float(t), image, kp, tid)
             times.append(float(t))
             people.append(kp)
             worlds.append(wd)

@@ -1,0 +1,164 @@
+"""The face model over one pass of a video's frames: mouths and heads, each face's crop tracked
+from the mesh of the sample before (issue 43).
+
+`FacePass` is fed the frames the detector sees, with the people it found on each, either during
+detection itself (`detect_people(on_people=...)`: no second decode) or from a second decode when
+the detections came from the cache. It measures at most `rate_hz` frames a second, chosen on the
+detected frames' own timestamps.
+
+A face is found afresh (`extract.mouth.face_box` / `head_pose.head_box` from the body's face
+keypoints, then, for the head, once more on the crop its first mesh gives: `head_pose.mesh_roi`)
+only when it was not measured on the sample before. Otherwise its crop is the one the previous
+mesh gives, and one model pass gives both its head and its mouth: as mediapipe's own face
+pipeline follows a face. A tracked crop is given up (the face found afresh) where the model sees
+no face in it, or where the body's nose lies outside it (a different face, a cut).
+
+The mouth is read only where the speaker can be in doubt (`mouth_alone`): with the head off, a
+face alone in the picture gets no mouth pass, since nobody else can be the one who speaks.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from gesturebank.config import SpeechConfig
+from gesturebank.extract.detectors.blazepose import Roi
+from gesturebank.extract.head_pose import MIN_HEAD_PRESENCE, fit_head, head_box, mesh_roi
+from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, FaceMesh, face_box
+
+_MIN_STEP = 0.75  # as extract.video's rate cap: a sample when this share of 1 / rate has passed
+
+
+@dataclass(frozen=True)
+class FaceWork:
+    """What the face pass measures: `speech` (face_box limits, mouth_rate_hz), whether mouths
+    are read (`mouths`), the head's (largest turn, smallest width px) or None (no head), and
+    whether a face alone in the picture gets its mouth read (`mouth_alone`)."""
+
+    speech: SpeechConfig
+    mouths: bool
+    head_limits: tuple[float, float] | None
+    mouth_alone: bool = True
+
+
+@dataclass(frozen=True)
+class SlotFace:
+    """One face measured on one sampled frame: its slot in the frame; opening (NaN: no mouth);
+    the head's axes (3, 3), centre (2,), residual (NaN: no head)."""
+
+    slot: int
+    opening: float
+    axes: np.ndarray
+    centre: np.ndarray
+    residual: float
+
+
+_NO_AXES = np.full((3, 3), np.nan)
+_NO_CENTRE = np.full(2, np.nan)
+
+
+def _inside(roi: Roi, point: tuple[float, float]) -> bool:
+    return bool(np.hypot(point[0] - roi.cx, point[1] - roi.cy) <= roi.side / 2)
+
+
+class FacePass:
+    """The face model on a stream of detected frames (module docstring). Call it once per
+    detected frame, in order; `rows` and `faces` are what it measured."""
+
+    def __init__(self, work: FaceWork, *, skeleton: str) -> None:
+        self.work = work
+        self.skeleton = skeleton
+        self.min_step = _MIN_STEP / work.speech.mouth_rate_hz
+        self.last_t = -np.inf
+        self.rows: list[int] = []  # the sampled frames' indices
+        self.faces: list[list[SlotFace]] = []  # per sampled frame
+        self.passes = 0  # face model passes (for the benchmarks)
+        self.seconds = 0.0  # spent measuring (inside detection it is not the detector's time)
+        self._model: FaceLandmarker | None = None
+        self._tracked: dict[int, np.ndarray] = {}  # track key → mesh points of the last sample
+
+    def wants(self, t: float) -> bool:
+        """Whether the frame at `t` is sampled (without taking it)."""
+        return t - self.last_t >= self.min_step
+
+    def __call__(
+        self,
+        index: int,
+        t: float,
+        image: np.ndarray,
+        keypoints: np.ndarray,
+        keys: np.ndarray | None,
+    ) -> None:
+        """Frame `index` at `t`: RGB `image`, everybody's `keypoints (P, K, 3)` (NaN: an empty
+        slot) and their track `keys (P,)` (-1: none; None: no tracks, nothing followed)."""
+        if not self.wants(t):
+            return
+        start = time.perf_counter()
+        self.last_t = t
+        kps = np.asarray(keypoints, np.float32)  # as the detections are stored
+        present = [p for p in range(len(kps)) if np.isfinite(kps[p, :, 0]).any()]
+        tracked: dict[int, np.ndarray] = {}
+        found: list[SlotFace] = []
+        for p in present:
+            key = -1 if keys is None else int(keys[p])
+            face, points = self._one(image, kps[p], key, alone=len(present) == 1)
+            if face is not None:
+                found.append(SlotFace(p, *face))
+            if points is not None and key >= 0:
+                tracked[key] = points
+        self._tracked = tracked  # only faces of this sample are followed into the next
+        self.rows.append(index)
+        self.faces.append(found)
+        self.seconds += time.perf_counter() - start
+
+    def _mesh(self, image: np.ndarray, roi: Roi) -> FaceMesh:
+        self._model = self._model or FaceLandmarker()
+        self.passes += 1
+        return self._model(image, roi)
+
+    def _one(
+        self, image: np.ndarray, kp: np.ndarray, key: int, *, alone: bool
+    ) -> tuple[tuple[float, np.ndarray, np.ndarray, float] | None, np.ndarray | None]:
+        """((opening, axes, centre, residual) or None, the mesh points to follow) of one face."""
+        work = self.work
+        roi, why = face_box(keypoints=kp, skeleton=self.skeleton, config=work.speech)
+        mouth = roi is not None and work.mouths and (work.mouth_alone or not alone)
+        if roi is None and why != "face unseen" and work.head_limits is not None:
+            turn, px = work.head_limits
+            roi, _ = head_box(
+                keypoints=kp,
+                skeleton=self.skeleton,
+                min_confidence=work.speech.min_face_confidence,
+                max_turn=turn,
+                min_px=px,
+            )
+        if roi is None or not (mouth or work.head_limits is not None):
+            return None, None
+        opening = np.nan
+        if work.head_limits is None:  # the mouth alone: one pass on the body's crop
+            alone_mesh = self._mesh(image, roi)
+            if alone_mesh.presence >= MIN_FACE_PRESENCE:
+                opening = alone_mesh.opening
+            return (opening, _NO_AXES, _NO_CENTRE, np.nan), None
+        previous = self._tracked.get(key)
+        mesh: FaceMesh | None = None
+        if previous is not None:
+            follow = mesh_roi(previous)
+            if _inside(follow, (roi.cx, roi.cy)):  # roi is centred on the body's nose
+                mesh = self._mesh(image, follow)
+                if mesh.presence < MIN_HEAD_PRESENCE:
+                    mesh = None  # lost: found afresh below
+        if mesh is None:
+            first = self._mesh(image, roi)
+            if mouth and first.presence >= MIN_FACE_PRESENCE:
+                opening = first.opening
+            mesh = self._mesh(image, mesh_roi(first.points))  # again, on the crop the mesh gives
+            if mesh.presence < MIN_HEAD_PRESENCE:
+                return (opening, _NO_AXES, _NO_CENTRE, np.nan), None
+        elif mouth and mesh.presence >= MIN_FACE_PRESENCE:
+            opening = mesh.opening
+        fit = fit_head(mesh.points3d)
+        return (opening, fit.axes, fit.centre, fit.residual), mesh.points
