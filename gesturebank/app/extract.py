@@ -292,8 +292,7 @@ def face_work(config: Config) -> FaceWork | None:
         config.speech,
         config.speech.mouths,
         (r.head_max_face_turn, r.head_min_face_px) if want_heads else None,
-        # the head's own pass reads the mouth for nothing; alone, the mouth decides nothing
-        mouth_alone=want_heads,
+        mouth_alone=config.speech.mouths_alone,
     )
 
 

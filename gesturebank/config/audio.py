@@ -102,6 +102,15 @@ class SpeechConfig(Section):
         "role tracks; the main speaker is the one who speaks). Off: the main speaker is chosen "
         "by size, centrality, confidence, persistence and speech following alone.",
     )
+    # Issue 43: who speaks is in doubt only where somebody else is in the picture; a lone
+    # person's mouth decides nothing, and on the talking demo it was most of the face model's
+    # passes.
+    mouths_alone: bool = Field(
+        False,
+        description="Also read the mouth of a person alone in the picture, for their role "
+        "(speaking/listening; off: unknown there). With several people in the picture the "
+        "mouths are read to find who speaks either way.",
+    )
     mouth_rate_hz: float = Field(
         15.0,
         gt=0,

@@ -1,20 +1,22 @@
-"""The face model over one pass of a video's frames: mouths and heads, each face's crop tracked
-from the mesh of the sample before (issue 43).
+"""The face model over one pass of a video's frames: mouths and heads (issue 43).
 
 `FacePass` is fed the frames the detector sees, with the people it found on each, either during
 detection itself (`detect_people(on_people=...)`: no second decode) or from a second decode when
-the detections came from the cache. It measures at most `rate_hz` frames a second, chosen on the
-detected frames' own timestamps.
+the detections came from the cache. It measures at most `speech.mouth_rate_hz` frames a second,
+chosen on the detected frames' own timestamps (so 60 fps footage detected at 30 is measured at
+15 Hz, not on the frames where the two rate caps happen to agree).
 
-A face is found afresh (`extract.mouth.face_box` / `head_pose.head_box` from the body's face
-keypoints, then, for the head, once more on the crop its first mesh gives: `head_pose.mesh_roi`)
-only when it was not measured on the sample before. Otherwise its crop is the one the previous
-mesh gives, and one model pass gives both its head and its mouth: as mediapipe's own face
-pipeline follows a face. A tracked crop is given up (the face found afresh) where the model sees
-no face in it, or where the body's nose lies outside it (a different face, a cut).
-
-The mouth is read only where the speaker can be in doubt (`mouth_alone`): with the head off, a
-face alone in the picture gets no mouth pass, since nobody else can be the one who speaks.
+The mouth is read only where the speaker can be in doubt: where somebody else is in the picture
+(`speech.mouths_alone` reads it on a face alone too). A face whose mouth is read is found afresh
+on every sample, as before: the mouth on the crop placed from the body's face keypoints
+(`extract.mouth.face_box`), the head once more on the crop that first mesh gives
+(`head_pose.mesh_roi`). A face measured for its head alone is followed: its crop is the one its
+mesh of the sample before gives, and one model pass gives its head, as mediapipe's own face
+pipeline follows a face. It is found afresh (two passes) where it was not measured on the
+sample before, where the model is unsure of it (presence below FOLLOW_PRESENCE), or where the
+body's nose lies outside the followed crop (somebody else, a cut). Mouth openings read on
+followed crops followed the speech worse (the rendered conversation's second figure: 97 → 81 %
+of frames), so mouths never come from them.
 """
 
 from __future__ import annotations
@@ -29,6 +31,9 @@ from gesturebank.extract.detectors.blazepose import Roi
 from gesturebank.extract.head_pose import MIN_HEAD_PRESENCE, fit_head, head_box, mesh_roi
 from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, FaceMesh, face_box
 
+# A face is followed from its mesh only while the model is sure of it (a crop from an unsure
+# mesh drifts off the face); below, it is found afresh from the body's keypoints.
+FOLLOW_PRESENCE = MIN_FACE_PRESENCE
 _MIN_STEP = 0.75  # as extract.video's rate cap: a sample when this share of 1 / rate has passed
 
 
@@ -36,7 +41,8 @@ _MIN_STEP = 0.75  # as extract.video's rate cap: a sample when this share of 1 /
 class FaceWork:
     """What the face pass measures: `speech` (face_box limits, mouth_rate_hz), whether mouths
     are read (`mouths`), the head's (largest turn, smallest width px) or None (no head), and
-    whether a face alone in the picture gets its mouth read (`mouth_alone`)."""
+    whether a face alone in the picture gets its mouth read (`mouth_alone`,
+    `speech.mouths_alone`)."""
 
     speech: SpeechConfig
     mouths: bool
@@ -143,13 +149,13 @@ class FacePass:
             if alone_mesh.presence >= MIN_FACE_PRESENCE:
                 opening = alone_mesh.opening
             return (opening, _NO_AXES, _NO_CENTRE, np.nan), None
-        previous = self._tracked.get(key)
+        previous = None if mouth else self._tracked.get(key)
         mesh: FaceMesh | None = None
         if previous is not None:
             follow = mesh_roi(previous)
             if _inside(follow, (roi.cx, roi.cy)):  # roi is centred on the body's nose
                 mesh = self._mesh(image, follow)
-                if mesh.presence < MIN_HEAD_PRESENCE:
+                if mesh.presence < FOLLOW_PRESENCE:
                     mesh = None  # lost: found afresh below
         if mesh is None:
             first = self._mesh(image, roi)
@@ -158,7 +164,6 @@ class FacePass:
             mesh = self._mesh(image, mesh_roi(first.points))  # again, on the crop the mesh gives
             if mesh.presence < MIN_HEAD_PRESENCE:
                 return (opening, _NO_AXES, _NO_CENTRE, np.nan), None
-        elif mouth and mesh.presence >= MIN_FACE_PRESENCE:
-            opening = mesh.opening
         fit = fit_head(mesh.points3d)
-        return (opening, fit.axes, fit.centre, fit.residual), mesh.points
+        follow_next = mesh.points if mesh.presence >= FOLLOW_PRESENCE else None
+        return (opening, fit.axes, fit.centre, fit.residual), follow_next
