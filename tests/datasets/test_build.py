@@ -119,6 +119,30 @@ def test_threads_share_the_cores_between_workers() -> None:
     assert threads(2, 2, decode_threads=3) == (3, 1)  # as set
 
 
+def test_a_worker_keeps_opencvs_pool_within_its_budget() -> None:
+    """Issue 43: OpenCV's pool (the crops and resizes around the models) is one of the worker's
+    pools: within build.inference_threads while a take is built, as it was after."""
+    import cv2
+
+    from gesturebank.app.take_job import thread_budget
+
+    before = cv2.getNumThreads()
+    config = Config.model_validate({"build": {"inference_threads": 1}})
+    with thread_budget(config):
+        assert cv2.getNumThreads() == 1
+    assert cv2.getNumThreads() == before
+
+
+def test_a_build_confined_to_some_cores_divides_those() -> None:
+    import os
+
+    from gesturebank.app.build import usable_cores
+
+    if not hasattr(os, "sched_getaffinity"):
+        pytest.skip("no CPU affinity on this platform")
+    assert usable_cores() == len(os.sched_getaffinity(0))
+
+
 def dataset_contents(out: Path) -> dict:
     rows = pq.read_table(out / "manifest.parquet").to_pylist()
     for r in rows:

@@ -136,3 +136,33 @@ def test_decode_threads_give_the_same_frames(samples: Path, clip: str) -> None:
         assert [t for t, _ in many] == [t for t, _ in single]
         for (_, a), (_, b) in zip(many, single, strict=True):
             np.testing.assert_array_equal(a, b)
+
+
+def test_large_frames_wait_at_most_two_ahead_of_their_consumer() -> None:
+    """Issue 43: decoded frames queued ahead of the detector are bounded in bytes too, so a 4K
+    UHD video (25 MB a frame) holds 2 of them per worker, not 8 (a 1080p one still holds 8)."""
+    import threading
+
+    from gesturebank.extract.video import PREFETCH, prefetched
+
+    def source(shape: tuple[int, ...], pulled: list[int], full: threading.Event):
+        for i in range(20):
+            pulled.append(i)
+            if len(pulled) > 2:
+                full.set()
+            yield float(i), np.zeros(shape, np.uint8)
+
+    for shape, ahead in (((2160, 3840, 3), 2), ((1080, 1920, 3), PREFETCH)):
+        pulled: list[int] = []
+        full = threading.Event()
+        frames = prefetched(source(shape, pulled, full))
+        next(frames)
+        full.wait(5)
+        for _ in range(100):  # until the producer is blocked on the full queue
+            before = len(pulled)
+            threading.Event().wait(0.02)
+            if len(pulled) == before:
+                break
+        # the consumer's frame, the queue, and the one the producer holds waiting for room
+        assert len(pulled) == 1 + ahead + 1
+        frames.close()
