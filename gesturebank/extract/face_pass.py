@@ -10,11 +10,11 @@ The mouth is read only where the speaker can be in doubt: where somebody else is
 (`speech.mouths_alone` reads it on a face alone too). A face whose mouth is read is found afresh
 on every sample, as before: the mouth on the crop placed from the body's face keypoints
 (`extract.mouth.face_box`), the head once more on the crop that first mesh gives
-(`head_pose.mesh_roi`). A face measured for its head alone is followed: its crop is the one its
-mesh of the sample before gives, and one model pass gives its head, as mediapipe's own face
-pipeline follows a face. It is found afresh (two passes) where it was not measured on the
-sample before, where the model is unsure of it (presence below FOLLOW_PRESENCE), or where the
-body's nose lies outside the followed crop (somebody else, a cut). Mouth openings read on
+(`head_pose.mesh_roi`). A face measured for its head alone is followed: its crop is the one
+its mesh of the sample before gives, moved as the body's nose moved since, and one model pass
+gives its head, as mediapipe's own face pipeline follows a face. It is found afresh (two passes)
+where it was not measured on the sample before or where the model is unsure of it in the
+followed crop (presence below FOLLOW_PRESENCE: somebody else, a cut). Mouth openings read on
 followed crops followed the speech worse (the rendered conversation's second figure: 97 → 81 %
 of frames), so mouths never come from them.
 """
@@ -84,7 +84,8 @@ class FacePass:
         self.passes = 0  # face model passes (for the benchmarks)
         self.seconds = 0.0  # spent measuring (inside detection it is not the detector's time)
         self._model: FaceLandmarker | None = None
-        self._tracked: dict[int, np.ndarray] = {}  # track key → mesh points of the last sample
+        # track key → (mesh points, the body's nose) of the last sample
+        self._tracked: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def wants(self, t: float) -> bool:
         """Whether the frame at `t` is sampled (without taking it)."""
@@ -106,15 +107,15 @@ class FacePass:
         self.last_t = t
         kps = np.asarray(keypoints, np.float32)  # as the detections are stored
         present = [p for p in range(len(kps)) if np.isfinite(kps[p, :, 0]).any()]
-        tracked: dict[int, np.ndarray] = {}
+        tracked: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         found: list[SlotFace] = []
         for p in present:
             key = -1 if keys is None else int(keys[p])
-            face, points = self._one(image, kps[p], key, alone=len(present) == 1)
+            face, follow = self._one(image, kps[p], key, alone=len(present) == 1)
             if face is not None:
                 found.append(SlotFace(p, *face))
-            if points is not None and key >= 0:
-                tracked[key] = points
+            if follow is not None and key >= 0:
+                tracked[key] = follow
         self._tracked = tracked  # only faces of this sample are followed into the next
         self.rows.append(index)
         self.faces.append(found)
@@ -127,8 +128,11 @@ class FacePass:
 
     def _one(
         self, image: np.ndarray, kp: np.ndarray, key: int, *, alone: bool
-    ) -> tuple[tuple[float, np.ndarray, np.ndarray, float] | None, np.ndarray | None]:
-        """((opening, axes, centre, residual) or None, the mesh points to follow) of one face."""
+    ) -> tuple[
+        tuple[float, np.ndarray, np.ndarray, float] | None, tuple[np.ndarray, np.ndarray] | None
+    ]:
+        """((opening, axes, centre, residual) or None, (the mesh points, the body's nose) to
+        follow it by) of one face."""
         work = self.work
         roi, why = face_box(keypoints=kp, skeleton=self.skeleton, config=work.speech)
         mouth = roi is not None and work.mouths and (work.mouth_alone or not alone)
@@ -150,9 +154,14 @@ class FacePass:
                 opening = alone_mesh.opening
             return (opening, _NO_AXES, _NO_CENTRE, np.nan), None
         previous = None if mouth else self._tracked.get(key)
+        nose = np.array([roi.cx, roi.cy])
         mesh: FaceMesh | None = None
         if previous is not None:
-            follow = mesh_roi(previous)
+            # the last mesh's crop, moved as the body's nose moved since (the head's own motion
+            # between samples: 1 / mouth_rate_hz)
+            last = mesh_roi(previous[0])
+            shift = nose - previous[1]
+            follow = Roi(last.cx + shift[0], last.cy + shift[1], last.side, last.angle)
             if _inside(follow, (roi.cx, roi.cy)):  # roi is centred on the body's nose
                 mesh = self._mesh(image, follow)
                 if mesh.presence < FOLLOW_PRESENCE:
@@ -165,5 +174,5 @@ class FacePass:
             if mesh.presence < MIN_HEAD_PRESENCE:
                 return (opening, _NO_AXES, _NO_CENTRE, np.nan), None
         fit = fit_head(mesh.points3d)
-        follow_next = mesh.points if mesh.presence >= FOLLOW_PRESENCE else None
+        follow_next = (mesh.points, nose) if mesh.presence >= FOLLOW_PRESENCE else None
         return (opening, fit.axes, fit.centre, fit.residual), follow_next

@@ -1,8 +1,9 @@
 """The face pass (issue 43): the real face landmark model on the face photo the renderer paints
 (scikit-image's astronaut), fed frame by frame as the detector feeds it. A face alone is
-followed from its last mesh (one model pass a sample) and its mouth is not read; with company,
-every face is found afresh and its mouth read; a face that moves off its followed crop is found
-afresh; frames come at most at the rate, on the detected frames' own clock."""
+followed from its last mesh, moved as the body's nose moved (one model pass a sample), and its
+mouth is not read; with company, every face is found afresh and its mouth read; a face lost
+from its followed crop is found afresh; frames come at most at the rate, on the detected
+frames' own clock."""
 
 from __future__ import annotations
 
@@ -70,16 +71,19 @@ def test_with_company_every_face_is_found_afresh_and_its_mouth_read(scene) -> No
         assert all(np.isfinite(f.opening) and _apart_deg(f.axes, fresh) < 3.0 for f in found)
 
 
-def test_a_face_that_moves_off_its_followed_crop_is_found_afresh(scene) -> None:
-    photo, kp, _ = scene
-    moved = np.roll(photo, 250, axis=1)
+def test_a_followed_face_moves_with_the_body_and_is_found_afresh_once_lost(scene) -> None:
+    photo, kp, fresh = scene
+    moved = np.roll(photo, 250, axis=1)  # further than the crop's half side
     there = kp.copy()
     there[:, 0] += 250
     faces = FacePass(FaceWork(SpeechConfig(), True, HEAD, mouth_alone=False), skeleton="coco17")
     faces(0, 0.0, photo, kp[None], np.array([3]))
-    faces(1, 1 / 15, moved, there[None], np.array([3]))
-    assert faces.passes == 2 + 2
-    assert np.isfinite(faces.faces[1][0].axes).all()
+    faces(1, 1 / 15, moved, there[None], np.array([3]))  # the crop moves as the body's nose
+    assert faces.passes == 2 + 1
+    assert _apart_deg(faces.faces[1][0].axes, fresh) < 3.0
+    faces(2, 2 / 15, np.zeros_like(photo), there[None], np.array([3]))  # no face where it was
+    assert faces.passes == 2 + 1 + 1 + 2  # the followed crop, then found afresh
+    assert np.isnan(faces.faces[2][0].axes).all()  # no head: no face there either
 
 
 def test_frames_come_at_most_at_the_rate_on_the_detected_frames_clock() -> None:
