@@ -40,7 +40,9 @@ class PluginSections(Section):
             if isinstance(raw, BaseModel):  # already validated (a copy, an assignment)
                 continue
             try:
-                extra[name] = plugin_section(self.plugin_group, name, raw, type(self).model_fields)
+                extra[name] = plugin_section(
+                    self.plugin_group, name, raw=raw, known=type(self).model_fields
+                )
             except ValueError as exc:  # one line, at the [KIND] table: "NAME.key: problem"
                 raise PydanticCustomError("plugin_section", "{why}", {"why": str(exc)}) from None
         return self
@@ -66,7 +68,7 @@ def deprecated_key(old: str, new: str) -> None:
     )
 
 
-def nest(data: Mapping[str, Any], key: str, values: Mapping[str, Any]) -> dict[str, Any]:
+def nest(data: Mapping[str, Any], key: str, *, values: Mapping[str, Any]) -> dict[str, Any]:
     """`data` with the mapping `values` merged under `key` (values already there win)."""
     out = dict(data)
     out[key] = {**values, **dict(out.get(key) or {})}

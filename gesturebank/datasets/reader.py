@@ -137,7 +137,7 @@ class Dataset:
         """All arrays of one clip as plain numpy (never unpickled)."""
         if clip_id not in self._take_of:
             raise InputError(f"{self.path}: no clip {clip_id!r} in the manifest")
-        path = clip_npz(self.path, self._take_of[clip_id], clip_id)
+        path = clip_npz(self.path, take_id=self._take_of[clip_id], clip_id=clip_id)
         try:
             return read_clip_arrays(path)
         except (OSError, ValueError) as exc:
