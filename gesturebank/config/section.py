@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel, ConfigDict, model_validator
 from pydantic_core import PydanticCustomError
 
+from gesturebank.errors import GesturebankDeprecationWarning
 from gesturebank.registry import plugin_default, plugin_section
 
 
@@ -63,7 +64,7 @@ def deprecated_key(old: str, new: str) -> None:
     """Warn once that the config key `old` is read for one more release as `new`."""
     warnings.warn(
         f"config key {old} is deprecated: use {new} (read for this release only)",
-        DeprecationWarning,
+        GesturebankDeprecationWarning,
         stacklevel=3,
     )
 

@@ -25,7 +25,7 @@ from gesturebank.datasets.records import (
     read_clip_arrays,
     read_dataset_json,
 )
-from gesturebank.errors import InputError
+from gesturebank.errors import GesturebankDeprecationWarning, InputError
 
 # --------------------------------------------------------------------------------------------------
 # The reader
@@ -50,7 +50,7 @@ class ManifestRow:
             if key in {f.name for f in fields(record)}:
                 warnings.warn(
                     f"row[{key!r}] is deprecated: manifest rows are records, read row.{name}.{key}",
-                    DeprecationWarning,
+                    GesturebankDeprecationWarning,
                     stacklevel=2,
                 )
                 return getattr(record, key)
