@@ -117,7 +117,7 @@ def usable_cores() -> int:
     return os.cpu_count() or 1
 
 
-def with_threads(config: Config, workers: int, cores: int) -> Config:
+def with_threads(config: Config, *, workers: int, cores: int) -> Config:
     """`config` with build.decode_threads and build.inference_threads resolved: as set, else
     the cores each worker has to itself (Ray tasks reserve one CPU each, so 1), so that
     workers × threads ≈ cores. On 2 cores two workers built ~4 % faster with single-threaded
@@ -144,7 +144,7 @@ def _local(
             importlib.import_module(module)
         for take, source in schedule.jobs.values():  # each detects its chunks itself
             with _every_poll(take.take_id, config.video.start_s, on_frames):
-                result = run_take(take, source, out, config)
+                result = run_take(take, source, out=out, config=config)
             yield result
         return
     # forkserver: a clean server process (no threads inherited from mediapipe or a Ray client)
@@ -169,8 +169,8 @@ def _local(
                         board.claim(job.take_id, job.own_s),
                         run_chunk,
                         job,
-                        out,
-                        config,
+                        out=out,
+                        config=config,
                     )
                     if isinstance(job, ChunkJob)
                     else pool.submit(
@@ -178,13 +178,13 @@ def _local(
                         board.claim(job[0].take_id, config.video.start_s),
                         run_take,
                         *job,
-                        out,
-                        config,
+                        out=out,
+                        config=config,
                     )
                 )
             except BrokenProcessPool:
                 take = schedule.jobs[job.take_id] if isinstance(job, ChunkJob) else job
-                died.append(record_failure(*take, out, config, _DIED))
+                died.append(record_failure(*take, out=out, config=config, reason=_DIED))
                 return set()
             jobs[fut] = job
             return {fut}
@@ -212,7 +212,7 @@ def _local(
                         result = fut.result()
                     except BrokenProcessPool:
                         # a native crash (e.g. in a decoder) killed a worker: the pool is gone
-                        yield record_failure(*job, out, config, _DIED)
+                        yield record_failure(*job, out=out, config=config, reason=_DIED)
                         continue
                     assert result is not None
                     yield result
@@ -250,7 +250,9 @@ def _ray(
 ) -> Generator[TakeResult, None, None]:
     from gesturebank.app.cluster import run_on_ray  # needs Ray: imported when used
 
-    yield from run_on_ray(schedule, out, videos_dir, config)  # close() reaches it: tasks cancelled
+    yield from run_on_ray(
+        schedule, out=out, videos_dir=videos_dir, config=config
+    )  # close() reaches it: tasks cancelled
 
 
 @contextmanager
@@ -275,10 +277,10 @@ def _sigterm_interrupts() -> Iterator[list[int]]:
 
 def build_dataset(
     takes: Iterable[Take],
+    *,
     videos_dir: Path,
     out: Path,
     config: Config,
-    *,
     force: bool = False,
     on_result: Callable[[TakeResult], None] | None = None,
     on_chunk: Callable[[str, int, int], None] | None = None,
@@ -332,7 +334,7 @@ def _build(
     digest = content_digest(config)
     jobs = []
     for take in takes:
-        if not force and store.is_built(out, take.take_id, digest):
+        if not force and store.is_built(out, take_id=take.take_id, config_digest=digest):
             result = TakeResult(take.take_id, "skipped")
             summary.results.append(result)
             if on_result:
@@ -345,7 +347,7 @@ def _build(
     schedule = Schedule(jobs, config, on_chunk)
     cores = usable_cores()
     workers = min(config.build.workers or cores, max(1, len(schedule.first())))
-    config = with_threads(config, workers, cores)
+    config = with_threads(config, workers=workers, cores=cores)
     results = (
         _ray(schedule, out, videos_dir, config)
         if config.build.executor == "ray"
