@@ -97,3 +97,23 @@ def test_frames_come_at_most_at_the_rate_on_the_detected_frames_clock() -> None:
     for i, t in enumerate(detected[:5]):
         faces(i, float(t), np.zeros((4, 4, 3), np.uint8), empty, None)
     assert faces.rows == [0, 2, 4] and faces.passes == 0
+
+
+def test_the_face_pass_during_detection_equals_the_second_decode(samples, tmp_path) -> None:
+    """The first build of a video measures the faces on the frames as BlazePose detects them;
+    a build whose detections come from the cache decodes the video again for them: the same
+    heads and roles either way (sports2d's three people, its first 2.5 s: 36 heads measured)."""
+    from gesturebank.app.extract import extract_take
+    from gesturebank.config import Config
+    from gesturebank.extract.cache import DetectionCache
+
+    video = samples / "talking" / "outdoor" / "sports2d_arctic.mp4"
+    config = Config.model_validate({"video": {"end_s": 2.5}})
+    cache = DetectionCache(tmp_path)
+    during, again = (extract_take(video, config, cache=cache) for _ in range(2))
+    assert during.info.cache_hit is False and again.info.cache_hit is True
+    assert during.heads is not None and again.heads is not None
+    assert np.isfinite(during.heads.axes[..., 0, 0]).sum() >= 10
+    np.testing.assert_array_equal(during.heads.axes, again.heads.axes)
+    assert during.tracked.roles is not None and again.tracked.roles is not None
+    np.testing.assert_array_equal(during.tracked.roles.role, again.tracked.roles.role)
