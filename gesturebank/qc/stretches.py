@@ -101,7 +101,7 @@ def frozen_at_limit(clip: Clip, config: QCConfig, profile: RobotProfile) -> Sign
     less than the limit, so each of the pieces it ends or starts passes."""
     rate = _rate(clip)
     _, held, person = M.reach_frames(clip, profile=profile, qc=config, rate_hz=rate)
-    frozen = M.frozen_frames(held, person, rate, min_motion=config.frozen_min_motion,
+    frozen = M.frozen_frames(held, person, rate_hz=rate, min_motion=config.frozen_min_motion,
                              window_s=config.frozen_motion_window_s)  # fmt: skip
     limit = math.floor(_limit(config, "max_frozen_at_limit_s") * rate) - 1  # samples, strictly
     bad = np.zeros(len(clip.times), bool)
@@ -366,7 +366,7 @@ def _same(values: np.ndarray) -> list[tuple[int, int]]:
 # A piece of a clip, and the judging loop
 
 
-def piece(clip: Clip, start: int, stop: int, clip_id: str) -> Clip:
+def piece(clip: Clip, start: int, *, stop: int, clip_id: str) -> Clip:
     """Video frames [start, stop) of `clip` as a clip of its own: the 100 Hz samples between
     their first and last frame (as the build's audio clock takes them), its clock's 0 on the
     first of those."""
@@ -450,7 +450,7 @@ def judge(
         for a, b, r in plan.dropped
     ]
     for k, (a, b) in enumerate(plan.kept):
-        part = piece(clip, a, b, f"{clip.clip_id}.{k}")
+        part = piece(clip, a, stop=b, clip_id=f"{clip.clip_id}.{k}")
         out += judge(
             part, measure=measure, config=config, profile=profile, min_s=min_s, rounds=rounds - 1
         )
