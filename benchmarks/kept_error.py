@@ -17,6 +17,7 @@ hand error (cm) of all, kept and cut seconds, and the seconds cut by reason.
   BVH itself (its kept/cut split is about reach, not lifting).
 
     .venv/bin/python benchmarks/kept_error.py [--quick] [--mocap] [--motions test test2 test3]
+        [--azimuths 75 90]
         [--set qc.KEY=VALUE ...] [--out DIR]
 
 --quick: test.bvh 31–51 s at 60° only. `--set` re-judges with QC settings changed (the build is
@@ -45,7 +46,7 @@ from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
 from gesturebank.lift.scoring import ARM_JOINTS, score_angles
 from gesturebank.robot import pepper
-from gesturebank.robot.pepper import JOINTS
+from gesturebank.robot.pepper import JOINTS, fk
 from gesturebank.samples import default_samples_dir
 from gesturebank.synth.take import Performer, cached_render, render_cache
 
@@ -67,7 +68,16 @@ class Samples:
 
 def render_folder(motion: str, azimuth: float, elevation: float, videos: Path):
     """The cached render (as yield.py makes it) linked into a subject folder of `videos`;
-    returns (folder, truth)."""
+    returns (folder, truth times, truth angles). A folder linked before keeps its render (the
+    render cache's key holds the renderer's code: a change elsewhere would render again)."""
+    from gesturebank.synth.truth import Truth
+
+    up = "_up" if elevation else ""
+    folder = videos / f"render_{motion}_{azimuth:g}deg{up}" / "s"
+    linked = folder / "cam01.mp4"
+    if linked.is_symlink():
+        truth = Truth.load(linked.resolve().parent.parent)
+        return folder, truth.times, truth.angles
     samples = default_samples_dir()
     synth = SynthConfig.model_validate({"azimuths_deg": [azimuth], "elevation_deg": elevation,
                                         "start_s": RENDERS[motion],
@@ -75,8 +85,6 @@ def render_folder(motion: str, azimuth: float, elevation: float, videos: Path):
     truth = cached_render([Performer(samples / "bvhtools" / "testBvhFiles" / f"{motion}.bvh")],
                           config=synth, mocap=Config().mocap, speech=[samples / s for s in SPEECH],
                           cache=render_cache(samples))  # fmt: skip
-    up = "_up" if elevation else ""
-    folder = videos / f"render_{motion}_{azimuth:g}deg{up}" / "s"
     folder.mkdir(parents=True, exist_ok=True)
     for f in truth.videos[0].parent.iterdir():
         if f.suffix in (".mp4", ".wav") and not (folder / f.name).exists():
@@ -151,14 +159,22 @@ def kept_mask(out: Path, times: np.ndarray) -> tuple[np.ndarray, dict[str, float
 
 
 def errors(s: Samples, rows: np.ndarray, truth: str) -> tuple[float, float]:
-    """(arm MAE °, hand cm) of the samples `rows` against `truth` ("limited" or "person")."""
+    """(arm MAE °, hand cm) of the samples `rows` against `truth` ("limited" or "person"); the
+    hand of each side over the samples whose arm is known (a far arm masked whole at 60°)."""
     if not rows.any():
         return float("nan"), float("nan")
-    stored, true = s.stored[rows].copy(), getattr(s, truth)[rows].copy()
-    head = [JOINTS.index("HeadYaw"), JOINTS.index("HeadPitch")]
-    stored[:, head] = true[:, head] = 0.0  # the hand's error needs the arms only (a masked head)
-    per_joint, _, hand, _ = score_angles(stored, true)
-    return float(np.nanmean(per_joint[ARM_JOINTS])), hand
+    stored, true = s.stored[rows], getattr(s, truth)[rows]
+    per_joint = score_angles(stored, true)[0]
+    mine, real = fk(np.nan_to_num(stored)), fk(np.nan_to_num(true))
+    gaps = []
+    for side, first in (("left", "L"), ("right", "R")):
+        arm = [k for k, name in enumerate(JOINTS) if name.startswith(first) and k in ARM_JOINTS]
+        known = np.isfinite(stored[:, arm]).all(axis=1) & np.isfinite(true[:, arm]).all(axis=1)
+        gaps.append(np.linalg.norm(mine[f"{side}_wrist"] - real[f"{side}_wrist"], axis=1)[known])
+    both = np.concatenate(gaps)
+    return float(np.nanmean(per_joint[ARM_JOINTS])), 100 * float(both.mean()) if len(
+        both
+    ) else float("nan")
 
 
 def settings(pairs: list[str]) -> dict:
@@ -176,6 +192,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="test.bvh 31–51 s at 60° only")
     ap.add_argument("--mocap", action="store_true", help="test.bvh's 30 s windows, not renders")
     ap.add_argument("--motions", nargs="+", default=list(RENDERS), choices=list(RENDERS))
+    ap.add_argument("--azimuths", type=float, nargs="+", help="level cameras at these instead")
     ap.add_argument("--set", nargs="*", default=[], help="qc.KEY=VALUE to re-judge with")
     ap.add_argument("--out", type=Path, help="work folder (kept, builds reused)")
     args = ap.parse_args()
@@ -187,6 +204,7 @@ def main() -> None:
         takes = mocap_folders(root / "videos")
     else:
         views = ((60.0, 0.0),) if args.quick else VIEWS
+        views = tuple((a, 0.0) for a in args.azimuths) if args.azimuths else views
         motions = ["test"] if args.quick else args.motions
         takes = [render_folder(m, az, el, root / "videos") for m in motions for az, el in views]
     truth_kind = "person" if args.mocap else "limited"
@@ -200,7 +218,9 @@ def main() -> None:
         built = root / "built" / name
         if not (built / "dataset.json").exists():
             shutil.rmtree(built, ignore_errors=True)
-            build_dataset(discover_takes(folder.parent), folder.parent, built, whole)
+            build_dataset(
+                discover_takes(folder.parent), videos_dir=folder.parent, out=built, config=whole
+            )
         s = whole_samples(built, times, angles, config)
         judged = root / "judged" / name
         shutil.rmtree(judged, ignore_errors=True)
