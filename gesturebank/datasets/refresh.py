@@ -103,14 +103,17 @@ def _repaired_partners(out: Path, record: store.TakeRecord) -> store.TakeRecord:
     data = [c for c in record.clips if c.kind == "clip"]
     if not any(c.partner_clip_id for c in data):
         return record
-    clips = [store.read_clip(store.clip_npz(out, record.take_id, c.clip_id)) for c in data]
+    clips = [
+        store.read_clip(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id))
+        for c in data
+    ]
     paired = {c.clip_id: c for c in pair_clips(clips)}
     for old in clips:
         new = paired[old.clip_id]
         if new.partner_clip_id != old.partner_clip_id or not np.array_equal(
             new.partner_speaking, old.partner_speaking
         ):
-            write_clip(store.clip_npz(out, record.take_id, new.clip_id), new)
+            write_clip(store.clip_npz(out, take_id=record.take_id, clip_id=new.clip_id), new)
     rows = [
         replace(c, partner_clip_id=paired[c.clip_id].partner_clip_id) if c.kind == "clip" else c
         for c in record.clips
