@@ -168,6 +168,13 @@ def stimuli(
             "(repeatable)."
         ),
     ] = None,
+    timelines: Annotated[
+        list[Path] | None,
+        typer.Option(
+            help="Another system's motion: a folder of angle timelines, one per speech "
+            "(<audio stem or clip id>.csv or .jsonl), shown as one more condition (repeatable)."
+        ),
+    ] = None,
     anchor: Annotated[
         Literal["mean-pose", "random-clip"], typer.Option(help="The anchor condition.")
     ] = "mean-pose",
@@ -179,9 +186,10 @@ def stimuli(
     force: ForceOption = False,
 ) -> None:
     """Blind stimulus videos for a perceptual study: for each speech (--audio, --clip) one video
-    per model, the ground truth (clips) and an anchor — same camera ([render]) and duration,
-    audio muxed, named by random ids. STUDY/stimuli.json lists them without their conditions;
-    STUDY/key.json says which is which (keep it from participants).
+    per model and per --timelines folder, the ground truth (clips) and an anchor — same camera
+    ([render]) and duration, audio muxed, named by random ids. STUDY/stimuli.json lists them
+    without their conditions; STUDY/key.json says which is which (keep it from participants);
+    STUDY/motion/ holds the angles each video shows.
     """
     from gesturebank.study.stimuli import stimuli_command
 
@@ -193,6 +201,7 @@ def stimuli(
             out=study_dir,
             audios=audio or [],
             clips=clip or [],
+            timelines=timelines or [],
             anchor=anchor,
             anchor_seed=anchor_seed,
             render=config.render,
