@@ -71,6 +71,26 @@ def test_analyse_prints_the_tables(study: Path) -> None:
     ab = next(ln for ln in lines if "3/4 (75 %)" in ln)
     assert "0.625" in ab
     assert (study / "analysis" / "ratings.png").is_file()
+    # issue 44: at 80 columns the paired tests' eight columns were cut (`stati…`, `p (Ho…`)
+    narrow = subprocess.run(
+        [GESTUREBANK, "study", "analyse", str(study)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        env={**os.environ, "COLUMNS": "80"},
+    )
+    assert narrow.returncode == 0, narrow.stderr
+    lines = [ln for ln in narrow.stdout.splitlines() if not ln.startswith("plot written to ")]
+    assert all(len(ln.rstrip()) <= 80 and "…" not in ln for ln in lines), narrow.stdout
+    assert "analysed: 2 (finished only)" in " ".join(ln.strip() for ln in lines)
+    mlp = next(ln for ln in lines if ln.strip().startswith("mlp ") and " 4 " in ln)
+    assert "51.2" in mlp and "37.7 – 64.8" in mlp
+    at = lines.index(next(ln for ln in lines if ln.strip().startswith("lstm vs mlp: n 4")))
+    assert "mean a − b 12.5" in lines[at], narrow.stdout
+    assert "wilcoxon statistic" in lines[at + 1] and "p 0.125," in lines[at + 1]
+    ab = lines.index(next(ln for ln in lines if "prefer lstm" in ln))
+    assert "3/4 (75 %), p 0.625, p (Holm) 0.625" in lines[ab + 1], narrow.stdout
 
 
 def test_analyse_without_answers_is_a_one_line_error(study: Path) -> None:
