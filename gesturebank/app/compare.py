@@ -46,9 +46,9 @@ from gesturebank.train.torch_runtime import torch_settings
 
 def compare_command(
     model_dirs: Sequence[PathLike],
+    *,
     dataset: PathLike | None = None,
     split: str = "test",
-    *,
     config: TrainConfig | None = None,
     out: PathLike | None = None,
     console: Console | None = None,
@@ -85,7 +85,9 @@ def compare_command(
         net = folder.torch_model()
         with torch_settings(own.seed, own.threads):
             pred01 = [torch_predict(net, s.audio) for s in segments]
-        systems[name] = [postprocess(p, folder.profile, rate_hz, own) for p in pred01]
+        systems[name] = [
+            postprocess(p, folder.profile, rate_hz=rate_hz, config=own) for p in pred01
+        ]
     systems |= baselines(
         segments,
         mean_pose01=np.asarray(folders[0].norm["mean_pose01"]),
@@ -95,7 +97,13 @@ def compare_command(
         donors=inputs.donors,
     )
     results = score_systems(
-        segments, systems, folders[0].profile, rate_hz, cfg, fgd=inputs.fgd, onsets=inputs.onsets
+        segments,
+        systems,
+        profile=folders[0].profile,
+        rate_hz=rate_hz,
+        config=cfg,
+        fgd=inputs.fgd,
+        onsets=inputs.onsets,
     )
     rows = average(results)
     version = inputs.fgd.version if inputs.fgd else None
@@ -110,15 +118,19 @@ def compare_command(
     if narrow:
         half = len(COLUMNS) // 2  # errors and correlations, then the motion's statistics
         for part_title, columns in ((title, COLUMNS[:half]), (None, COLUMNS[half:])):
-            screen.print(rich_table(rows, part_title, notes, columns=columns, narrow=True))
+            screen.print(
+                rich_table(rows, title=part_title, notes=notes, columns=columns, narrow=True)
+            )
     else:
-        screen.print(rich_table(rows, title, notes))
+        screen.print(rich_table(rows, title=title, notes=notes))
     legend = [LEGEND, units(COLUMNS)] if narrow else [LEGEND]
     for line in [*legend, *notes.lines]:  # narrow: wrapped at words, each note whole
         screen.print(line, highlight=False, soft_wrap=not narrow)
     if out is not None:
         text = (
-            to_csv(rows, version) if Path(out).suffix == ".csv" else to_markdown(rows, title, notes)
+            to_csv(rows, version)
+            if Path(out).suffix == ".csv"
+            else to_markdown(rows, title=title, notes=notes)
         )
         with output_errors(out, "the comparison table"):
             write_bytes_atomic(out, text.encode("utf-8"))
@@ -133,9 +145,9 @@ def compare_command(
 
 def rich_table(
     rows: dict[str, dict[str, float | None]],
+    *,
     title: str | None,
     notes: Footnotes | None = None,
-    *,
     columns: Sequence[Column] = COLUMNS,
     narrow: bool = False,
 ) -> Table:
@@ -151,5 +163,5 @@ def rich_table(
     for c in columns:
         t.add_column(c.short if narrow else c.title, justify="right", no_wrap=narrow)
     for name, row in rows.items():
-        t.add_row(name, *(cell(row.get(c.key), c, notes.mark(name, c.key)) for c in columns))
+        t.add_row(name, *(cell(row.get(c.key), c, mark=notes.mark(name, c.key)) for c in columns))
     return t

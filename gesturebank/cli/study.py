@@ -189,6 +189,7 @@ def _table(title: str, narrow: bool) -> Table:
 
 def stimuli(
     model_dirs: Annotated[list[Path], typer.Argument(help="Model folders written by `train`.")],
+    *,
     study_dir: Annotated[Path, typer.Option("--out", help="Study folder to write.")],
     audio: Annotated[
         list[Path] | None, typer.Option(help="Speech: an audio file (repeatable).")
@@ -258,6 +259,7 @@ StudyArg = Annotated[
 @study_app.command("serve")
 def study_serve(
     study_dir: StudyArg,
+    *,
     host: Annotated[
         str, typer.Option(help="Address to listen on; another than 127.0.0.1 lets others in.")
     ] = DEFAULT_HOST,
