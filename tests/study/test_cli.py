@@ -89,8 +89,8 @@ def test_analyse_prints_the_tables(study: Path) -> None:
     at = lines.index(next(ln for ln in lines if ln.strip().startswith("lstm vs mlp: n 4")))
     assert "mean a − b 12.5" in lines[at], narrow.stdout
     assert "wilcoxon statistic" in lines[at + 1] and "p 0.125," in lines[at + 1]
-    ab = lines.index(next(ln for ln in lines if "prefer lstm" in ln))
-    assert "3/4 (75 %), p 0.625, p (Holm) 0.625" in lines[ab + 1], narrow.stdout
+    pref = lines.index(next(ln for ln in lines if "prefer lstm" in ln))
+    assert "3/4 (75 %), p 0.625, p (Holm) 0.625" in lines[pref + 1], narrow.stdout
 
 
 def test_analyse_without_answers_is_a_one_line_error(study: Path) -> None:

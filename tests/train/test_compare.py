@@ -36,9 +36,9 @@ def at_80_columns(text: str, systems: dict[str, dict[str, float | None]]) -> Non
     for system, row in systems.items():  # each system's every value, as printed, on its lines
         shown = " ".join(ln for ln in lines if ln.strip().startswith(system))
         for c in COLUMNS:
-            if row.get(c.key) is not None:
-                value = c.fmt.format(row[c.key] * c.scale)
-                assert value in shown, (system, c.key, value, text)
+            if (value := row.get(c.key)) is not None:
+                printed = c.fmt.format(value * c.scale)
+                assert printed in shown, (system, c.key, printed, text)
 
 
 @pytest.fixture(scope="module")
