@@ -202,7 +202,7 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
             ):
                 if n:
                     text = Text(f"{n} {what}{_why(parts)}")
-                    console.print(Padding(text, (0, 0, 0, 2)), highlight=False)
+                    console.print(Padding(text, (0, 0, 0, 2), expand=False), highlight=False)
             continue
         console.print(
             f"{record.take_id}: {kept} of {len(record.data_clips)} clips kept, "
