@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import os
 import signal
 import subprocess
@@ -53,17 +54,15 @@ def test_analyse_prints_the_tables(study: Path) -> None:
     client = create_app(study).test_client()
     for n in (1, 2):
         _answer_all(client, _join(client), RATINGS[n], PREFER[n])
-    r = subprocess.run(
-        [GESTUREBANK, "study", "analyse", str(study)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-        env={**os.environ, "COLUMNS": "160"},  # rich's tables, unwrapped
-    )
-    assert r.returncode == 0, r.stderr
-    assert "2 finished, 0 partial" in r.stdout and "analysed: 2 (finished only)" in r.stdout
-    lines = r.stdout.splitlines()
+    from rich.console import Console
+
+    from gesturebank.cli.study import analyse_command
+
+    wide = Console(width=160, record=True, file=io.StringIO())  # rich's tables, unwrapped
+    analyse_command(folder=study, console=wide)
+    text = wide.export_text()
+    assert "2 finished, 0 partial" in text and "analysed: 2 (finished only)" in text
+    lines = text.splitlines()
     mlp = next(ln for ln in lines if "│ mlp " in ln and "4 " in ln)
     assert "51.2" in mlp and "37.7 – 64.8" in mlp  # 51.25 ± 13.588
     pair = next(ln for ln in lines if "lstm" in ln and "mlp" in ln and "wilcoxon" in ln)
