@@ -236,9 +236,9 @@ def stimuli_command(
                 synthesize(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
                 line = read_timeline(csv)
                 conditions.append((name, "model", os.fspath(model_dir), None, line))
-            for name, folder in zip(names[len(model_dirs) :], timelines, strict=True):
-                line = _system_timeline(Path(folder), src.name, shown_profile)
-                conditions.append((name, "model", None, os.fspath(folder), line))
+            for name, system_dir in zip(names[len(model_dirs) :], timelines, strict=True):
+                line = _system_timeline(Path(system_dir), src.name, shown_profile)
+                conditions.append((name, "model", None, os.fspath(system_dir), line))
             if src.dataset is not None and src.clip_id is not None:
                 truth = clip_timeline(src.dataset, src.clip_id)
                 conditions.append(("ground-truth", "reference", None, None, truth))
