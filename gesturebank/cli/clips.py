@@ -70,7 +70,8 @@ def clips(
     A clip id (or a take id, when the take has one clip) is what `replay OUT_DIR --clip` takes.
     """
     from gesturebank import datasets
-    from gesturebank.datasets.listing import clips_view, list_clips, rows_csv
+    from gesturebank.app.clip_list import clips_view
+    from gesturebank.datasets.listing import list_clips, rows_csv
 
     with user_errors():
         rows = list_clips(datasets.open(out_dir), status=status, subject=subject, take=take)
