@@ -40,7 +40,7 @@ def preview(
     legend beside it: "< video frame N", "< clip frame N"), the source frame and the clip frame
     shown, readable back by `datasets.preview.read_frame_code`.
     """
-    from gesturebank.datasets.preview import preview_command
+    from gesturebank.app.preview import preview_command
 
     with user_errors():
         keep_existing([out_path], force=force)
