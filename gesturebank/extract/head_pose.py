@@ -27,7 +27,13 @@ import numpy as np
 
 from gesturebank.errors import InputError
 from gesturebank.extract.detectors.blazepose import Roi
-from gesturebank.extract.mouth import CROP_PER_WIDTH, FACE_POINTS, WIDTH_PER_EYES
+from gesturebank.extract.mouth import (
+    CROP_PER_WIDTH,
+    FACE_POINTS,
+    WIDTH_PER_EYES,
+    FaceLandmarker,
+    FaceMesh,
+)
 from gesturebank.skeletons import COCO17, get_skeleton
 
 REFERENCE_FILE = "face-reference.csv"
@@ -52,6 +58,25 @@ HEAD_CROP_DOWN = 0.15
 # The nose tip's distance in front of the ears' midpoint over the ears' distance apart (adults:
 # about 11.5 cm over 16 cm).
 NOSE_DEPTH_PER_EAR_WIDTH = 0.72
+EYE_CORNERS = (33, 263)  # the right and left eyes' outer corners on the canonical face mesh
+# A crop from a mesh: its bounding box enlarged this much (as mediapipe's face pipeline tracks a
+# face from its previous landmarks).
+MESH_CROP_SCALE = 1.5
+
+
+@dataclass(frozen=True)
+class HeadCrops:
+    """Where the face model looks for one head: `head` the crop of the whole head
+    (`_head_crop`; None where the ears are not placed), `face` the crop of the face, on the nose.
+    The head's crop goes first: on a face turned past about 35° the face's crop gives a mesh
+    turned too little; on real faces bowed or small it sometimes finds no face, and the face's
+    crop does (`head_pose` is measured on the first with a presence ≥ MIN_HEAD_PRESENCE)."""
+
+    head: Roi | None
+    face: Roi
+
+    def in_order(self) -> tuple[Roi, ...]:
+        return (self.face,) if self.head is None else (self.head, self.face)
 
 
 def head_box(
@@ -61,13 +86,12 @@ def head_box(
     min_confidence: float,
     max_turn: float,
     min_px: float,
-) -> tuple[Roi | None, str]:
-    """The square crop for the head's pose of one person in one frame, or None with the reason.
-    The face must be seen as `extract.mouth.face_box` sees it (nose and eyes, the left eye on the
+) -> tuple[HeadCrops | None, str]:
+    """The crops for the head's pose of one person in one frame, or None with the reason. The
+    face must be seen as `extract.mouth.face_box` sees it (nose and eyes, the left eye on the
     image's right), turned at most `max_turn`, at least `min_px` wide (the larger of the eyes'
     estimate and WIDTH_PER_EAR_NOSE × the farthest seen ear from the nose: BlazePose pulls a
-    turned face's eyes together). The crop is the head's (`_head_crop`) where both ears are
-    placed, else the face's, on the nose."""
+    turned face's eyes together)."""
     coco = get_skeleton(skeleton).convert(np.asarray(keypoints)[None], COCO17)[0]
     pt = [coco[COCO17.index[name]] for name in FACE_POINTS]
     if not all(np.isfinite(p[0]) and p[2] >= min_confidence for p in pt):
@@ -88,9 +112,10 @@ def head_box(
     if width < min_px:
         return None, "face too small"
     angle = float(np.arctan2(eye_line[1], eye_line[0]))
-    if all(np.isfinite(ear[:2]).all() for ear in ears):
-        return _head_crop(nose, ears[0][:2], ears[1][:2], angle), ""
-    return Roi(float(nose[0]), float(nose[1]), CROP_PER_WIDTH * width, angle), ""
+    face = Roi(float(nose[0]), float(nose[1]), CROP_PER_WIDTH * width, angle)
+    placed = all(np.isfinite(ear[:2]).all() for ear in ears)
+    head = _head_crop(nose, ears[0][:2], ears[1][:2], angle) if placed else None
+    return HeadCrops(head, face), ""
 
 
 def _head_crop(nose: np.ndarray, left_ear: np.ndarray, right_ear: np.ndarray, angle: float) -> Roi:
@@ -109,6 +134,32 @@ def _head_crop(nose: np.ndarray, left_ear: np.ndarray, right_ear: np.ndarray, an
     down = np.array([-np.sin(angle), np.cos(angle)])
     centre = (mid + nose) / 2 + HEAD_CROP_DOWN * head * down
     return Roi(float(centre[0]), float(centre[1]), HEAD_CROP_PER_WIDTH * head, angle)
+
+
+def mesh_roi(points: np.ndarray) -> Roi:
+    """The square crop around face-mesh `points (468, ≥2)` image px: centred on their bounding
+    box, MESH_CROP_SCALE × its longer side, turned so the eye corners are level. The head's
+    pose runs the model again on it, after the head's crop (`head_box`): on real faces the
+    second pass is the surer one (the head-and-shoulders take at 144 px: presence ≥ 0.5 on all
+    its frames, against 72 % on the head's crop alone)."""
+    p = np.asarray(points, np.float64)[:, :2]
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    eye = p[EYE_CORNERS[1]] - p[EYE_CORNERS[0]]
+    centre = (lo + hi) / 2
+    side = MESH_CROP_SCALE * float(np.max(hi - lo))
+    return Roi(float(centre[0]), float(centre[1]), side, float(np.arctan2(eye[1], eye[0])))
+
+
+def head_mesh(*, model: FaceLandmarker, image: np.ndarray, crops: HeadCrops) -> FaceMesh | None:
+    """The face mesh of one head in RGB `image`: from the first of its crops where the model
+    finds a face (presence ≥ MIN_HEAD_PRESENCE), the model again on the crop that mesh gives
+    (`mesh_roi`); None where it finds none."""
+    for roi in crops.in_order():
+        mesh = model(image, roi)
+        if mesh.presence >= MIN_HEAD_PRESENCE:
+            mesh = model(image, mesh_roi(mesh.points))  # again, on the face it found
+            return mesh if mesh.presence >= MIN_HEAD_PRESENCE else None
+    return None
 
 
 @cache

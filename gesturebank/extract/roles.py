@@ -34,10 +34,11 @@ from gesturebank.audio.vad import RATE_HZ, speech_activity
 from gesturebank.config import SpeechConfig, VideoConfig
 from gesturebank.extract.detectors.blazepose import Roi
 from gesturebank.extract.head_pose import (
-    MIN_HEAD_PRESENCE,
+    HeadCrops,
     HeadPoses,
     fit_head,
     head_box,
+    head_mesh,
     spread_heads,
 )
 from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, face_box, speaking_score
@@ -88,7 +89,7 @@ class Roles:
         return Roles(self.track_ids, self.score, role, self.facing, self.measured)
 
 
-Boxes = dict[int, list[tuple[int, Roi | None, Roi | None]]]
+Boxes = dict[int, list[tuple[int, Roi | None, HeadCrops | None]]]
 
 
 def faces(
@@ -172,8 +173,8 @@ def measure_faces(
                 if mesh.presence >= MIN_FACE_PRESENCE:
                     row[m] = mesh.opening
             if head_crop is not None:
-                mesh = model(image, head_crop)
-                if mesh.presence >= MIN_HEAD_PRESENCE:
+                mesh = head_mesh(model=model, image=image, crops=head_crop)
+                if mesh is not None:
                     fit = fit_head(mesh.points3d)
                     head[m], centre[m], residual[m] = fit.axes, fit.centre, fit.residual
         rows.append(i)

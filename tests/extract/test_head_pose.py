@@ -112,10 +112,20 @@ def test_head_box_takes_turned_faces_the_mouth_does_not() -> None:
         "facing away"
     )
     limits = {"min_confidence": 0.5, "max_turn": 2.75, "min_px": 24.0}
-    roi, why = head_pose.head_box(keypoints=kp, skeleton=COCO17.name, **limits)
-    assert why == "" and roi is not None and (roi.cx, roi.cy) == (115, 110)
+    crops, why = head_pose.head_box(keypoints=kp, skeleton=COCO17.name, **limits)
+    assert why == "" and crops is not None and crops.head is None  # one ear: no head's crop
+    roi = crops.face
+    assert (roi.cx, roi.cy) == (115, 110)
     # the eyes make the face 2.3 × 6 × √(1 + 1.67²) = 27 px wide, the ear 1.4 × 36.4 = 51 px
     assert roi.side == pytest.approx(2 * 1.4 * np.hypot(35, 10))
+    # both ears placed (the far one hidden, as BlazePose still places it): the head's crop,
+    # between the nose and the ears' midpoint, its size from the ears and the nose together
+    kp[COCO17.index["right_ear"]] = (90, 100, 0.2)
+    crops, _ = head_pose.head_box(keypoints=kp, skeleton=COCO17.name, **limits)
+    assert crops is not None and crops.head is not None and crops.in_order()[0] == crops.head
+    head = np.hypot(10, np.hypot(30, 10) / head_pose.NOSE_DEPTH_PER_EAR_WIDTH)
+    assert crops.head.side == pytest.approx(head_pose.HEAD_CROP_PER_WIDTH * head)
+    assert crops.head.cx == pytest.approx(100, abs=0.2 * head)  # (85 + 115) / 2
     kp[COCO17.index["nose"]] = (120, 110, 0.9)  # turn 3.3
     assert head_pose.head_box(keypoints=kp, skeleton=COCO17.name, **limits)[1] == "facing away"
 
@@ -198,10 +208,11 @@ def test_a_head_turned_far_from_the_camera_keeps_its_turn(model, samples) -> Non
     errors = []
     for k, image in enumerate(frames):
         kp = np.concatenate([px[k], np.ones((len(COCO17), 1))], axis=1)
-        roi, why = head_pose.head_box(keypoints=kp, skeleton=COCO17.name, min_confidence=0.5,
-                                      max_turn=2.75, min_px=24.0)  # fmt: skip
-        assert roi is not None, why
-        mesh = model(image, roi)
+        crops, why = head_pose.head_box(keypoints=kp, skeleton=COCO17.name, min_confidence=0.5,
+                                        max_turn=2.75, min_px=24.0)  # fmt: skip
+        assert crops is not None, why
+        mesh = head_pose.head_mesh(model=model, image=image, crops=crops)
+        assert mesh is not None
         fit = head_pose.fit_head(mesh.points3d)
         got = head_pose.on_ray(fit.axes, fit.centre, focal=focal, principal=principal)
         errors.append(_yaw_pitch(got)[0] - truth[turned[k], 0])
