@@ -159,8 +159,11 @@ def measure(config: Config, lifter: str, *, name: str, start: float, seconds: fl
     arm = np.mean(angle_error_deg(angles, true_angles)[:, ARM_JOINTS], axis=1)
     cos = np.sum(head_direction(angles) * head_direction(true_angles), axis=1)
     head = np.rad2deg(np.arccos(np.clip(cos, -1, 1)))
-    forward = torso_frame(true_world[:, _I["left_shoulder"]], true_world[:, _I["right_shoulder"]],
-                          true_world[:, [_I["left_hip"], _I["right_hip"]]].mean(1))[0]  # fmt: skip
+    forward = torso_frame(
+        true_world[:, _I["left_shoulder"]],
+        true_world[:, _I["right_shoulder"]],
+        mid_hip=true_world[:, [_I["left_hip"], _I["right_hip"]]].mean(1),
+    )[0]
     chest = true_world[:, [_I["left_shoulder"], _I["right_shoulder"]]].mean(1)
     eye = -cam.R.T @ cam.t
     to_camera = eye - chest

@@ -119,6 +119,16 @@ def test_config_prints_resolved_toml(tmp_path: Path) -> None:
     assert data["processing"]["butter_order"] == 5
 
 
+def test_an_old_config_key_is_shown_as_deprecated(tmp_path: Path) -> None:
+    """Python hides a DeprecationWarning not raised by __main__: the command shows it."""
+    cfg = tmp_path / "old.toml"
+    cfg.write_text('[geometric]\nunits = "m"\n')
+    r = run("gesturebank", "config", "--config", str(cfg))
+    assert r.returncode == 0, r.stderr
+    assert "config key [geometric] is deprecated: use [lifter.geometric]" in r.stderr
+    assert 'units = "m"' in r.stdout
+
+
 def test_train_and_qc_output_errors_are_one_line(demo_dataset: Path, tmp_path: Path) -> None:
     """Too few subjects for SI (the demo has 2), unwritable --out or qc/: one line, exit 2."""
     import shutil

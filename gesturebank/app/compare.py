@@ -45,9 +45,9 @@ from gesturebank.train.torch_runtime import torch_settings
 
 def compare_command(
     model_dirs: Sequence[PathLike],
+    *,
     dataset: PathLike | None = None,
     split: str = "test",
-    *,
     config: TrainConfig | None = None,
     out: PathLike | None = None,
     console: Console | None = None,
@@ -84,7 +84,9 @@ def compare_command(
         net = folder.torch_model()
         with torch_settings(own.seed, own.threads):
             pred01 = [torch_predict(net, s.audio) for s in segments]
-        systems[name] = [postprocess(p, folder.profile, rate_hz, own) for p in pred01]
+        systems[name] = [
+            postprocess(p, folder.profile, rate_hz=rate_hz, config=own) for p in pred01
+        ]
     systems |= baselines(
         segments,
         mean_pose01=np.asarray(folders[0].norm["mean_pose01"]),
@@ -94,7 +96,13 @@ def compare_command(
         donors=inputs.donors,
     )
     results = score_systems(
-        segments, systems, folders[0].profile, rate_hz, cfg, fgd=inputs.fgd, onsets=inputs.onsets
+        segments,
+        systems,
+        profile=folders[0].profile,
+        rate_hz=rate_hz,
+        config=cfg,
+        fgd=inputs.fgd,
+        onsets=inputs.onsets,
     )
     rows = average(results)
     version = inputs.fgd.version if inputs.fgd else None
@@ -105,12 +113,14 @@ def compare_command(
     )
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
     screen = console or Console()
-    screen.print(rich_table(rows, title, notes))
+    screen.print(rich_table(rows, title=title, notes=notes))
     for line in [LEGEND, *notes.lines]:
         screen.print(line, highlight=False, soft_wrap=True)
     if out is not None:
         text = (
-            to_csv(rows, version) if Path(out).suffix == ".csv" else to_markdown(rows, title, notes)
+            to_csv(rows, version)
+            if Path(out).suffix == ".csv"
+            else to_markdown(rows, title=title, notes=notes)
         )
         with output_errors(out, "the comparison table"):
             write_bytes_atomic(out, text.encode("utf-8"))
@@ -124,7 +134,7 @@ def compare_command(
 
 
 def rich_table(
-    rows: dict[str, dict[str, float | None]], title: str, notes: Footnotes | None = None
+    rows: dict[str, dict[str, float | None]], *, title: str, notes: Footnotes | None = None
 ) -> Table:
     """One row per system (models first, then the baselines); headers with ↑/↓/≈ (`LEGEND`),
     n/a cells with the marks of `notes`."""
@@ -134,5 +144,5 @@ def rich_table(
     for c in COLUMNS:
         t.add_column(c.title, justify="right")
     for name, row in rows.items():
-        t.add_row(name, *cells(name, row, notes))
+        t.add_row(name, *cells(name, row, notes=notes))
     return t

@@ -46,6 +46,7 @@ def build_dataset(
             show_default=False,
         ),
     ],
+    *,
     out_dir: Annotated[Path, typer.Argument(help="Dataset folder to create or resume.")],
     config_file: ConfigOption = None,
     detector: Annotated[str | None, typer.Option(help=f"2D detector, {one_of(DETECTORS)}.")] = None,

@@ -157,6 +157,7 @@ def analyse_command(*, folder: Path, console: Console, include_partial: bool = F
 
 def stimuli(
     model_dirs: Annotated[list[Path], typer.Argument(help="Model folders written by `train`.")],
+    *,
     study_dir: Annotated[Path, typer.Option("--out", help="Study folder to write.")],
     audio: Annotated[
         list[Path] | None, typer.Option(help="Speech: an audio file (repeatable).")
@@ -217,6 +218,7 @@ StudyArg = Annotated[
 @study_app.command("serve")
 def study_serve(
     study_dir: StudyArg,
+    *,
     host: Annotated[
         str, typer.Option(help="Address to listen on; another than 127.0.0.1 lets others in.")
     ] = DEFAULT_HOST,

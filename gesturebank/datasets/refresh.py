@@ -48,7 +48,7 @@ def _remeasure(
     clips = []
     for c in record.clips:
         if c.kind == "clip" and (recheck or c.measured != digest):
-            clip = store.read_clip(store.clip_npz(out, record.take_id, c.clip_id))
+            clip = store.read_clip(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id))
             # metrics of the whole take (trimmed_fraction) are not in the clip: kept as measured
             metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc).to_dict()}
             c = replace(c, metrics=metrics, measured=digest)
@@ -69,7 +69,7 @@ def _cut(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecor
         if not failed or any(f.scope == "take" for f in failed) or config.qc.stretch_rounds <= 0:
             rows.append(c)
             continue
-        path = store.clip_npz(out, record.take_id, c.clip_id)
+        path = store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id)
         clip = store.read_clip(path)
         trimmed = c.metrics.get("trimmed_fraction")
         kept, judged = judged_records(
@@ -86,7 +86,7 @@ def _cut(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecor
             rows.append(c)
             continue
         for piece in kept:
-            write_clip(store.clip_npz(out, record.take_id, piece.clip_id), piece)
+            write_clip(store.clip_npz(out, take_id=record.take_id, clip_id=piece.clip_id), piece)
         path.unlink()
         rows += judged
         changed = True
@@ -214,4 +214,4 @@ def refresh(
     )
     store.write_dataset_json(out, info)
     write_card(out, info=info, records=records, terms=terms)
-    return write_splits(out, table.to_pylist(), config.splits)
+    return write_splits(out, records=table.to_pylist(), config=config.splits)

@@ -115,7 +115,7 @@ def jerkiness_per_joint(angles: np.ndarray, rate_hz: float) -> F64:
         return np.where(n > 0, 0.5 * f**5 * total.sum(axis=0) / n, np.nan)
 
 
-def uniform(values: np.ndarray, timestamps: np.ndarray, rate_hz: float, *, max_gap_s: float) -> F64:
+def uniform(values: np.ndarray, timestamps: np.ndarray, *, rate_hz: float, max_gap_s: float) -> F64:
     """`values (T, D)` at irregular `timestamps (T,)` linearly resampled to `rate_hz`: `(N, D)`.
 
     Gaps longer than `max_gap_s` stay NaN (see `filters.interpolate_at`).
@@ -123,7 +123,7 @@ def uniform(values: np.ndarray, timestamps: np.ndarray, rate_hz: float, *, max_g
     v = np.asarray(values, dtype=np.float64)
     if len(v) < 2:
         return v.reshape(len(v), -1)
-    _, out, _ = resample_to_clock(v, timestamps, rate_hz, max_gap_s=max_gap_s)
+    _, out, _ = resample_to_clock(v, timestamps, rate_hz=rate_hz, max_gap_s=max_gap_s)
     return np.asarray(out, dtype=np.float64)
 
 
@@ -240,7 +240,7 @@ def _max(values: np.ndarray) -> float:
 
 
 def limit_frames(
-    angles: np.ndarray, lower: np.ndarray, upper: np.ndarray, tol: float = 1e-5
+    angles: np.ndarray, lower: np.ndarray, *, upper: np.ndarray, tol: float = 1e-5
 ) -> NDArray[np.bool_]:
     """`(N, D)` True where an angle of `angles (N, D)` sits on its limit (within `tol`)."""
     a = np.asarray(angles, dtype=np.float64)
@@ -266,7 +266,7 @@ def spectrum(values: np.ndarray, rate_hz: float) -> tuple[F64, F64]:
     return np.asarray(np.fft.rfftfreq(len(v), 1.0 / rate_hz), dtype=np.float64), power
 
 
-def high_freq_fraction(values: np.ndarray, rate_hz: float, above_hz: float = 7.0) -> float:
+def high_freq_fraction(values: np.ndarray, *, rate_hz: float, above_hz: float = 7.0) -> float:
     """Share of the power of `values (N, D)` above `above_hz`, all columns together (the mean
     excluded): jitter. NaN when the clock cannot show `above_hz` or nothing moves."""
     if above_hz >= rate_hz / 2 or len(values) < 8:
@@ -303,7 +303,7 @@ def measure_settings(qc: QCConfig) -> dict[str, float]:
 
 
 def frozen_spans_s(
-    held: np.ndarray, person: np.ndarray, rate_hz: float, *, min_motion: float
+    held: np.ndarray, person: np.ndarray, *, rate_hz: float, min_motion: float
 ) -> F64:
     """Per column of `held (N, D)` (the robot's joint held at a limit), the longest run in
     seconds over which the person's angle `person (N, D)` spans more than `min_motion` rad: the
@@ -349,7 +349,7 @@ def reach_frames(
         )
     beyond = out_of_reach(person, profile) & known
     a = np.asarray(clip.angles, dtype=np.float64)
-    held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
+    held = known & limit_frames(a, profile.lower, upper=profile.upper, tol=qc.frozen_limit_tol)
     return beyond, held, np.asarray(person, dtype=np.float64)
 
 
@@ -366,7 +366,7 @@ def reach_metrics(
     n = len(clip.times)
     beyond, held, person = reach_frames(clip, profile=profile, qc=qc, rate_hz=rate_hz)
     known = np.asarray(clip.mask, dtype=bool)
-    frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
+    frozen = frozen_spans_s(held, person, rate_hz=rate_hz, min_motion=qc.frozen_min_motion)
     return ReachMetrics(
         out_of_reach_fraction=float(beyond.any(axis=1).mean()) if n else nan,
         # 0 for a joint never seen (no NaN, so that two builds compare equal)
@@ -406,7 +406,9 @@ def analysis_angles(clip: Clip, qc: QCConfig) -> F64:
     if len(raw) < 2:
         return np.empty((0, len(JOINTS)))
     # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
-    return uniform(unwrap_angles(raw), clip.timestamps, qc.analysis_rate_hz, max_gap_s=_MAX_GAP_S)
+    return uniform(
+        unwrap_angles(raw), clip.timestamps, rate_hz=qc.analysis_rate_hz, max_gap_s=_MAX_GAP_S
+    )
 
 
 class JudgedPoints(NamedTuple):
@@ -511,7 +513,9 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         frozen_at_limit_s_per_joint=reach.frozen_at_limit_s_per_joint,
         frozen_at_limit_s=reach.frozen_at_limit_s,
         invariants=invariant_metrics(clip, profile=profile, qc=qc, jerk=jerk, jerk_raw=jerk_raw),
-        jitter_fraction=high_freq_fraction(raw_u, hz, qc.jitter_above_hz) if len(raw_u) else nan,
+        jitter_fraction=high_freq_fraction(raw_u, rate_hz=hz, above_hz=qc.jitter_above_hz)
+        if len(raw_u)
+        else nan,
         motion_range=motion_range(clip.angles),
         # motion capture has no camera: a view cannot cost its measured 3D anything (issue 41)
         facing_away_fraction=nan if is_mocap(clip) else _share(away, shoulders),

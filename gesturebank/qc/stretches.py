@@ -369,7 +369,7 @@ def _same(values: np.ndarray) -> list[tuple[int, int]]:
 # A piece of a clip, and the judging loop
 
 
-def piece(clip: Clip, start: int, stop: int, clip_id: str) -> Clip:
+def piece(clip: Clip, start: int, *, stop: int, clip_id: str) -> Clip:
     """Video frames [start, stop) of `clip` as a clip of its own: the 100 Hz samples between
     their first and last frame (as the build's audio clock takes them), its clock's 0 on the
     first of those."""
@@ -453,7 +453,7 @@ def judge(
         for a, b, r in plan.dropped
     ]
     for k, (a, b) in enumerate(plan.kept):
-        part = piece(clip, a, b, f"{clip.clip_id}.{k}")
+        part = piece(clip, a, stop=b, clip_id=f"{clip.clip_id}.{k}")
         out += judge(
             part, measure=measure, config=config, profile=profile, min_s=min_s, rounds=rounds - 1
         )

@@ -27,7 +27,7 @@ def _torso_axes(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarr
     whether both were seen. Image coordinates (y down); the body may lean any way."""
     ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
     lh, rh = _I["left_hip"], _I["right_hip"]
-    across, up = torso_vectors(xy[:, ls], xy[:, rs], xy[:, lh], xy[:, rh])
+    across, up = torso_vectors(xy[:, ls], xy[:, rs], left_hip=xy[:, lh], right_hip=xy[:, rh])
     hips = valid[:, lh] & valid[:, rh]
     up = np.where(hips[:, None], up, xy[:, nose] - (xy[:, ls] + xy[:, rs]) / 2)
     seen = valid[:, ls] & valid[:, rs] & (hips | valid[:, nose])

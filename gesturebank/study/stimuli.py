@@ -97,7 +97,7 @@ def _clip_audio(dataset: Path, clip_id: str, out: Path) -> tuple[str, Path]:
     ds = datasets.open(dataset)
     row = resolve_clip(ds, clip_id)
     out.parent.mkdir(parents=True, exist_ok=True)
-    wav = write_clip_audio(ds, row, out, sample_rate=_RATE)
+    wav = write_clip_audio(ds, row, out=out, sample_rate=_RATE)
     if wav is None:
         source = source_media(ds, row) or Path(ds.info.videos_dir) / row.source
         raise InputError(f"{source}: no audio for clip {row.clip_id} (gone, or no audio track)")

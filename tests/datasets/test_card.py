@@ -113,7 +113,7 @@ def test_a_bad_takes_toml_stops_the_build_before_any_take(tmp_path: Path) -> Non
     videos.mkdir()
     (videos / "takes.toml").write_text('[alice]\nlicense = "CC0"\n')
     with pytest.raises(InputError, match=r"takes\.toml: alice\.license"):
-        build_dataset([], videos, tmp_path / "out", Config())
+        build_dataset([], videos_dir=videos, out=tmp_path / "out", config=Config())
     assert not (tmp_path / "out" / store.MANIFEST).exists()
 
 

@@ -123,7 +123,7 @@ def test_a_whole_take_fault_still_rejects_the_clip_whole() -> None:
 
 def test_a_piece_keeps_the_clip_arrays_of_its_frames() -> None:
     clip = synthetic_clip(seconds=6.0, seed=2)
-    part = piece(clip, 30, 120, "x__c001")
+    part = piece(clip, 30, stop=120, clip_id="x__c001")
     assert part.start_s == pytest.approx(clip.start_s + 1.0, abs=0.011)
     i0 = int(np.searchsorted(clip.times, clip.timestamps[30] - 1e-9))
     np.testing.assert_array_equal(part.angles, clip.angles[i0 : i0 + len(part.times)])

@@ -144,7 +144,7 @@ def test_replay_command_naoqi(server: NaoqiServer, tmp_path: Path) -> None:
     n = 50
     times = np.arange(n) * 0.01
     csv = write_timeline(tmp_path / "a.csv", Timeline.of(times, np.tile(NEUTRAL, (n, 1))))
-    result = replay_command(csv, "naoqi", url=server.url, config=FAST)
+    result = replay_command(csv, backend="naoqi", url=server.url, config=FAST)
     assert not isinstance(result, Path) and result.status == "completed"
     assert sum(c["call"] == "setAngles" for c in server.calls()) >= n + 60
 
@@ -214,7 +214,7 @@ def test_replay_command_plays_the_audio_on_the_robot(server: NaoqiServer, tmp_pa
         tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1)))
     )
     wav = _speech(tmp_path / "s.wav", 0.5)
-    result = replay_command(csv, "naoqi", url=server.url, audio=wav, config=FAST)
+    result = replay_command(csv, backend="naoqi", url=server.url, audio=wav, config=FAST)
     assert not isinstance(result, Path) and result.status == "completed"
     buffers = [c["frames"] for c in server.calls() if c["call"] == "sendRemoteBufferToOutput"]
     assert sum(buffers) == 24000

@@ -29,7 +29,16 @@ def two_models(real_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     )
     root = tmp_path_factory.mktemp("models")
     for kind in ("mlp", "lstm"):
-        train_command(real_dataset, kind, "si", 0, None, root / kind, cfg, quiet=True)
+        train_command(
+            real_dataset,
+            model=kind,
+            variant="si",
+            fold=0,
+            subject=None,
+            out_dir=root / kind,
+            config=cfg,
+            quiet=True,
+        )
     return [root / "mlp", root / "lstm"]
 
 
@@ -76,6 +85,15 @@ def test_compare_refuses_models_of_other_splits_and_bad_outputs(
         compare_command(two_models, out=tmp_path / "t.txt")
     cfg = TrainConfig.model_validate({"mlp": {"max_epochs": 1}})
     other = tmp_path / "fold1"
-    train_command(real_dataset, "mlp", "si", 1, None, other, cfg, quiet=True)
+    train_command(
+        real_dataset,
+        model="mlp",
+        variant="si",
+        fold=1,
+        subject=None,
+        out_dir=other,
+        config=cfg,
+        quiet=True,
+    )
     with pytest.raises(InputError, match="trained on another split or dataset"):
         compare_command([two_models[0], other])
