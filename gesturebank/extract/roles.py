@@ -169,9 +169,9 @@ def measure_faces(
         for m, mouth, head_crop in boxes.get(i, ()):
             model = model or FaceLandmarker()
             if mouth is not None:
-                mesh = model(image, mouth)
-                if mesh.presence >= MIN_FACE_PRESENCE:
-                    row[m] = mesh.opening
+                face = model(image, mouth)
+                if face.presence >= MIN_FACE_PRESENCE:
+                    row[m] = face.opening
             if head_crop is not None:
                 mesh = head_mesh(model=model, image=image, crops=head_crop)
                 if mesh is not None:
