@@ -27,13 +27,7 @@ import numpy as np
 
 from gesturebank.errors import InputError
 from gesturebank.extract.detectors.blazepose import Roi
-from gesturebank.extract.mouth import (
-    CROP_PER_WIDTH,
-    FACE_POINTS,
-    WIDTH_PER_EYES,
-    FaceLandmarker,
-    FaceMesh,
-)
+from gesturebank.extract.mouth import CROP_PER_WIDTH, FACE_POINTS, WIDTH_PER_EYES
 from gesturebank.skeletons import COCO17, get_skeleton
 
 REFERENCE_FILE = "face-reference.csv"
@@ -46,37 +40,15 @@ HEAD_IN_REFERENCE = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0
 # Face width over the nose-to-ear distance (adults: about 145 mm over 100-110 mm), which a turned
 # face does not foreshorten as it does the eye distance.
 WIDTH_PER_EAR_NOSE = 1.4
-# The face model's presence probability (on the head's crop) below which a crop gives no head:
-# lower, the turn of the frames kept is worse (test.bvh rendered at 45°, level: yaw error 9.4°
-# over the 34 of 37 frames ≥ 0.1, 6.5° over the 31 ≥ 0.5; from 30° above, 7.7° over 24, 4.7°
-# over 16).
-MIN_HEAD_PRESENCE = 0.5
-# The head's crop (`_head_crop`), in head widths (ear to ear, about 16 cm on an adult), on
-# test.bvh rendered at 0-75°, level and from 30° above (benchmarks/head_views.py).
-HEAD_CROP_PER_WIDTH = 1.3
-HEAD_CROP_DOWN = 0.15
-# The nose tip's distance in front of the ears' midpoint over the ears' distance apart (adults:
-# about 11.5 cm over 16 cm).
-NOSE_DEPTH_PER_EAR_WIDTH = 0.72
+# The face model's presence probability (on the crop from the first mesh, `mesh_roi`) below which
+# a crop gives no head. Lower than the mouth's (0.5): a face turned 50-70° from the camera often
+# scores 0.1-0.5 and still gives its turn (test.bvh 0–6 s rendered at 60°: yaw error 10.9° over
+# the 46 of 52 frames ≥ 0.1, 10.5° over the 35 ≥ 0.5).
+MIN_HEAD_PRESENCE = 0.1
 EYE_CORNERS = (33, 263)  # the right and left eyes' outer corners on the canonical face mesh
 # A crop from a mesh: its bounding box enlarged this much (as mediapipe's face pipeline tracks a
 # face from its previous landmarks).
 MESH_CROP_SCALE = 1.5
-
-
-@dataclass(frozen=True)
-class HeadCrops:
-    """Where the face model looks for one head: `head` the crop of the whole head
-    (`_head_crop`; None where the ears are not placed), `face` the crop of the face, on the nose.
-    The head's crop goes first: on a face turned past about 35° the face's crop gives a mesh
-    turned too little; on real faces bowed or small it sometimes finds no face, and the face's
-    crop does (`head_pose` is measured on the first with a presence ≥ MIN_HEAD_PRESENCE)."""
-
-    head: Roi | None
-    face: Roi
-
-    def in_order(self) -> tuple[Roi, ...]:
-        return (self.face,) if self.head is None else (self.head, self.face)
 
 
 def head_box(
@@ -86,12 +58,12 @@ def head_box(
     min_confidence: float,
     max_turn: float,
     min_px: float,
-) -> tuple[HeadCrops | None, str]:
-    """The crops for the head's pose of one person in one frame, or None with the reason. The
-    face must be seen as `extract.mouth.face_box` sees it (nose and eyes, the left eye on the
-    image's right), turned at most `max_turn`, at least `min_px` wide (the larger of the eyes'
-    estimate and WIDTH_PER_EAR_NOSE × the farthest seen ear from the nose: BlazePose pulls a
-    turned face's eyes together)."""
+) -> tuple[Roi | None, str]:
+    """The square face crop for the head's pose of one person in one frame, or None with the
+    reason: `extract.mouth.face_box`'s crop (nose and eyes seen, the left eye on the image's
+    right, turned at most `max_turn`), its face width the larger of the eyes' estimate and
+    WIDTH_PER_EAR_NOSE × the farthest seen ear from the nose (BlazePose pulls a turned face's
+    eyes together, so the eyes alone make it too small), at least `min_px` wide."""
     coco = get_skeleton(skeleton).convert(np.asarray(keypoints)[None], COCO17)[0]
     pt = [coco[COCO17.index[name]] for name in FACE_POINTS]
     if not all(np.isfinite(p[0]) and p[2] >= min_confidence for p in pt):
@@ -105,61 +77,27 @@ def head_box(
     if turn > max_turn:
         return None, "facing away"
     width = WIDTH_PER_EYES * eyes * float(np.sqrt(1 + turn * turn))
-    ears = [coco[COCO17.index["left_ear"]], coco[COCO17.index["right_ear"]]]
-    for ear in ears:
+    for ear in (coco[COCO17.index["left_ear"]], coco[COCO17.index["right_ear"]]):
         if np.isfinite(ear[0]) and ear[2] >= min_confidence:
             width = max(width, WIDTH_PER_EAR_NOSE * float(np.hypot(*(ear[:2] - nose))))
     if width < min_px:
         return None, "face too small"
     angle = float(np.arctan2(eye_line[1], eye_line[0]))
-    face = Roi(float(nose[0]), float(nose[1]), CROP_PER_WIDTH * width, angle)
-    placed = all(np.isfinite(ear[:2]).all() for ear in ears)
-    head = _head_crop(nose, ears[0][:2], ears[1][:2], angle) if placed else None
-    return HeadCrops(head, face), ""
-
-
-def _head_crop(nose: np.ndarray, left_ear: np.ndarray, right_ear: np.ndarray, angle: float) -> Roi:
-    """The crop around the whole head from BlazePose's nose and ears (px) and the eye line's
-    `angle`: centred half way from the ears' midpoint to the nose, HEAD_CROP_DOWN head widths
-    down, HEAD_CROP_PER_WIDTH head widths wide. The head's width, unlike the face's, shows at
-    every turn: the ears' distance apart and the nose's from their midpoint foreshorten in turn
-    (`NOSE_DEPTH_PER_EAR_WIDTH`). A crop centred on the face (the nose, or the face mesh's
-    bounding box) lets the model see a turned face as a frontal one off-centre: on test.bvh
-    rendered at 45-75°, level and from 30° above, it made the mesh turn 30-70° too little on
-    heads turned past 35° (benchmarks/head_views.py)."""
-    mid = (np.asarray(left_ear, np.float64) + np.asarray(right_ear, np.float64)) / 2
-    across = float(np.hypot(*(np.asarray(left_ear) - np.asarray(right_ear))))
-    depth = float(np.hypot(*(np.asarray(nose) - mid))) / NOSE_DEPTH_PER_EAR_WIDTH
-    head = float(np.hypot(across, depth))
-    down = np.array([-np.sin(angle), np.cos(angle)])
-    centre = (mid + nose) / 2 + HEAD_CROP_DOWN * head * down
-    return Roi(float(centre[0]), float(centre[1]), HEAD_CROP_PER_WIDTH * head, angle)
+    return Roi(float(nose[0]), float(nose[1]), CROP_PER_WIDTH * width, angle), ""
 
 
 def mesh_roi(points: np.ndarray) -> Roi:
     """The square crop around face-mesh `points (468, ≥2)` image px: centred on their bounding
     box, MESH_CROP_SCALE × its longer side, turned so the eye corners are level. The head's
-    pose runs the model again on it, after the head's crop (`head_box`): on real faces the
-    second pass is the surer one (the head-and-shoulders take at 144 px: presence ≥ 0.5 on all
-    its frames, against 72 % on the head's crop alone)."""
+    pose runs the model again on it: a crop placed from the body's keypoints is off-centre and
+    too small on a turned face, and the mesh then turns too little (test.bvh 0–6 s rendered at
+    60°: yaw error 18° → 11° with one such pass)."""
     p = np.asarray(points, np.float64)[:, :2]
     lo, hi = p.min(axis=0), p.max(axis=0)
     eye = p[EYE_CORNERS[1]] - p[EYE_CORNERS[0]]
     centre = (lo + hi) / 2
     side = MESH_CROP_SCALE * float(np.max(hi - lo))
     return Roi(float(centre[0]), float(centre[1]), side, float(np.arctan2(eye[1], eye[0])))
-
-
-def head_mesh(*, model: FaceLandmarker, image: np.ndarray, crops: HeadCrops) -> FaceMesh | None:
-    """The face mesh of one head in RGB `image`: from the first of its crops where the model
-    finds a face (presence ≥ MIN_HEAD_PRESENCE), the model again on the crop that mesh gives
-    (`mesh_roi`); None where it finds none."""
-    for roi in crops.in_order():
-        mesh = model(image, roi)
-        if mesh.presence >= MIN_HEAD_PRESENCE:
-            mesh = model(image, mesh_roi(mesh.points))  # again, on the face it found
-            return mesh if mesh.presence >= MIN_HEAD_PRESENCE else None
-    return None
 
 
 @cache

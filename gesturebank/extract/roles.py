@@ -15,10 +15,9 @@ Each video frame takes the role of the nearest measured frame (sampled frames at
 apart). `facing` (the face's nose and eyes turned to the camera, whatever its size) is kept for
 every frame: the main-speaker choice uses it where no mouth follows the speech.
 
-The same frames give the head's pose (`extract.head_pose`, issue 40): each face is measured
-on the same sampled frames, once on the mouth's crop and once on the head's (centred on the whole
-head, which a turned face needs: `head_pose.head_box`). The head also takes faces turned further
-and smaller than the mouth does (`head_limits`).
+The same model runs give the head's pose (`extract.head_pose`, issue 40): each face is measured
+once per sampled frame, for its mouth and its head. The head also takes faces turned further
+and smaller than the mouth does (`head_limits`); their meshes give no mouth opening.
 """
 
 from __future__ import annotations
@@ -34,11 +33,11 @@ from gesturebank.audio.vad import RATE_HZ, speech_activity
 from gesturebank.config import SpeechConfig, VideoConfig
 from gesturebank.extract.detectors.blazepose import Roi
 from gesturebank.extract.head_pose import (
-    HeadCrops,
+    MIN_HEAD_PRESENCE,
     HeadPoses,
     fit_head,
     head_box,
-    head_mesh,
+    mesh_roi,
     spread_heads,
 )
 from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, face_box, speaking_score
@@ -89,7 +88,7 @@ class Roles:
         return Roles(self.track_ids, self.score, role, self.facing, self.measured)
 
 
-Boxes = dict[int, list[tuple[int, Roi | None, HeadCrops | None]]]
+Boxes = dict[int, list[tuple[int, Roi, bool]]]
 
 
 def faces(
@@ -100,10 +99,10 @@ def faces(
     config: SpeechConfig,
     head_limits: tuple[float, float] | None = None,
 ) -> tuple[np.ndarray, Boxes]:
-    """(T, M) facing, and per frame the face crops there: frame → [(track column, the mouth's
-    crop, the head's crop)] (None: not measured; only frames with a crop are keys: a long take
-    with many people stays small). head_limits: (largest turn, smallest width px) of the faces
-    that get a head's crop (`head_pose.head_box`; None: none)."""
+    """(T, M) facing, and per frame the face crops there: frame → [(track column, Roi, whether
+    the mouth is measured on it)] (only frames with a crop are keys: a long take with many
+    people stays small). head_limits: (largest turn, smallest width px) of the faces that also
+    get a crop, for the head only (None: none)."""
     t_n, m_n = len(multi), len(track_ids)
     facing = np.zeros((t_n, m_n), bool)
     boxes: Boxes = {}
@@ -115,18 +114,18 @@ def faces(
         kp = multi.keypoints[t, p]
         roi, why = face_box(keypoints=kp, skeleton=multi.skeleton, config=config)
         facing[t, m] = why in ("", "face too small")
-        head = None
-        if why != "face unseen" and head_limits is not None:
+        mouth = roi is not None
+        if roi is None and why != "face unseen" and head_limits is not None:
             turn, px = head_limits
-            head, _ = head_box(
+            roi, _ = head_box(
                 keypoints=kp,
                 skeleton=multi.skeleton,
                 min_confidence=config.min_face_confidence,
                 max_turn=turn,
                 min_px=px,
             )
-        if roi is not None or head is not None:
-            boxes.setdefault(int(t), []).append((m, roi, head))
+        if roi is not None:
+            boxes.setdefault(int(t), []).append((m, roi, mouth))
     return facing, boxes
 
 
@@ -166,17 +165,15 @@ def measure_faces(
         head = np.full((n_tracks, 3, 3), np.nan)
         centre = np.full((n_tracks, 2), np.nan)
         residual = np.full(n_tracks, np.nan)
-        for m, mouth, head_crop in boxes.get(i, ()):
+        for m, roi, mouth in boxes.get(i, ()):
             model = model or FaceLandmarker()
-            if mouth is not None:
-                face = model(image, mouth)
-                if face.presence >= MIN_FACE_PRESENCE:
-                    row[m] = face.opening
-            if head_crop is not None:
-                mesh = head_mesh(model=model, image=image, crops=head_crop)
-                if mesh is not None:
-                    fit = fit_head(mesh.points3d)
-                    head[m], centre[m], residual[m] = fit.axes, fit.centre, fit.residual
+            mesh = model(image, roi)
+            if mouth and mesh.presence >= MIN_FACE_PRESENCE:
+                row[m] = mesh.opening
+            mesh = model(image, mesh_roi(mesh.points))  # again, on the crop the mesh gives
+            if mesh.presence >= MIN_HEAD_PRESENCE:
+                fit = fit_head(mesh.points3d)
+                head[m], centre[m], residual[m] = fit.axes, fit.centre, fit.residual
         rows.append(i)
         values.append(row)
         axes.append(head)
@@ -307,7 +304,7 @@ def measure_people(
     head_limits: tuple[float, float] | None = None,
 ) -> tuple[Roles | None, HeadPoses]:
     """Every track's roles (with `mouths`; else None) and head poses (faces within
-    `head_limits`, see `faces`; None: none) from one pass of the face model
+    `head_limits`, see `faces`; None: the mouths' faces only) from one pass of the face model
     over the frames of `video` that `multi` was detected on (`video_config`: the same
     selection), at most mouth_rate_hz frames a second; the head is interpolated between them.
     threads: FFmpeg decoding threads (None: FFmpeg's choice)."""
@@ -320,8 +317,7 @@ def measure_people(
         multi=multi, ids=ids, track_ids=track_ids, config=config, head_limits=head_limits
     )
     if not mouths:  # the head's crops only
-        boxes = {t: [(m, None, h) for m, _, h in b if h is not None] for t, b in boxes.items()}
-        boxes = {t: b for t, b in boxes.items() if b}
+        boxes = {t: [(m, roi, False) for m, roi, _ in b] for t, b in boxes.items()}
     found = measure_faces((), timestamps=ts, boxes={}, n_tracks=m_n)
     if boxes:  # else nothing to measure: no decoding
         cap = config.mouth_rate_hz
