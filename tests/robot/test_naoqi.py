@@ -119,7 +119,7 @@ def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_p
         "from gesturebank.config import PlaybackConfig\n"
         "from gesturebank.cli.robot import replay_command\n"
         "try:\n"
-        f"    replay_command({str(csv)!r}, 'naoqi', url={server.url!r},\n"
+        f"    replay_command({str(csv)!r}, backend='naoqi', url={server.url!r},\n"
         "                   config=PlaybackConfig(start_s=0.3, return_s=0.3))\n"
         "except GesturebankError as exc:\n"
         "    print(exc, file=sys.stderr); sys.exit(1)\n"
