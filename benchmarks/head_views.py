@@ -11,7 +11,7 @@ image's right / up than the truth), with the truth's mean |yaw| for scale.
 `--crop head` tries the whole head's crop instead (centred half way from the ears' midpoint to the
 nose, 0.15 head widths down, 1.3 head widths wide; the face's crop where the model finds no face
 there): from the truth's points it keeps the turn of faces turned past 35° that the face's crop
-loses (test.bvh at 75°, level: yaw 29° too little → 6°, with a presence gate of 0.5), but from
+loses (test.bvh at 75°, level: yaw 29° too little → 6°, `--min-presence 0.5`), but from
 BlazePose's points through the whole build it was worse (benchmarks/pipeline_truth.py, test2 at
 60°: the face's frames 19° → 36° off), so the build keeps the face's crop.
 
@@ -19,7 +19,7 @@ This separates the face fit from the torso the build's HeadPitch and HeadYaw are
 (`benchmarks/pipeline_truth.py` scores those). test2.bvh and test3.bvh are held out (report only).
 
     .venv/bin/python benchmarks/head_views.py [--bvh test.bvh] [--frames 40] [--crop face|head]
-        [--quick]
+        [--min-presence P] [--quick]
 
 --quick: 4 frames and one view, to check that the script runs.
 """
@@ -63,15 +63,15 @@ def head_crop(keypoints: np.ndarray, *, angle: float) -> Roi:
     return Roi(float(centre[0]), float(centre[1]), HEAD_CROP_PER_WIDTH * width, angle)
 
 
-def face_mesh(model: FaceLandmarker, image: np.ndarray, crops: list[Roi]):
+def face_mesh(model: FaceLandmarker, image: np.ndarray, crops: list[Roi], *, gate: float):
     """The mesh from the first of `crops` where the model finds a face (the last one whatever it
     finds), after a second pass on that mesh's own crop (as the build); None where the second
     pass finds no face."""
     for k, roi in enumerate(crops):
         mesh = model(image, roi)
-        if mesh.presence >= head_pose.MIN_HEAD_PRESENCE or k == len(crops) - 1:
+        if mesh.presence >= gate or k == len(crops) - 1:
             mesh = model(image, head_pose.mesh_roi(mesh.points))
-            return mesh if mesh.presence >= head_pose.MIN_HEAD_PRESENCE else None
+            return mesh if mesh.presence >= gate else None
     return None
 
 
@@ -84,7 +84,13 @@ def yaw_pitch(axes: np.ndarray) -> np.ndarray:
 
 
 def view_errors(
-    joints: np.ndarray, *, azimuth: float, elevation: float, model: FaceLandmarker, crop: str
+    joints: np.ndarray,
+    *,
+    azimuth: float,
+    elevation: float,
+    model: FaceLandmarker,
+    crop: str,
+    gate: float,
 ) -> tuple[int, np.ndarray, np.ndarray]:
     """(frames with a crop, errors (K, 2) yaw/pitch of the K kept frames, truth (K, 2))."""
     camera = orbit_camera(stage_of(joints), name="view", azimuth_deg=azimuth,
@@ -104,7 +110,7 @@ def view_errors(
             continue
         cropped += 1
         crops = [roi] if crop == "face" else [head_crop(kp, angle=roi.angle), roi]
-        mesh = face_mesh(model, image, crops)
+        mesh = face_mesh(model, image, crops, gate=gate)
         if mesh is None:
             continue
         fit = head_pose.fit_head(mesh.points3d)
@@ -124,6 +130,12 @@ def main() -> None:
         default="face",
         help="the face's crop (the build's) or the whole head's (module doc)",
     )
+    parser.add_argument(
+        "--min-presence",
+        type=float,
+        default=head_pose.MIN_HEAD_PRESENCE,
+        help="the face model's presence below which a crop gives no head (the build's default)",
+    )
     parser.add_argument("--quick", action="store_true", help="4 frames, one view")
     args = parser.parse_args()
     n = 4 if args.quick else args.frames
@@ -135,13 +147,14 @@ def main() -> None:
     joints = joints[np.linspace(0, len(joints) - 1, n).astype(int)]
     model = FaceLandmarker()
     table = Table(title=f"the head from the face mesh per view, camera axes: {args.bvh}, {n} "
-                        f"frames over 0-20 s, 1280x720 at 3 m, the {args.crop}'s crop")  # fmt: skip
+                        f"frames over 0-20 s, 1280x720 at 3 m, the {args.crop}'s crop, presence "
+                        f">= {args.min_presence:g}")  # fmt: skip
     for col in ("azimuth °", "elevation °", "cropped", "kept", "truth |yaw| °", "yaw |err| °",
                 "yaw bias °", "pitch |err| °", "pitch bias °"):  # fmt: skip
         table.add_column(col, justify="right")
     for az, el in views:
         cropped, err, truth = view_errors(
-            joints, azimuth=az, elevation=el, model=model, crop=args.crop
+            joints, azimuth=az, elevation=el, model=model, crop=args.crop, gate=args.min_presence
         )
         if len(err) == 0:
             table.add_row(str(az), str(el), str(cropped), "0", *["-"] * 5)
