@@ -354,7 +354,7 @@ def detect_cached(config: Config, video: Path, *, flipped: bool = False,
     if each_frame:
         pose = BlazePoseDetector(config.detector.blazepose).detect_each_frame(frames)
     else:
-        pose = DETECTORS.create("blazepose", config.detector, video=video).detect(frames)
+        pose = DETECTORS.create("blazepose", config.detector.blazepose, video=video).detect(frames)
     pose.save(cached)
     return pose
 

@@ -368,14 +368,20 @@ def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_pat
     r = gb("build-dataset", str(video), str(out))
     assert r.returncode == 0, r.stderr
     assert "from the cache" not in r.stdout  # a first build detects
+    env["COLUMNS"] = "80"
     r = gb("cache", "info")
     assert r.returncode == 0, r.stderr
-    assert f"detection cache: {cache} (from $GESTUREBANK_CACHE)" in r.stdout
-    assert "1 entries, " in r.stdout
+    # at 80 columns: the path whole on a line of its own (its note was appended to it, one long
+    # line the terminal wrapped), every other line within 80
+    lines = r.stdout.splitlines()
+    assert lines[0] == f"detection cache: {cache}", r.stdout
+    assert "set by $GESTUREBANK_CACHE" in lines[1] and all(len(ln) <= 80 for ln in lines[1:])
+    assert "1 entry, " in r.stdout
+    env["COLUMNS"] = "200"
     r = gb("build-dataset", str(video), str(out), "--force")
     assert r.returncode == 0, r.stderr
     assert "1 of 1 takes built took their detections from the cache" in r.stdout, r.stdout
     r = gb("cache", "clear")
-    assert r.returncode == 0 and "removed 1 entries" in r.stdout, r.stdout
+    assert r.returncode == 0 and "removed 1 entry " in r.stdout, r.stdout
     assert list(cache.iterdir()) == []
     assert "0 entries, 0 B" in gb("cache", "info").stdout

@@ -25,6 +25,7 @@ from gesturebank.datasets import store
 from gesturebank.datasets.card import read_takes_toml, write_card
 from gesturebank.datasets.digest import content_digest, measure_digest
 from gesturebank.datasets.judging import judged_records, write_clip
+from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
 from gesturebank.qc.checks import failures, verdicts
@@ -95,7 +96,32 @@ def _cut(
         changed = True
     if not changed:
         return record
-    return store.with_clips(record, sorted(rows, key=lambda r: r.start_s))
+    return _repaired_partners(out, store.with_clips(record, sorted(rows, key=lambda r: r.start_s)))
+
+
+def _repaired_partners(out: Path, record: store.TakeRecord) -> store.TakeRecord:
+    """After cutting, a partner may name a clip that was cut (its file gone, its pieces
+    renamed): the take's clips of several people are paired again as the build pairs them
+    (`datasets.partners.pair_clips`), the files and records whose partner changed rewritten."""
+    data = [c for c in record.clips if c.kind == "clip"]
+    if not any(c.partner_clip_id for c in data):
+        return record
+    clips = [
+        store.read_clip(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id))
+        for c in data
+    ]
+    paired = {c.clip_id: c for c in pair_clips(clips)}
+    for old in clips:
+        new = paired[old.clip_id]
+        if new.partner_clip_id != old.partner_clip_id or not np.array_equal(
+            new.partner_speaking, old.partner_speaking
+        ):
+            write_clip(store.clip_npz(out, take_id=record.take_id, clip_id=new.clip_id), new)
+    rows = [
+        replace(c, partner_clip_id=paired[c.clip_id].partner_clip_id) if c.kind == "clip" else c
+        for c in record.clips
+    ]
+    return store.with_clips(record, rows)
 
 
 def _judge(records: list[store.TakeRecord], qc: QCConfig) -> list[store.TakeRecord]:

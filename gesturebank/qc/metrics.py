@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, part_mask, parts_of
 from gesturebank.config import ProcessingConfig, QCConfig
@@ -298,24 +299,42 @@ def measure_settings(qc: QCConfig) -> dict[str, float]:
         "jitter_above_hz": qc.jitter_above_hz,
         "frozen_limit_tol": qc.frozen_limit_tol,
         "frozen_min_motion": qc.frozen_min_motion,
+        "frozen_motion_window_s": qc.frozen_motion_window_s,
         "max_speed_factor": qc.max_speed_factor,
     }
 
 
-def frozen_spans_s(
-    held: np.ndarray, person: np.ndarray, *, rate_hz: float, min_motion: float
-) -> F64:
-    """Per column of `held (N, D)` (the robot's joint held at a limit), the longest run in
-    seconds over which the person's angle `person (N, D)` spans more than `min_motion` rad: the
-    robot stands frozen while the person moves. 0 where there is none."""
-    out = np.zeros(held.shape[1])
+def frozen_frames(
+    held: np.ndarray, person: np.ndarray, *, rate_hz: float, min_motion: float, window_s: float
+) -> NDArray[np.bool_]:
+    """`(N, D)` the samples at which the robot's joint is held at a limit (`held (N, D)`) while
+    the person's angle `person (N, D)` moves: it spans more than `min_motion` rad within the
+    `window_s` around the sample, inside the same held run (issue 41: a limb folded past the
+    limit and kept still is the robot's best pose, not a frozen one)."""
+    out = np.zeros(held.shape, bool)
+    half = max(1, round(window_s * rate_hz / 2))
     for j in range(held.shape[1]):
         edges = np.flatnonzero(np.diff(np.concatenate([[0], held[:, j].astype(np.int8), [0]])))
         for start, stop in zip(edges[::2], edges[1::2], strict=True):
             span = person[start:stop, j]
-            span = span[np.isfinite(span)]
-            if len(span) and span.max() - span.min() > min_motion:
-                out[j] = max(out[j], (stop - start) / rate_hz)
+            if not np.isfinite(span).any():
+                continue
+            size = min(2 * half + 1, len(span))
+            hi = maximum_filter1d(np.where(np.isfinite(span), span, -np.inf), size, mode="nearest")
+            lo = minimum_filter1d(np.where(np.isfinite(span), span, np.inf), size, mode="nearest")
+            with np.errstate(invalid="ignore"):
+                out[start:stop, j] = np.isfinite(hi - lo) & (hi - lo > min_motion)
+    return out
+
+
+def frozen_spans_s(frozen: np.ndarray, *, rate_hz: float) -> F64:
+    """Per column of `frozen (N, D)` (`frozen_frames`), its longest run in seconds: the robot
+    stands frozen while the person moves. 0 where there is none."""
+    out = np.zeros(frozen.shape[1])
+    for j in range(frozen.shape[1]):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], frozen[:, j].astype(np.int8), [0]])))
+        if len(edges):
+            out[j] = float(np.max(edges[1::2] - edges[::2])) / rate_hz
     return out
 
 
@@ -366,7 +385,9 @@ def reach_metrics(
     n = len(clip.times)
     beyond, held, person = reach_frames(clip, profile=profile, qc=qc, rate_hz=rate_hz)
     known = np.asarray(clip.mask, dtype=bool)
-    frozen = frozen_spans_s(held, person, rate_hz=rate_hz, min_motion=qc.frozen_min_motion)
+    moving = frozen_frames(held, person, rate_hz=rate_hz, min_motion=qc.frozen_min_motion,
+                           window_s=qc.frozen_motion_window_s)  # fmt: skip
+    frozen = frozen_spans_s(moving, rate_hz=rate_hz)
     return ReachMetrics(
         out_of_reach_fraction=float(beyond.any(axis=1).mean()) if n else nan,
         # 0 for a joint never seen (no NaN, so that two builds compare equal)

@@ -136,6 +136,26 @@ def test_limit_frames() -> None:
     assert at.any(axis=1).tolist() == [False, True, True, False]
 
 
+def test_a_limb_held_still_past_the_limit_is_not_frozen() -> None:
+    """Issue 41: the robot held at a limit for 10 s while the person folds the elbow 0.4 rad
+    past it in half a second and then keeps it still (test.bvh 225-237 s) is frozen only while
+    the fold lasts; waving 0.3 rad past the limit for 4 s is frozen for those 4 s."""
+    rate = 100.0
+    t = np.arange(1200) / rate
+    held = np.zeros((len(t), 2), bool)
+    held[100:1100, 0] = True  # 1-11 s
+    held[100:500, 1] = True  # 1-5 s
+    fold = 1.6 + np.clip((t - 1.0) / 0.5, 0, 1) * 0.4 + 0.005 * np.sin(7 * t)
+    wave = 1.7 + 0.3 * np.sin(2 * np.pi * t)
+    person = np.stack([fold, wave], axis=1)
+    frozen = M.frozen_frames(held, person, rate_hz=rate, min_motion=0.2, window_s=1.0)
+    spans = M.frozen_spans_s(frozen, rate_hz=rate)
+    assert spans[0] < 1.0  # the fold itself, not the hold
+    assert spans[1] == pytest.approx(4.0, abs=0.02)
+    qc = QCConfig()
+    assert spans[0] < qc.max_frozen_at_limit_s < spans[1]
+
+
 def test_high_frequency_share() -> None:
     t = np.arange(600) / 30.0
     slow = np.sin(2 * np.pi * 1.0 * t)[:, None]

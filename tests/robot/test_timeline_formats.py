@@ -261,3 +261,62 @@ def test_live_csv_is_the_record_backend_s(model: Path, tmp_path: Path) -> None:
         live_command(
             model, backend="sim", input=str(wav), out=tmp_path / "x.mp4", config=FAST, csv=True
         )
+
+
+def test_stimuli_shows_it(
+    written: dict[str, tuple[Path, Timeline]], model: Path, tmp_path: Path
+) -> None:
+    """Issue 44 item 10: every writer's file, given to `stimuli --timelines` as another
+    system's motion of one speech, is what that condition's video shows: the angles it records
+    beside the video (`motion/<id>.csv`) are the file's, held and made safe as replay plays
+    them, cut to the speech's duration."""
+    import shutil
+
+    from gesturebank.config import RenderConfig
+    from gesturebank.study.stimuli import KEY, stimuli_command
+
+    wav = _write_wav(tmp_path / "speech.wav", 1.2)
+    folders = []
+    for writer, (path, _) in written.items():
+        folder = tmp_path / "systems" / writer
+        folder.mkdir(parents=True)
+        shutil.copy(path, folder / f"speech{'.jsonl' if path.suffix == '.jsonl' else '.csv'}")
+        folders.append(folder)
+    out = tmp_path / "study"
+    small = RenderConfig(frame_rate=5, width_px=96, height_px=64)
+    stimuli_command(model_dirs=[model], out=out, audios=[wav], timelines=folders, render=small)
+    key = json.loads((out / KEY).read_text())["videos"]
+    shown = {v["condition"]: vid for vid, v in key.items()}
+    assert set(written) <= set(shown)
+    differ = {}
+    for writer, (_, want) in written.items():
+        assert key[shown[writer]]["timelines"] == str(tmp_path / "systems" / writer)
+        assert (out / "videos" / f"{shown[writer]}.mp4").is_file()
+        got = read_timeline(out / "motion" / f"{shown[writer]}.csv")
+        keep = max(1, int(np.searchsorted(want.times, 1.2, side="left")))
+        cut = Timeline.of(want.times[:keep], _held(want).angles[:keep])
+        try:
+            _same(got, _played(cut), mask=False, angles_only=writer == "live-csv")
+        except AssertionError as exc:
+            differ[writer] = str(exc).splitlines()[-1]
+    assert not differ, differ
+
+
+def test_stimuli_names_a_missing_or_foreign_timeline(
+    written: dict[str, tuple[Path, Timeline]], model: Path, tmp_path: Path
+) -> None:
+    from gesturebank.errors import InputError
+    from gesturebank.study.stimuli import stimuli_command
+
+    wav = _write_wav(tmp_path / "talk.wav", 0.2)
+    (tmp_path / "sys").mkdir()
+    with pytest.raises(InputError, match=r"sys/talk\.csv: no timeline for speech talk"):
+        stimuli_command(
+            model_dirs=[model], out=tmp_path / "a", audios=[wav], timelines=[tmp_path / "sys"]
+        )
+    text = written["write_timeline"][0].read_text().replace("pepper-1.7", "pepper-1.8", 1)
+    (tmp_path / "sys" / "talk.csv").write_text(text)
+    with pytest.raises(InputError, match=r"talk\.csv: angles for robot profile pepper-1\.8"):
+        stimuli_command(
+            model_dirs=[model], out=tmp_path / "b", audios=[wav], timelines=[tmp_path / "sys"]
+        )
