@@ -28,6 +28,7 @@ Demo_SinglePerson (26.7–32.8° against 31–39°) and from perfect 2D on held-
 from __future__ import annotations
 
 import argparse
+import json
 import tempfile
 import time
 from dataclasses import replace
@@ -73,6 +74,13 @@ def training_takes(joints: np.ndarray, times: np.ndarray) -> list[np.ndarray]:
     return parts
 
 
+def _started_from(path: Path) -> dict[str, object]:
+    """What the fine-tuned net started from: its file and the sidecar's account of it."""
+    meta = json.loads(path.with_suffix(".json").read_text(encoding="utf-8"))
+    keys = ("trained_on", "command", "schedule", "minutes", "recipe", "started_from")
+    return {"file": path.name, **{k: meta[k] for k in keys if k in meta}}
+
+
 def check_table(path: Path, joints: np.ndarray, times: np.ndarray, config: Config) -> Table:
     """The model at `path` on CHECK_S of the take, true 2D at 0/30/60°."""
     pick = (times >= CHECK_S[0]) & (times < CHECK_S[1])
@@ -103,31 +111,41 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="a few steps, to a temporary file")
     parser.add_argument("--steps", type=int, default=Schedule.steps)
     parser.add_argument("--out", type=Path, default=PACKAGED, help="the ONNX file to write")
+    parser.add_argument("--start-from", type=Path, help="an ONNX net to fine-tune (warm start)")
+    parser.add_argument("--lr-start", type=float, default=Schedule.lr_start)
+    parser.add_argument("--gesture-share", type=float, default=Sampler.gesture_share,
+                        help="share of the stretches made up (the rest: test.bvh)")  # fmt: skip
     args = parser.parse_args()
     config = Config()
     whole = motion_pose(read_bvh(default_samples_dir() / BVH), config=config.mocap)[0]
     joints, times = whole.joints.astype(np.float64), whole.timestamps.astype(np.float64)
     takes = training_takes(joints, times)
     arch = Architecture()
-    schedule = Schedule(steps=3, batch=4, workers=0) if args.quick else Schedule(steps=args.steps)
+    schedule = Schedule(steps=3 if args.quick else args.steps, lr_start=args.lr_start,
+                        **({"batch": 4, "workers": 0} if args.quick else {}))  # fmt: skip
     console = Console(width=max(Console().width, 100))
 
     def log(step: int, loss: float, seconds: float) -> None:
         console.print(f"step {step}/{schedule.steps} · loss {loss:.4f} · {seconds:.0f} s")
 
     start = time.perf_counter()
-    sampler = Sampler(takes, schedule.outputs + arch.receptive - 1)
+    sampler = Sampler(takes, schedule.outputs + arch.receptive - 1,
+                      gesture_share=args.gesture_share)  # fmt: skip
 
     def snapshot(step: int, net: TemporalLifterNet) -> None:  # a net to ship if time runs out
         if not args.quick:
             export(net, args.out.with_suffix(f".step{step}.onnx"), sidecar={"steps": step})
 
     net = train(lambda frames: replace(sampler, frames=frames), arch=arch, schedule=schedule,
-                log=log, snapshot=snapshot)  # fmt: skip
+                log=log, snapshot=snapshot, start_from=args.start_from)  # fmt: skip
     minutes = (time.perf_counter() - start) / 60
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "learned-lifter.onnx" if args.quick else args.out
-        command = f"python benchmarks/train_lifter.py --steps {schedule.steps}"
+        command = (
+            f"python benchmarks/train_lifter.py --steps {schedule.steps} --lr-start "
+            f"{schedule.lr_start:g} --gesture-share {sampler.gesture_share:g}"
+            + (f" --start-from {args.start_from.name}" if args.start_from else "")
+        )
         export(net, out, sidecar={
             "trained_on": f"{100 * sampler.gesture_share:.0f} % made-up gesture motion "
             "(gesturebank.lift.training.lifter_motion), the rest bvhtools "
@@ -139,6 +157,7 @@ def main() -> None:
             "schedule": {k: getattr(schedule, k) for k in ("steps", "batch", "outputs",
                          "lr_start", "lr_end", "rng_seed", "torch_threads", "workers")},
             "minutes": round(minutes, 1),
+            **({"started_from": _started_from(args.start_from)} if args.start_from else {}),
         })  # fmt: skip
         console.print(f"wrote {out} ({out.stat().st_size / 1e6:.2f} MB) after {minutes:.1f} min")
         console.print(check_table(out, joints, times, config))
