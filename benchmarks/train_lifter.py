@@ -23,6 +23,13 @@ on a busy machine) was measured against it through the whole build on held-out r
 (5.3–5.7 cm), fast motion equal (22.4–23.0° against 22.6–23.6°); better on Pose2Sim
 Demo_SinglePerson (26.7–32.8° against 31–39°) and from perfect 2D on held-out motion (arm
 13.4–17.2° against 19.2–23.6°), worse on test.bvh. So it did not become the default.
+
+--start-from FILE fine-tunes an exported net (its batch norms frozen). From the packaged net,
+3,000 steps, --lr-start 3e-4 --gesture-share 0.4 (46 min on a busy machine), lifting the build's
+BlazePose 2D of the held-out renders: better from 30° and 60° (arm 20.6 / 23.1° against 23.4 /
+25.8°), on fast motion (30.1–30.3° against 31.4–31.7°) and on Pose2Sim (24.6–33.1° against
+31.1–38.9°), worse at 0° and from above (19.9–20.2° against 16.1–19.2°) and on test.bvh 31–51 s
+(9.0–9.8° against 7.9–8.5°): not packaged either (CHANGELOG, issue 39).
 """
 
 from __future__ import annotations
