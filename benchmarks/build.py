@@ -77,9 +77,9 @@ def run(
     done = [start]
     summary = build_dataset(
         discover_takes(videos),
-        videos,
-        out,
-        config,
+        videos_dir=videos,
+        out=out,
+        config=config,
         on_result=lambda _: done.append(time.perf_counter()),
     )
     summary = dashboard_after_build(summary)  # as build-dataset does

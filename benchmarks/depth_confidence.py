@@ -62,6 +62,7 @@ from gesturebank.lift.scoring import (
 )
 from gesturebank.poses import Pose2D
 from gesturebank.qc.metrics import facing_away, sideways
+from gesturebank.qc.views import nose_along
 from gesturebank.robot.pepper import fk
 from gesturebank.robot.retarget import pepper_angles
 from gesturebank.samples import default_samples_dir, fetch_samples
@@ -81,6 +82,7 @@ QUICK_SIZE = (640, 360)
 AZIMUTHS = (0.0, 30.0, 60.0)
 BIN_EDGES = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 1.0001)
 VIEW_STEP_DEG = 15.0
+ALONG_EDGES = (0.0, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 1.0, 9.0)
 
 
 @dataclass(frozen=True)
@@ -98,6 +100,7 @@ class Frames:
     view_deg: np.ndarray  # (F,) true view
     away: np.ndarray  # (F,) bool: QC's facing-away rule on the detections
     side: np.ndarray  # (F,) bool: QC's sideways rule on the detections
+    along: np.ndarray  # (F,) |nose along the shoulder line| (0.5: on a shoulder; views.nose_along)
 
     @staticmethod
     def concat(parts: list[Frames]) -> Frames:
@@ -114,7 +117,9 @@ def detect_cached(config: Config, video: object) -> Pose2D:
     cached = path.parent / f"{path.stem}.{sha256_file(path)[:16]}.blazepose.npz"
     if cached.is_file():
         return Pose2D.load(cached)
-    pose = DETECTORS.create("blazepose", config.detector, video=path).detect(iter_frames(path))
+    pose = DETECTORS.create("blazepose", config.detector.blazepose, video=path).detect(
+        iter_frames(path)
+    )
     pose.save(cached)
     return pose
 
@@ -159,8 +164,11 @@ def measure(config: Config, lifter: str, *, name: str, start: float, seconds: fl
     arm = np.mean(angle_error_deg(angles, true_angles)[:, ARM_JOINTS], axis=1)
     cos = np.sum(head_direction(angles) * head_direction(true_angles), axis=1)
     head = np.rad2deg(np.arccos(np.clip(cos, -1, 1)))
-    forward = torso_frame(true_world[:, _I["left_shoulder"]], true_world[:, _I["right_shoulder"]],
-                          true_world[:, [_I["left_hip"], _I["right_hip"]]].mean(1))[0]  # fmt: skip
+    forward = torso_frame(
+        true_world[:, _I["left_shoulder"]],
+        true_world[:, _I["right_shoulder"]],
+        mid_hip=true_world[:, [_I["left_hip"], _I["right_hip"]]].mean(1),
+    )[0]
     chest = true_world[:, [_I["left_shoulder"], _I["right_shoulder"]]].mean(1)
     eye = -cam.R.T @ cam.t
     to_camera = eye - chest
@@ -168,8 +176,9 @@ def measure(config: Config, lifter: str, *, name: str, start: float, seconds: fl
     view = np.rad2deg(np.arccos(np.clip(np.sum(forward * to_camera, -1), -1, 1)))
     seen = np.isfinite(kp[..., :2]).all(-1) & (np.nan_to_num(kp[..., 2]) >= 0.5)
     xy = kp[..., :2]
+    along = np.abs(nose_along(xy, seen)[0])
     return Frames(confidence, share, visibility, deep, wrong, hand, arm, head, view,
-                  facing_away(xy, seen), sideways(xy, seen))  # fmt: skip
+                  facing_away(xy, seen), sideways(xy, seen), along)  # fmt: skip
 
 
 def _row(frames: Frames, pick: np.ndarray) -> list[str]:
@@ -220,6 +229,12 @@ def views_table(frames: Frames, lifter: str, title: str) -> Table:
         table.add_row(f"{lo:.0f}–{lo + VIEW_STEP_DEG:.0f}°", *_row(frames, pick),
                       f"{100 * frames.side[pick].mean():.0f}",
                       f"{100 * frames.away[pick].mean():.0f}")  # fmt: skip
+    # where the nose lies along the shoulder line (QC's sideways rule: beyond 0.5), front views
+    for lo, hi in itertools.pairwise(ALONG_EDGES):
+        pick = (frames.along >= lo) & (frames.along < hi) & ~frames.away
+        if pick.any():
+            table.add_row(f"nose along {lo:g}–{hi:g}", *_row(frames, pick),
+                          f"{100 * frames.side[pick].mean():.0f}", "0")  # fmt: skip
     # what QC's view limits act on: the frames each of its rules calls so
     classes = {"QC: neither": ~frames.side & ~frames.away, "QC: sideways": frames.side,
                "QC: facing away": frames.away}  # fmt: skip

@@ -280,7 +280,7 @@ def truth_table(config: Config, stretches: tuple[tuple[str, float, float], ...],
         seen[view] = []
         for joints, times, front, up in takes:
             cam = truth_camera(joints, front, up, view)
-            seen[view].append((project_view(joints, cam, times), cam, joints))
+            seen[view].append((project_view(joints, cam, timestamps=times), cam, joints))
     add_rows(table, config, lifters, seen)
     return table
 
@@ -302,7 +302,7 @@ def add_rows(table: Table, config: Config, lifters: tuple[str, ...],
                 lifted = lifter.lift(TakeViews.of(pose2d, cams))
                 seconds += time.perf_counter() - start_t
                 frames += len(pose2d)
-                scores.append(score_lift(lifted, joints, cam, retarget=config.retarget))
+                scores.append(score_lift(lifted, joints, camera=cam, retarget=config.retarget))
                 flipped = lifter.lift(TakeViews.of(mirror_view(pose2d), cams))
                 back = mirror_angles(pepper_angles(flipped, config=config.retarget))
                 angles = pepper_angles(lifted, config=config.retarget)
@@ -354,7 +354,7 @@ def detect_cached(config: Config, video: Path, *, flipped: bool = False,
     if each_frame:
         pose = BlazePoseDetector(config.detector.blazepose).detect_each_frame(frames)
     else:
-        pose = DETECTORS.create("blazepose", config.detector, video=video).detect(frames)
+        pose = DETECTORS.create("blazepose", config.detector.blazepose, video=video).detect(frames)
     pose.save(cached)
     return pose
 
@@ -407,7 +407,7 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
         truth = render_truth(config, synth)
         cams = CameraGroup.load(truth.folder / CALIBRATION)
         joints = truth.joints3d.astype(np.float64)
-        sources = {"true": [project_view(joints, cam, truth.times) for cam in cams]}
+        sources = {"true": [project_view(joints, cam, timestamps=truth.times) for cam in cams]}
         if detected:
             sources["BlazePose"] = [detect_cached(config, video) for video in truth.videos]
         for source, poses in sources.items():
@@ -417,7 +417,7 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
             # world → camera 1's axes, where score_lift takes the depth signs
             in_camera = Pose3D(cams[0].to_camera(lifted.joints.astype(np.float64)),
                                lifted.confidence, lifted.timestamps)  # fmt: skip
-            score = score_lift(in_camera, joints, cams[0], retarget=config.retarget)
+            score = score_lift(in_camera, joints, camera=cams[0], retarget=config.retarget)
             names = ",".join(f"{a:g}" for a in azimuths)
             table.add_row(
                 source, f"{count} ({names}°)",
@@ -456,14 +456,14 @@ def calibration_table(config: Config, seconds: float, counts: tuple[int, ...], *
         truth = render_truth(config, synth)
         cams = CameraGroup.load(truth.folder / CALIBRATION)
         joints = truth.joints3d.astype(np.float64)
-        sources = {"true": [project_view(joints, cam, truth.times) for cam in cams]}
+        sources = {"true": [project_view(joints, cam, timestamps=truth.times) for cam in cams]}
         if detected:
             sources["BlazePose"] = [detect_cached(config, video) for video in truth.videos]
 
         def hand_cm(lifted: Pose3D, cams: CameraGroup = cams, joints: np.ndarray = joints) -> float:
             in_camera = Pose3D(cams[0].to_camera(lifted.joints.astype(np.float64)),
                                lifted.confidence, lifted.timestamps)  # fmt: skip
-            return score_lift(in_camera, joints, cams[0], retarget=config.retarget).hand_cm
+            return score_lift(in_camera, joints, camera=cams[0], retarget=config.retarget).hand_cm
 
         for source, poses in sources.items():
             true_hand = hand_cm(plain.lift(TakeViews.of(poses, cams)))

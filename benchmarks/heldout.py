@@ -82,7 +82,12 @@ def build_and_pair(truth: Truth, config: Config, out: Path) -> list[dict[str, np
     clip's clock), its stored 2D and the true 2D of its video frames (`2d`, `true 2d`), and
     `accepted` (0-d bool), and its arm bones' depth signs (`signs`: (bones, 2) deep frames,
     wrong ones; `lift.scoring.sign_errors`)."""
-    build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
+    build_dataset(
+        discover_takes(truth.videos[0].parent),
+        videos_dir=truth.videos[0].parent,
+        out=out,
+        config=config,
+    )
     dataset = open_dataset(out)
     profile = pepper.load_profile(config.robot.profile)
     clips = []
@@ -99,7 +104,7 @@ def build_and_pair(truth: Truth, config: Config, out: Path) -> list[dict[str, np
             "accepted": np.array(row.clip.qc_status == "accepted"),
             "signs": np.array([v for v in sign_errors(camera_axes(clip.pose3d),
                                                       truth.joints3d[frames],
-                                                      truth.cameras[0]).values()]),
+                                                      camera=truth.cameras[0]).values()]),
         })  # fmt: skip
     return clips
 

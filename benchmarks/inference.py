@@ -53,8 +53,8 @@ def models(model_dir: Path | None, tmp: Path) -> tuple[Path, Path, LSTMModel]:
         return model_dir / "mlp", model_dir / "lstm", lstm
     torch.manual_seed(0)
     cfg = TrainConfig()
-    export_onnx(build_model("mlp", 26, cfg), tmp / "mlp")
-    lstm = build_model("lstm", 26, cfg)
+    export_onnx(build_model("mlp", 26, config=cfg), tmp / "mlp")
+    lstm = build_model("lstm", 26, config=cfg)
     assert isinstance(lstm, LSTMModel)
     export_onnx(lstm, tmp / "lstm")
     return tmp / "mlp", tmp / "lstm", lstm
@@ -82,7 +82,7 @@ def every_model(
     n_utt = int(seconds * 100)  # 100 frames per second
     for name in MODELS.names():
         torch.manual_seed(0)
-        model = build_model(name, feats.shape[1], cfg).eval()
+        model = build_model(name, feats.shape[1], config=cfg).eval()
         folder = tmp / "every" / name
         paths = export_onnx(model, folder)
         times: list[float] = []
@@ -136,7 +136,7 @@ def main() -> None:
         def features(i: int) -> object:
             a = (i * 160) % (len(signal) - 401) + 1
             return frame_features(
-                signal[a : a + 400], 16000, audio_cfg, previous=float(signal[a - 1])
+                signal[a : a + 400], 16000, config=audio_cfg, previous=float(signal[a - 1])
             )
 
         def window_torch(i: int) -> object:

@@ -68,7 +68,7 @@ def measure(wav: Path, tmp: Path, quick: bool) -> list[tuple[str, str, str]]:
         signal = signal[: int(QUICK_S * 16000)]
         wav = tmp / "speech.wav"
         wavfile.write(wav, 16000, (np.clip(signal, -1, 1) * 32767).astype(np.int16))
-    feats = features(signal, 16000, AudioConfig())
+    feats = features(signal, 16000, config=AudioConfig())
     hop = 160
     chunks = [signal[k * hop : (k + 1) * hop] for k in range(len(signal) // hop)]
     lstm_dir = write_model_dir(tmp / "lstm", kind="lstm", hidden=12, feats=feats, window=WINDOW)
@@ -96,7 +96,7 @@ def measure(wav: Path, tmp: Path, quick: bool) -> list[tuple[str, str, str]]:
         str(lstm_dir / "window.onnx"), opts, providers=["CPUExecutionProvider"]
     )
     model = load_frame_model(lstm_dir)
-    z = apply_znorm(feats, model.audio_mean, model.audio_std)
+    z = apply_znorm(feats, model.audio_mean, std=model.audio_std)
     buf = np.zeros((1, WINDOW, z.shape[1]), np.float32)
     ms = []
     for row in z:
@@ -117,7 +117,7 @@ def measure(wav: Path, tmp: Path, quick: bool) -> list[tuple[str, str, str]]:
         ("MLP real time, record backend", mlp_dir),
         ("LSTM real time, record backend", lstm_dir),
     ):
-        result = live_command(folder, "record", str(wav), out=tmp / "live.jsonl")
+        result = live_command(folder, backend="record", input=str(wav), out=tmp / "live.jsonl")
         p50, p99 = result.latency_ms()
         label = f"{name} ({result.n_sent} fr, {result.skipped} skipped)"
         rows.append((label, f"{p50:.3f}", f"{p99:.3f}"))

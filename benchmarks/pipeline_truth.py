@@ -129,7 +129,12 @@ def measure(truth: Truth, config: Config, out: Path, *, every_clip: bool = False
     """Build the render's video into `out` and score its kept clips (`every_clip`: every clip
     it made, QC's verdict aside) against both truths."""
     status: Status | None = None if every_clip else "accepted"
-    build_dataset(discover_takes(truth.videos[0].parent), truth.videos[0].parent, out, config)
+    build_dataset(
+        discover_takes(truth.videos[0].parent),
+        videos_dir=truth.videos[0].parent,
+        out=out,
+        config=config,
+    )
     dataset = open_dataset(out)
     stored, pipeline_truth, unlimited, sources = [], [], [], []
     deep, wrong = 0, 0
@@ -144,7 +149,9 @@ def measure(truth: Truth, config: Config, out: Path, *, every_clip: bool = False
         clip = dataset.load(row.clip.clip_id)
         frames = np.round((clip.timestamps + clip.start_s - truth.times[0]) * truth.fps)
         frames = np.clip(frames.astype(int), 0, len(truth.times) - 1)
-        signs = sign_errors(camera_axes(clip.pose3d), truth.joints3d[frames], truth.cameras[0])
+        signs = sign_errors(
+            camera_axes(clip.pose3d), truth.joints3d[frames], camera=truth.cameras[0]
+        )
         deep += sum(n for n, _ in signs.values())
         wrong += sum(w for _, w in signs.values())
         limited_truth, free_truth = truths(truth, clip.times + clip.start_s, config)

@@ -80,7 +80,7 @@ def build(root: Path, quick: bool) -> Path:
         (videos / "talking").mkdir(parents=True, exist_ok=True)
         (videos / "talking" / path.name).symlink_to(path)
     out = root / "dataset"
-    build_dataset(discover_takes(videos), videos, out, Config())
+    build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=Config())
     return out
 
 
@@ -102,7 +102,7 @@ def clean_variants(
             continue
         clean.append((row.clip.clip_id, clip))
         for t0 in np.arange(0.0, clip.times[-1] - win + 1e-9, stride):
-            part = window(clip, t0, t0 + win)
+            part = window(clip, t0, t1=t0 + win)
             if not part.valid[:, _SEEN].all():
                 excluded["windows: head or an arm unseen somewhere"] += 1
                 continue
@@ -173,7 +173,7 @@ def main() -> None:
         for strength in strengths:
             hits, reasons = 0, []
             for i, (name, clip) in enumerate(clean):
-                bad = rederive(corrupt(clip, kind, strength, seed=i))
+                bad = rederive(corrupt(clip, kind, strength=strength, seed=i))
                 key = f"{name}+{kind}"
                 status, why = verdicts({**clean_m, key: measure(bad)}, qc)[key]
                 masked = (

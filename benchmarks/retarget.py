@@ -154,7 +154,9 @@ def mocap_motion(seconds: float) -> Motion:
     n = round(seconds / float(np.median(np.diff(motion.times))))
     pose, _ = motion_pose(motion.frames(0, n), config=Config().mocap, source="test.bvh")
     ts = pose.timestamps - pose.timestamps[0]
-    return Motion(pose.joints, ts, np.isfinite(pose.joints).all(axis=-1), clock(0.0, ts[-1], 100))
+    return Motion(
+        pose.joints, ts, np.isfinite(pose.joints).all(axis=-1), clock(0.0, ts[-1], rate_hz=100)
+    )
 
 
 def dataset_motions(out: Path) -> list[Motion]:
@@ -165,7 +167,7 @@ def dataset_motions(out: Path) -> list[Motion]:
     motions = []
     for record in store.take_records(out):
         for c in record.data_clips:
-            with np.load(store.clip_npz(out, record.take_id, c.clip_id)) as data:
+            with np.load(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id)) as data:
                 clip = Clip.from_arrays({k: data[k] for k in data.files})
             motions.append(Motion(clip.pose3d.joints, clip.timestamps, clip.valid, clip.times))
     return motions

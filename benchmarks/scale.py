@@ -61,9 +61,9 @@ def run(videos: Path, out: Path, settings: dict[str, object]) -> dict[str, float
     done = [start]
     summary = build_dataset(
         discover_takes(videos),
-        videos,
-        out,
-        config,
+        videos_dir=videos,
+        out=out,
+        config=config,
         on_result=lambda _: done.append(time.perf_counter()),
     )
     assert not summary.failed, summary.failed

@@ -77,7 +77,7 @@ def training_takes(joints: np.ndarray, times: np.ndarray) -> list[np.ndarray]:
         if hi - lo < MIN_STRETCH_S:
             continue
         grid = np.arange(lo, hi, 1 / F.RATE_HZ)
-        parts.append(F.resample(joints, times, grid))
+        parts.append(F.resample(joints, times, at=grid))
     return parts
 
 
@@ -104,9 +104,11 @@ def check_table(path: Path, joints: np.ndarray, times: np.ndarray, config: Confi
         eye = chest + 3.0 * (np.cos(a) * front + np.sin(a) * left) + above * up
         cam = look_at(eye=eye, target=chest, up=up, size=(1280, 720), fov_deg=60.0)
         start = time.perf_counter()
-        lifted = lifter.lift(TakeViews.of(project_view(truth, cam, t), CameraGroup([cam])))
+        lifted = lifter.lift(
+            TakeViews.of(project_view(truth, cam, timestamps=t), CameraGroup([cam]))
+        )
         fps = len(t) / (time.perf_counter() - start)
-        score = score_lift(lifted, truth, cam, retarget=config.retarget)
+        score = score_lift(lifted, truth, camera=cam, retarget=config.retarget)
         view = f"{azimuth:g}°" + (f" +{above:g} m" if above else "")
         table.add_row(view, f"{score.arm_mae_deg:.1f}", f"{score.wrong_sign_pct:.0f}",
                       f"{score.hand_cm:.1f}", f"{fps:.0f}")  # fmt: skip

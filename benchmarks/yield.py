@@ -197,7 +197,7 @@ def judged(videos: Path, root: Path) -> tuple[dict[str, store.TakeRecord], Path,
     before_out, out = root / "whole", root / "cut"
     whole = Config.model_validate({"qc": {"stretch_rounds": 0}})
     start = time.perf_counter()
-    build_dataset(discover_takes(videos), videos, before_out, whole)
+    build_dataset(discover_takes(videos), videos_dir=videos, out=before_out, config=whole)
     build_s = time.perf_counter() - start
     before = {r.take_id: r for r in store.take_records(before_out)}
     shutil.rmtree(out, ignore_errors=True)

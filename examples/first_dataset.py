@@ -77,15 +77,17 @@ def main() -> None:
     config = TrainConfig.model_validate({"mlp": {"max_epochs": args.epochs}})
     model_dir = args.out / "model"
     result = train_command(
-        args.dataset, "mlp", "sd", subject=row.take.subject, out_dir=model_dir, config=config,
-        quiet=True,
+        args.dataset, model="mlp", variant="sd", subject=row.take.subject, out_dir=model_dir,
+        config=config, quiet=True,
     )  # fmt: skip
     best = f"best validation loss {result.best_val_loss:.4f}"
     print(f"model: {model_dir} ({result.epochs} epochs, {best})")
 
     # 4. synthesise: speech → 11 angles at 100 Hz, normalised with the speaker's audio stats
     speech = args.speech or Path(ds.info.videos_dir) / row.take.source
-    angles = synthesize(model_dir, speech, args.out / "angles.csv", znorm=row.take.subject)
+    angles = synthesize(
+        model_dir, audio_path=speech, out_csv=args.out / "angles.csv", znorm=row.take.subject
+    )
     print(f"angles: {args.out / 'angles.csv'} ({len(angles)} frames for {speech.name})")
 
 

@@ -30,3 +30,9 @@ class RobotError(GesturebankError):
 
 class FetchError(GesturebankError):
     """Sample media could not be fetched or failed its checksum."""
+
+
+class GesturebankDeprecationWarning(DeprecationWarning):
+    """Something of gesturebank's read for one more release (an old config key, a manifest row
+    read as a dict). The command line shows it; Python shows a DeprecationWarning only when
+    `__main__` raises it."""

@@ -134,8 +134,8 @@ def _interp_column(
 def interpolate_at(
     values: ArrayLike,
     timestamps: ArrayLike,
-    query: ArrayLike,
     *,
+    query: ArrayLike,
     max_gap_s: float,
 ) -> tuple[FloatArray, GapReport]:
     """Linear interpolation of `values (T, D)` at `timestamps (T,)` onto `query (N,)` times.
@@ -181,10 +181,10 @@ def fill_gaps(
 
     The same rules as `interpolate_at` with the query being the samples' own `timestamps (T,)`.
     """
-    return interpolate_at(values, timestamps, timestamps, max_gap_s=max_gap_s)
+    return interpolate_at(values, timestamps, query=timestamps, max_gap_s=max_gap_s)
 
 
-def clock(t0: float, t1: float, rate_hz: float) -> NDArray[np.float64]:
+def clock(t0: float, t1: float, *, rate_hz: float) -> NDArray[np.float64]:
     """Uniform clock `(N,)`: frame i at t0 + i / rate_hz, for every frame with time <= t1."""
     rate = _rate(rate_hz)
     if not (np.isfinite(t0) and np.isfinite(t1)) or t1 < t0:
@@ -196,8 +196,8 @@ def clock(t0: float, t1: float, rate_hz: float) -> NDArray[np.float64]:
 def resample_to_clock(
     values: ArrayLike,
     timestamps: ArrayLike,
-    rate_hz: float,
     *,
+    rate_hz: float,
     t0: float | None = None,
     t1: float | None = None,
     max_gap_s: float,
@@ -212,9 +212,11 @@ def resample_to_clock(
     arr = _values_2d(values)
     ts = _timestamps(timestamps, len(arr))
     times = clock(
-        float(ts[0]) if t0 is None else float(t0), float(ts[-1] if t1 is None else t1), rate_hz
+        float(ts[0]) if t0 is None else float(t0),
+        float(ts[-1] if t1 is None else t1),
+        rate_hz=rate_hz,
     )
-    out, report = interpolate_at(arr, ts, times, max_gap_s=max_gap_s)
+    out, report = interpolate_at(arr, ts, query=times, max_gap_s=max_gap_s)
     return times, out, report
 
 

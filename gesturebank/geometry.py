@@ -73,6 +73,7 @@ def unit(v: np.ndarray, *, axis: int = -1) -> np.ndarray:
 def torso_vectors(
     left_shoulder: np.ndarray,
     right_shoulder: np.ndarray,
+    *,
     left_hip: np.ndarray,
     right_hip: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -96,14 +97,16 @@ def frame_from(
 def body_frame(
     left_shoulder: np.ndarray,
     right_shoulder: np.ndarray,
+    *,
     left_hip: np.ndarray,
     right_hip: np.ndarray,
-    *,
     axis: int = -1,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The body frame (module docstring): unit `(forward, left, up)` from 3D shoulders and hips,
     per frame (NaN where a point is missing)."""
-    across, up = torso_vectors(left_shoulder, right_shoulder, left_hip, right_hip)
+    across, up = torso_vectors(
+        left_shoulder, right_shoulder, left_hip=left_hip, right_hip=right_hip
+    )
     return frame_from(across, up, axis=axis)
 
 

@@ -109,7 +109,7 @@ def plugin_default(group: str, name: str) -> BaseModel | None:
     return None if section is None else section()
 
 
-def plugin_section(group: str, name: str, raw: object, known: Iterable[str]) -> BaseModel:
+def plugin_section(group: str, name: str, *, raw: object, known: Iterable[str]) -> BaseModel:
     """A plug-in's own config section `NAME` (`[train.NAME]` of a "gesturebank.models" plug-in,
     `[detector.NAME]`, `[lifter.NAME]`), validated by the `section_model` (a pydantic model)
     its class declares.

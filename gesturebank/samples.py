@@ -265,7 +265,7 @@ def _read_speech(paths: list[Path], rate: int) -> np.ndarray:
     return np.concatenate(parts)
 
 
-def mux_speech(video: Path, speech: list[Path], out: Path, rate: int = 16000) -> None:
+def mux_speech(video: Path, speech: list[Path], *, out: Path, rate: int = 16000) -> None:
     """Copy `video`'s stream unchanged and add the speech (trimmed/padded to its length) as AAC."""
     import av
 
@@ -348,7 +348,7 @@ def fetch_samples(
         if loop:
             _loop_speech(root / video, [root / s for s in speech], root / out)
         else:
-            mux_speech(root / video, [root / s for s in speech], root / out)
+            mux_speech(root / video, [root / s for s in speech], out=root / out)
         groups[out] = {out: sha256_file(root / out)}
         report.written.append(out)
     demos = {out for out, *_ in TALKING}

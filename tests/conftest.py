@@ -44,7 +44,7 @@ def demo_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
 
     videos = samples / "talking"
     out = tmp_path_factory.mktemp("demo-dataset")
-    summary = build_dataset(discover_takes(videos), videos, out, Config())
+    summary = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=Config())
     assert not summary.failed, summary.failed
     write_dashboard(out)  # as build-dataset does after the build
     return out

@@ -119,6 +119,16 @@ def test_config_prints_resolved_toml(tmp_path: Path) -> None:
     assert data["processing"]["butter_order"] == 5
 
 
+def test_an_old_config_key_is_shown_as_deprecated(tmp_path: Path) -> None:
+    """Python hides a DeprecationWarning not raised by __main__: the command shows it."""
+    cfg = tmp_path / "old.toml"
+    cfg.write_text('[geometric]\nunits = "m"\n')
+    r = run("gesturebank", "config", "--config", str(cfg))
+    assert r.returncode == 0, r.stderr
+    assert "config key [geometric] is deprecated: use [lifter.geometric]" in r.stderr
+    assert 'units = "m"' in r.stdout
+
+
 def test_train_and_qc_output_errors_are_one_line(demo_dataset: Path, tmp_path: Path) -> None:
     """Too few subjects for SI (the demo has 2), unwritable --out or qc/: one line, exit 2."""
     import shutil
@@ -358,14 +368,20 @@ def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_pat
     r = gb("build-dataset", str(video), str(out))
     assert r.returncode == 0, r.stderr
     assert "from the cache" not in r.stdout  # a first build detects
+    env["COLUMNS"] = "80"
     r = gb("cache", "info")
     assert r.returncode == 0, r.stderr
-    assert f"detection cache: {cache} (from $GESTUREBANK_CACHE)" in r.stdout
-    assert "1 entries, " in r.stdout
+    # at 80 columns: the path whole on a line of its own (its note was appended to it, one long
+    # line the terminal wrapped), every other line within 80
+    lines = r.stdout.splitlines()
+    assert lines[0] == f"detection cache: {cache}", r.stdout
+    assert "set by $GESTUREBANK_CACHE" in lines[1] and all(len(ln) <= 80 for ln in lines[1:])
+    assert "1 entry, " in r.stdout
+    env["COLUMNS"] = "200"
     r = gb("build-dataset", str(video), str(out), "--force")
     assert r.returncode == 0, r.stderr
     assert "1 of 1 takes built took their detections from the cache" in r.stdout, r.stdout
     r = gb("cache", "clear")
-    assert r.returncode == 0 and "removed 1 entries" in r.stdout, r.stdout
+    assert r.returncode == 0 and "removed 1 entry " in r.stdout, r.stdout
     assert list(cache.iterdir()) == []
     assert "0 entries, 0 B" in gb("cache", "info").stdout

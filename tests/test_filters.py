@@ -110,7 +110,7 @@ def test_resample_vfr_smooth_function_to_interpolation_accuracy() -> None:
     f = lambda t: np.sin(2 * np.pi * 0.5 * t) + 0.3 * t  # noqa: E731
     lin = lambda t: 2.0 - 0.7 * t  # noqa: E731
     times, out, report = resample_to_clock(
-        np.column_stack([f(ts), lin(ts)]), ts, RATE, max_gap_s=0.25
+        np.column_stack([f(ts), lin(ts)]), ts, rate_hz=RATE, max_gap_s=0.25
     )
     np.testing.assert_allclose(times, ts[0] + np.arange(len(times)) / RATE, atol=1e-12)
     assert times[-1] <= ts[-1] < times[-1] + 1 / RATE
@@ -128,7 +128,7 @@ def test_resample_fills_short_gap_and_leaves_long_gap_nan() -> None:
     col[(ts > 2.0) & (ts < 2.1)] = np.nan  # ~0.1 s hole: filled
     col[(ts > 5.0) & (ts < 5.6)] = np.nan  # ~0.6 s hole: left NaN
     times, out, report = resample_to_clock(
-        np.column_stack([col, lin]), ts, RATE, t0=0.0, max_gap_s=0.25
+        np.column_stack([col, lin]), ts, rate_hz=RATE, t0=0.0, max_gap_s=0.25
     )
     last_before = ts[ts <= 5.0][-1]
     first_after = ts[ts >= 5.6][0]
@@ -145,7 +145,7 @@ def test_resample_fills_short_gap_and_leaves_long_gap_nan() -> None:
 def test_resample_timestamp_hole_without_nan() -> None:
     ts = np.arange(0, 4, 0.04)
     ts = np.concatenate([ts[ts < 1.0], ts[ts > 1.5]])  # frames dropped for ~0.5 s
-    times, out, report = resample_to_clock((3 * ts)[:, None], ts, RATE, max_gap_s=0.25)
+    times, out, report = resample_to_clock((3 * ts)[:, None], ts, rate_hz=RATE, max_gap_s=0.25)
     hole = (times > ts[ts < 1.0][-1] + 1e-9) & (times < ts[ts > 1.5][0] - 1e-9)
     assert hole.sum() > 40 and np.all(np.isnan(out[hole, 0]))
     np.testing.assert_allclose(out[~hole, 0], 3 * times[~hole], atol=1e-9)
@@ -155,9 +155,9 @@ def test_resample_timestamp_hole_without_nan() -> None:
 def test_resample_edges_held_when_short_nan_when_long() -> None:
     ts = np.arange(0.02, 3.0, 0.04)
     vals = np.column_stack([np.full(len(ts), 0.5), np.full(len(ts), -0.5)])
-    times, out, _ = resample_to_clock(vals, ts, RATE, t0=0.0, t1=3.0, max_gap_s=0.25)
+    times, out, _ = resample_to_clock(vals, ts, rate_hz=RATE, t0=0.0, t1=3.0, max_gap_s=0.25)
     assert times[0] == 0.0 and np.all(np.isfinite(out))  # 20 ms lead: held
-    times, out, report = resample_to_clock(vals, ts, RATE, t0=-1.0, max_gap_s=0.25)
+    times, out, report = resample_to_clock(vals, ts, rate_hz=RATE, t0=-1.0, max_gap_s=0.25)
     lead = times < ts[0]
     assert np.all(np.isnan(out[lead])) and np.all(np.isfinite(out[~lead]))
     assert report.gaps_unfilled == 2  # one per column
@@ -167,7 +167,7 @@ def test_resample_edges_held_when_short_nan_when_long() -> None:
 def test_resample_column_without_data_is_nan_and_others_survive() -> None:
     ts = np.arange(0, 1, 0.05)
     vals = np.column_stack([np.full(len(ts), np.nan), ts])
-    _, out, report = resample_to_clock(vals, ts, RATE, max_gap_s=0.25)
+    _, out, report = resample_to_clock(vals, ts, rate_hz=RATE, max_gap_s=0.25)
     assert np.all(np.isnan(out[:, 0])) and np.all(np.isfinite(out[:, 1]))
     assert report.gaps_unfilled == 1
     assert report.missing_fraction == pytest.approx(0.5)
@@ -196,7 +196,7 @@ def test_fill_gaps_on_own_timestamps() -> None:
 )
 def test_resample_rejects_bad_input(values: np.ndarray, ts: np.ndarray, rate: float) -> None:
     with pytest.raises(InputError):
-        resample_to_clock(values, ts, rate, max_gap_s=0.25)
+        resample_to_clock(values, ts, rate_hz=rate, max_gap_s=0.25)
 
 
 # --- Kalman -----------------------------------------------------------------------------------

@@ -77,10 +77,15 @@ def test_cross_dot_and_unit_along_either_axis(a: np.ndarray, b: np.ndarray) -> N
 # ------------------------------------------------------------------------------- the body frame
 
 
+def body_frame(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`G.body_frame` of (4, 3) left shoulder, right shoulder, left hip, right hip."""
+    return G.body_frame(pts[0], pts[1], left_hip=pts[2], right_hip=pts[3])
+
+
 def torso_points(data: st.DataObject) -> np.ndarray:
     """(4, 3) left shoulder, right shoulder, left hip, right hip, not degenerate."""
     pts = data.draw(arrays(np.float64, (4, 3), elements=st.floats(-1, 1)))
-    across, up = G.torso_vectors(*pts)
+    across, up = G.torso_vectors(pts[0], pts[1], left_hip=pts[2], right_hip=pts[3])
     assume(np.linalg.norm(up) > 0.1 and np.linalg.norm(across) > 0.1)
     assume(np.linalg.norm(np.cross(G.unit(across), G.unit(up))) > 0.1)  # not parallel
     return pts
@@ -94,8 +99,8 @@ def test_body_frame_moves_with_the_body(
     """Turning, moving and scaling the body turns its frame the same way, and nothing more."""
     pts = torso_points(data)
     r = rotation(rotvec)
-    frame = np.stack(G.body_frame(*pts))  # rows forward, left, up
-    moved = np.stack(G.body_frame(*(scale * pts @ r.T + shift)))
+    frame = np.stack(body_frame(pts))  # rows forward, left, up
+    moved = np.stack(body_frame(scale * pts @ r.T + shift))
     np.testing.assert_allclose(moved, frame @ r.T, atol=1e-9)
 
 
@@ -103,7 +108,7 @@ def test_body_frame_moves_with_the_body(
 @given(data=st.data())
 def test_body_frame_is_right_handed_and_orthonormal(data: st.DataObject) -> None:
     pts = torso_points(data)
-    frame = np.stack(G.body_frame(*pts))
+    frame = np.stack(body_frame(pts))
     np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-12)
     assert np.linalg.det(frame) == pytest.approx(1.0, abs=1e-12)
     ls, rs, lh, rh = pts
@@ -116,11 +121,11 @@ def test_body_frame_of_an_upright_person() -> None:
     either component-last (T, 3) or component-first (3, T)."""
     ls, rs = np.array([[0.0, 0.2, 1.5]]), np.array([[0.0, -0.2, 1.5]])
     lh, rh = np.array([[0.05, 0.1, 1.0]]), np.array([[0.05, -0.1, 1.0]])
-    fwd, left, up = G.body_frame(ls, rs, lh, rh)
+    fwd, left, up = G.body_frame(ls, rs, left_hip=lh, right_hip=rh)
     tilt = np.arctan2(0.05, 0.5)
     np.testing.assert_allclose(fwd, [[np.cos(tilt), 0.0, np.sin(tilt)]], atol=1e-12)
     np.testing.assert_allclose(left, [[0.0, 1.0, 0.0]], atol=1e-12)
-    first = G.body_frame(ls.T, rs.T, lh.T, rh.T, axis=0)
+    first = G.body_frame(ls.T, rs.T, left_hip=lh.T, right_hip=rh.T, axis=0)
     np.testing.assert_allclose(np.stack(first), np.stack([fwd.T, left.T, up.T]), atol=0)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import tomllib
 import warnings
 from pathlib import Path
@@ -87,6 +88,9 @@ def test_install_by_hand_is_what_make_installs() -> None:
     }
     section = readme.split("## Install by hand", 1)[1].split("\n## ", 1)[0]
     assert section.count(" GB") >= 2  # the sizes of both installs are given
+    # and what each downloads (issue 44: only installed sizes were given)
+    assert re.search(r"To download: about \d+ MB for\s+`make demo`", section), section
+    assert re.search(r"about [\d.]+ GB for `make setup`", section), section
 
 
 def test_a_missing_extra_is_one_line_naming_it(tmp_path: Path) -> None:

@@ -109,7 +109,7 @@ def cannot_write(out: Path, exc: OSError) -> str:
     )
 
 
-def with_threads(config: Config, workers: int, cores: int) -> Config:
+def with_threads(config: Config, *, workers: int, cores: int) -> Config:
     """`config` with build.decode_threads and build.inference_threads resolved: as set, else
     the cores each worker has to itself (Ray tasks reserve one CPU each, so 1), so that
     workers × threads ≈ cores. On 2 cores two workers built ~4 % faster with single-threaded
@@ -136,7 +136,7 @@ def _local(
             importlib.import_module(module)
         for take, source in schedule.jobs.values():  # each detects its chunks itself
             with _every_poll(take.take_id, config.video.start_s, on_frames):
-                result = run_take(take, source, out, config)
+                result = run_take(take, source, out=out, config=config)
             yield result
         return
     # forkserver: a clean server process (no threads inherited from mediapipe or a Ray client)
@@ -161,8 +161,8 @@ def _local(
                         board.claim(job.take_id, job.own_s),
                         run_chunk,
                         job,
-                        out,
-                        config,
+                        out=out,
+                        config=config,
                     )
                     if isinstance(job, ChunkJob)
                     else pool.submit(
@@ -170,13 +170,13 @@ def _local(
                         board.claim(job[0].take_id, config.video.start_s),
                         run_take,
                         *job,
-                        out,
-                        config,
+                        out=out,
+                        config=config,
                     )
                 )
             except BrokenProcessPool:
                 take = schedule.jobs[job.take_id] if isinstance(job, ChunkJob) else job
-                died.append(record_failure(*take, out, config, _DIED))
+                died.append(record_failure(*take, out=out, config=config, reason=_DIED))
                 return set()
             jobs[fut] = job
             return {fut}
@@ -204,7 +204,7 @@ def _local(
                         result = fut.result()
                     except BrokenProcessPool:
                         # a native crash (e.g. in a decoder) killed a worker: the pool is gone
-                        yield record_failure(*job, out, config, _DIED)
+                        yield record_failure(*job, out=out, config=config, reason=_DIED)
                         continue
                     assert result is not None
                     yield result
@@ -242,7 +242,9 @@ def _ray(
 ) -> Generator[TakeResult, None, None]:
     from gesturebank.app.cluster import run_on_ray  # needs Ray: imported when used
 
-    yield from run_on_ray(schedule, out, videos_dir, config)  # close() reaches it: tasks cancelled
+    yield from run_on_ray(
+        schedule, out=out, videos_dir=videos_dir, config=config
+    )  # close() reaches it: tasks cancelled
 
 
 @contextmanager
@@ -267,10 +269,10 @@ def _sigterm_interrupts() -> Iterator[list[int]]:
 
 def build_dataset(
     takes: Iterable[Take],
+    *,
     videos_dir: Path,
     out: Path,
     config: Config,
-    *,
     force: bool = False,
     on_result: Callable[[TakeResult], None] | None = None,
     on_chunk: Callable[[str, int, int], None] | None = None,
@@ -324,7 +326,7 @@ def _build(
     digest = content_digest(config)
     jobs = []
     for take in takes:
-        if not force and store.is_built(out, take.take_id, digest):
+        if not force and store.is_built(out, take_id=take.take_id, config_digest=digest):
             result = TakeResult(take.take_id, "skipped")
             summary.results.append(result)
             if on_result:
@@ -336,7 +338,7 @@ def _build(
     jobs.reverse()
     schedule = Schedule(jobs, config, on_chunk)
     workers = min(config.build.workers or os.cpu_count() or 1, max(1, len(schedule.first())))
-    config = with_threads(config, workers, os.cpu_count() or 1)
+    config = with_threads(config, workers=workers, cores=os.cpu_count() or 1)
     results = (
         _ray(schedule, out, videos_dir, config)
         if config.build.executor == "ray"

@@ -26,7 +26,7 @@ _I = COCO17.index
 
 
 def audio_clock(
-    pose_t: np.ndarray, audio_start_s: float, n_frames: int, hop_s: float, win_s: float
+    pose_t: np.ndarray, audio_start_s: float, *, n_frames: int, hop_s: float, win_s: float
 ) -> tuple[int, int, np.ndarray]:
     """Audio frames whose window centre lies within the pose's time span.
 
@@ -60,6 +60,7 @@ def covering(audio: Audio, timestamps: np.ndarray, *, margin_s: float) -> Audio:
 def build_clip(
     view: TakeView,
     span: Span,
+    *,
     clip_id: str,
     take_id: str,
     feats: np.ndarray,
@@ -75,7 +76,9 @@ def build_clip(
     a, b = span.start, span.stop
     ts = view.pose2d.timestamps[a:b]
     a_cfg = config.audio
-    i0, i1, times = audio_clock(ts, feats_start_s, len(feats), a_cfg.winstep_s, a_cfg.winlen_s)
+    i0, i1, times = audio_clock(
+        ts, feats_start_s, n_frames=len(feats), hop_s=a_cfg.winstep_s, win_s=a_cfg.winlen_s
+    )
     pose3d = view.lift(a, b)
     if not lifter_traits(view.lifter).measured_depth:  # a lifter's own glitches (measured 3D:
         # triangulated and repaired by its lifter, or motion capture)
@@ -93,7 +96,9 @@ def build_clip(
         roll=head_roll(pose3d),
         body_ok=support[:, pepper.INDEX["HeadPitch"]],
         torso_ok=valid[:, _I["left_shoulder"]] & valid[:, _I["right_shoulder"]],
-        face_axes=None if face is None else in_pose_frame(face.axes, pose3d, view.camera),
+        face_axes=None
+        if face is None
+        else in_pose_frame(face.axes, pose3d=pose3d, camera=view.camera),
         face_ok=np.zeros(b - a, bool)
         if face is None
         else face.residual <= config.retarget.head_max_fit_residual,
@@ -138,21 +143,21 @@ def build_clip(
         head_roll=roll100,
         depth_confidence=lift_confidence(pose2d=pose2d, pose3d=pose3d, lifter=view.lifter),
         person=int(view.speaker[a]),
-        role=role_at(view.role[a:b], ts, times),
+        role=role_at(view.role[a:b], ts, times=times),
         head_source=head_source,
         partner_clip_id="",  # set for the whole take (`datasets.partners.pair_clips`)
         partner_speaking=np.zeros(len(times), bool),
     )
 
 
-def role_at(role: np.ndarray, timestamps: np.ndarray, times: np.ndarray) -> np.ndarray:
+def role_at(role: np.ndarray, timestamps: np.ndarray, *, times: np.ndarray) -> np.ndarray:
     """(N,) int8: the role of the video frame shown at each of `times` (the last one starting
     at or before it; the first frame for times before it)."""
     k = np.searchsorted(np.asarray(timestamps), np.asarray(times) + 1e-9, side="right") - 1
     return np.asarray(role, np.int8)[np.clip(k, 0, len(role) - 1)]
 
 
-def take_activity(audio: Audio, timestamps: np.ndarray, config: Config) -> SpeechActivity:
+def take_activity(audio: Audio, timestamps: np.ndarray, *, config: Config) -> SpeechActivity:
     """Speech activity over the whole take (first frame to the last frame's end), on the video's
     clock: the VAD runs once per take, its recurrent state carried across clip boundaries."""
     t0 = float(timestamps[0])

@@ -214,7 +214,7 @@ def node_sees(*, probe: str, secret: str, videos_dir: str, version: str) -> list
     return problems
 
 
-def check_storage(ray: Any, out: Path, videos_dir: Path, config: Config) -> None:
+def check_storage(ray: Any, *, out: Path, videos_dir: Path, config: Config) -> None:
     """One task per live node checks it sees a probe the driver wrote into `out`, `videos_dir`
     and the driver's gesturebank version; InputError with one line per problem."""
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
@@ -339,14 +339,14 @@ def _clean_temporaries(out: Path, take_id: str) -> None:
 
 
 def run_on_ray(
-    schedule: Schedule, out: Path, videos_dir: Path, config: Config
+    schedule: Schedule, *, out: Path, videos_dir: Path, config: Config
 ) -> Generator[TakeResult, None, None]:
     """Every job as a Ray task sized for its take (or chunk); take results as they finish. A
     task whose worker or node died is retried by Ray (build.ray_max_retries), then its take is
     recorded failed with the reason (a lost chunk is detected by its take's task instead).
     Closing the generator (Ctrl-C) cancels what has not finished."""
     with connected(config.build.ray_address, config) as ray:
-        check_storage(ray, out, videos_dir, config)
+        check_storage(ray, out=out, videos_dir=videos_dir, config=config)
         cpus = task_cpus(config)
         most_cpus, most_memory_mb = _largest(ray, "CPU"), _largest(ray, "memory") / 1e6
         if cpus > most_cpus:
@@ -381,9 +381,9 @@ def run_on_ray(
                 retry_exceptions=False,  # neither raises: only lost workers are retried
             )
             if isinstance(job, ChunkJob):
-                ref = remote_chunk.options(**options).remote(job, out, config)
+                ref = remote_chunk.options(**options).remote(job, out=out, config=config)
             else:
-                ref = remote_take.options(**options).remote(*job, out, config)
+                ref = remote_take.options(**options).remote(*job, out=out, config=config)
             refs[ref] = job
             return ref
 
@@ -415,7 +415,7 @@ def run_on_ray(
                         f"{take.video}: lost its Ray worker ({type(exc).__name__}) "
                         f"after {tries} attempt(s); run again to resume"
                     )
-                    yield record_failure(take, source, out, config, reason)
+                    yield record_failure(take, source, out=out, config=config, reason=reason)
                     continue
                 _clean_temporaries(out, take.take_id)  # a killed earlier attempt's
                 yield result

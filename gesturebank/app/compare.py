@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich import box
 from rich.console import Console
 from rich.table import Table
 
@@ -24,13 +25,13 @@ from gesturebank.train.eval.compare import (
     COLUMNS,
     FORMATS,
     PathLike,
-    cells,
     model_names,
     to_csv,
     to_markdown,
 )
 from gesturebank.train.eval.evaluate import (
     LEGEND,
+    Column,
     average,
     baselines,
     postprocess,
@@ -38,16 +39,16 @@ from gesturebank.train.eval.evaluate import (
 )
 from gesturebank.train.eval.fgd import label as fgd_label
 from gesturebank.train.eval.field import prepare_trained
-from gesturebank.train.eval.tables import Footnotes, footnotes
+from gesturebank.train.eval.tables import NARROW_COLUMNS, Footnotes, cell, footnotes, units
 from gesturebank.train.torch_runtime import predict as torch_predict
 from gesturebank.train.torch_runtime import torch_settings
 
 
 def compare_command(
     model_dirs: Sequence[PathLike],
+    *,
     dataset: PathLike | None = None,
     split: str = "test",
-    *,
     config: TrainConfig | None = None,
     out: PathLike | None = None,
     console: Console | None = None,
@@ -84,7 +85,9 @@ def compare_command(
         net = folder.torch_model()
         with torch_settings(own.seed, own.threads):
             pred01 = [torch_predict(net, s.audio) for s in segments]
-        systems[name] = [postprocess(p, folder.profile, rate_hz, own) for p in pred01]
+        systems[name] = [
+            postprocess(p, folder.profile, rate_hz=rate_hz, config=own) for p in pred01
+        ]
     systems |= baselines(
         segments,
         mean_pose01=np.asarray(folders[0].norm["mean_pose01"]),
@@ -94,7 +97,13 @@ def compare_command(
         donors=inputs.donors,
     )
     results = score_systems(
-        segments, systems, folders[0].profile, rate_hz, cfg, fgd=inputs.fgd, onsets=inputs.onsets
+        segments,
+        systems,
+        profile=folders[0].profile,
+        rate_hz=rate_hz,
+        config=cfg,
+        fgd=inputs.fgd,
+        onsets=inputs.onsets,
     )
     rows = average(results)
     version = inputs.fgd.version if inputs.fgd else None
@@ -105,12 +114,23 @@ def compare_command(
     )
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
     screen = console or Console()
-    screen.print(rich_table(rows, title, notes))
-    for line in [LEGEND, *notes.lines]:
-        screen.print(line, highlight=False, soft_wrap=True)
+    narrow = screen.width < NARROW_COLUMNS  # two tables of short headers, units below
+    if narrow:
+        half = len(COLUMNS) // 2  # errors and correlations, then the motion's statistics
+        for part_title, columns in ((title, COLUMNS[:half]), (None, COLUMNS[half:])):
+            screen.print(
+                rich_table(rows, title=part_title, notes=notes, columns=columns, narrow=True)
+            )
+    else:
+        screen.print(rich_table(rows, title=title, notes=notes))
+    legend = [LEGEND, units(COLUMNS)] if narrow else [LEGEND]
+    for line in [*legend, *notes.lines]:  # narrow: wrapped at words, each note whole
+        screen.print(line, highlight=False, soft_wrap=not narrow)
     if out is not None:
         text = (
-            to_csv(rows, version) if Path(out).suffix == ".csv" else to_markdown(rows, title, notes)
+            to_csv(rows, version)
+            if Path(out).suffix == ".csv"
+            else to_markdown(rows, title=title, notes=notes)
         )
         with output_errors(out, "the comparison table"):
             write_bytes_atomic(out, text.encode("utf-8"))
@@ -124,15 +144,24 @@ def compare_command(
 
 
 def rich_table(
-    rows: dict[str, dict[str, float | None]], title: str, notes: Footnotes | None = None
+    rows: dict[str, dict[str, float | None]],
+    *,
+    title: str | None,
+    notes: Footnotes | None = None,
+    columns: Sequence[Column] = COLUMNS,
+    narrow: bool = False,
 ) -> Table:
     """One row per system (models first, then the baselines); headers with ↑/↓/≈ (`LEGEND`),
-    n/a cells with the marks of `notes`."""
+    n/a cells with the marks of `notes`. `narrow` (an 80-column terminal): headers without
+    units (`units` says them), no vertical rules."""
     notes = notes or Footnotes({}, {}, [])
-    t = Table(title=title)
+    if narrow:
+        t = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    else:
+        t = Table(title=title)
     t.add_column("System", no_wrap=True)
-    for c in COLUMNS:
-        t.add_column(c.title, justify="right")
+    for c in columns:
+        t.add_column(c.short if narrow else c.title, justify="right", no_wrap=narrow)
     for name, row in rows.items():
-        t.add_row(name, *cells(name, row, notes))
+        t.add_row(name, *(cell(row.get(c.key), c, mark=notes.mark(name, c.key)) for c in columns))
     return t

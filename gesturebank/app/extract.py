@@ -247,7 +247,7 @@ def detect_people(
         params["shots"] = config.shots.model_dump(mode="json")
         # a detector's `version` changes when its code gives other output for the same video
         params["version"] = getattr(det, "version", 0)
-        key = cache_key(video_digest(path), det.name, params)
+        key = cache_key(video_digest(path), det.name, params=params)
         cached = store.load(key)
         log.info("%s: detection cache %s", path, "miss" if cached is None else "hit")
         if cached is not None:
@@ -282,7 +282,7 @@ def _detect_chunks(
     return Detections(multi, shots, name, all(hits))
 
 
-def preview_times(info: VideoInfo, config: Config, n: int = N_PREVIEW) -> np.ndarray:
+def preview_times(info: VideoInfo, *, config: Config, n: int = N_PREVIEW) -> np.ndarray:
     """`n` source times spread over the used range of the video (for the preview strip)."""
     end = config.video.end_s if config.video.end_s is not None else info.duration_s
     if not np.isfinite(end):
@@ -367,7 +367,7 @@ def extract_take(
     path = Path(video_path)
     info = probe(path)
     t0 = time.perf_counter()
-    times = preview_times(info, config)
+    times = preview_times(info, config=config)
     plan = [] if chunks is None else take_chunks(str(path), config)
     if chunks is not None and plan:
         found = _detect_chunks(path, config, plan, chunks)

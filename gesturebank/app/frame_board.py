@@ -53,16 +53,16 @@ def start_worker(parent: int, board: Any) -> None:
     die_with(parent)
 
 
-def watched(slot: int, run: Callable[..., Any], *args: Any) -> Any:
-    """`run(*args)` in a worker, each frame's time stored in the board's `slot` (the latest of
-    a take's videos: a second camera does not move it back)."""
+def watched(slot: int, run: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """`run(*args, **kwargs)` in a worker, each frame's time stored in the board's `slot` (the
+    latest of a take's videos: a second camera does not move it back)."""
     board = _BOARD
     if board is None:
-        return run(*args)
+        return run(*args, **kwargs)
 
     def store(t: float) -> None:
         if not board[slot] >= t:  # NaN or earlier
             board[slot] = t
 
     with watching(store):
-        return run(*args)
+        return run(*args, **kwargs)

@@ -22,9 +22,9 @@ PathLike = str | os.PathLike[str]
 
 def side_by_side(
     timelines: list[Timeline],
+    *,
     labels: list[str],
     out: PathLike,
-    *,
     profile: pepper.RobotProfile,
     audio: PathLike | None,
     config: PlaybackConfig,

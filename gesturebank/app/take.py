@@ -86,7 +86,7 @@ def _preview_jpeg(frames: tuple[tuple[float, np.ndarray], ...]) -> bytes | None:
 
 
 def build_take(
-    take: Take, source: str, config: Config, *, chunks: DetectionCache | None = None
+    take: Take, source: str, *, config: Config, chunks: DetectionCache | None = None
 ) -> BuiltTake:
     """Every clip of one take, its record (clips, dropped spans, QC metrics and absolute
     verdicts) and its preview; raises a GesturebankError when the take cannot be built.
@@ -97,9 +97,9 @@ def build_take(
     if take.mocap:
         views = [mocap_view(take, config)]
     elif take.multi_camera:  # people are not matched across cameras: the main speaker only
-        views = [multi_view(take, config, chunks)]
+        views = [multi_view(take, config=config, chunks=chunks)]
     else:
-        views = single_views(take, config, chunks)
+        views = single_views(take, config=config, chunks=chunks)
     view = views[0]  # the audio, clock, detector and preview are the take's, the same in each
     profile = pepper.load_profile(config.robot.profile)
     ts = view.pose2d.timestamps
@@ -107,8 +107,8 @@ def build_take(
     audio_span = (float(view.audio.start_s), float(audio_end))
     # missing audio is silence (issue 32): features over digital silence where the track is not
     heard = covering(view.audio, ts, margin_s=config.audio.winlen_s)
-    feats = features(heard.signal, heard.sample_rate, config.audio)
-    activity = take_activity(view.audio, ts, config)
+    feats = features(heard.signal, heard.sample_rate, config=config.audio)
+    activity = take_activity(view.audio, ts, config=config)
     trimmed = trimmed_share(ts, audio_span)  # judged on every clip (qc.max_trimmed_fraction)
     if trimmed > config.qc.max_trimmed_fraction:
         log.warning(
@@ -139,13 +139,13 @@ def build_take(
             whole = build_clip(
                 person_view,
                 span,
-                f"{take.take_id}__whole",
-                take.take_id,
-                feats,
-                heard.start_s,
-                activity,
-                config,
-                profile,
+                clip_id=f"{take.take_id}__whole",
+                take_id=take.take_id,
+                feats=feats,
+                feats_start_s=heard.start_s,
+                activity=activity,
+                config=config,
+                profile=profile,
             )
             # judged, and cut around the stretches that fail (issue 41); trimmed_fraction is of
             # the whole take, so each of its clips carries it

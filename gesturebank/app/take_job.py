@@ -74,7 +74,7 @@ def chunk_jobs(take: Take, config: Config) -> list[ChunkJob]:
     return jobs
 
 
-def run_chunk(job: ChunkJob, out: Path, config: Config) -> None:
+def run_chunk(job: ChunkJob, *, out: Path, config: Config) -> None:
     """Detect one chunk into OUT_DIR's chunk cache. A chunk that fails is left to its take's
     task, which detects what the cache lacks itself and fails with the reason."""
     from gesturebank.app.extract import detect_people, detecting
@@ -118,13 +118,13 @@ def content_digest(config: Config) -> str:
     return pipeline_digest(config)
 
 
-def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
+def run_take(take: Take, source: str, *, out: Path, config: Config) -> TakeResult:
     """Build one take and write it; every failure becomes a `failed` record, never an exception."""
     from gesturebank.app.take import build_take
 
     start = time.perf_counter()
     try:
-        built = build_take(take, source, config, chunks=chunk_cache(out))
+        built = build_take(take, source, config=config, chunks=chunk_cache(out))
     except GesturebankError as exc:
         reason = str(exc)
     except Exception as exc:  # a bug or a library error must not stop the other takes
@@ -132,7 +132,7 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
         reason = f"{take.video}: unexpected {type(exc).__name__}: {exc}"
     else:
         try:
-            store.write_take(out, built.record, built.clips, built.preview)
+            store.write_take(out, record=built.record, clips=built.clips, preview=built.preview)
         except OSError as exc:  # a full disk or quota: nothing of it stays under a final name
             reason = f"{store.take_dir(out, take.take_id)}: cannot write ({exc.strerror or exc})"
         else:
@@ -147,11 +147,13 @@ def run_take(take: Take, source: str, out: Path, config: Config) -> TakeResult:
                 built.record.usable_s,
                 built.cached,
             )
-    return record_failure(take, source, out, config, reason, time.perf_counter() - start)
+    return record_failure(
+        take, source, out=out, config=config, reason=reason, wall_s=time.perf_counter() - start
+    )
 
 
 def record_failure(
-    take: Take, source: str, out: Path, config: Config, reason: str, wall_s: float = 0.0
+    take: Take, source: str, *, out: Path, config: Config, reason: str, wall_s: float = 0.0
 ) -> TakeResult:
     record = store.TakeRecord(
         take_id=take.take_id,
@@ -164,7 +166,7 @@ def record_failure(
         traits=take.traits,
     )
     try:
-        store.write_take(out, record)
+        store.write_take(out, record=record)
     except OSError as exc:  # the disk is full: the summary still reports the failure
         log.warning("%s: cannot record the failure (%s)", take.take_id, exc.strerror or exc)
     return TakeResult(take.take_id, "failed", reason, wall_s)

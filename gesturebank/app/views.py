@@ -86,7 +86,7 @@ def _coco17_mask(mask: np.ndarray, skeleton: str) -> np.ndarray:
     return np.nan_to_num(out, nan=0.0) > 0.5
 
 
-def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> list[TakeView]:
+def single_views(take: Take, *, config: Config, chunks: DetectionCache | None) -> list[TakeView]:
     """One camera: the main speaker's view, or with build.people = "all" one view per tracked
     person (by track id)."""
     from gesturebank.app.extract import extract_take
@@ -111,7 +111,9 @@ def single_views(take: Take, config: Config, chunks: DetectionCache | None) -> l
     for track in tracks:
         # a joint snapped onto another person for 1-3 frames is set missing first (issue 41)
         own, snapped = unsnap(
-            gather(ext.multi, ids, track), others_of(ext.multi, ids, track), config=config.repair
+            gather(ext.multi, ids, track_id=track),
+            others_of(ext.multi, ids, track=track),
+            config=config.repair,
         )
         pose, report = repair_pose2d(own, config=config.repair)
         valid = _coco17_mask(
@@ -167,7 +169,7 @@ def face_head(
         return None
     axes, centre, residual = heads.of(track)
     focal, principal, _ = pinhole(
-        np.zeros((0, 2)), image_size, camera, fov_deg=config.lifter.fitted.fov_deg
+        np.zeros((0, 2)), image_size, camera=camera, fov_deg=config.lifter.fitted.fov_deg
     )
     if camera is not None:
         centre = camera.undistort_points(centre)
@@ -211,7 +213,7 @@ def _lift_frames(lifter: Any, pose: Pose2D) -> Callable[[int, int], Pose3D]:
     return lambda a, b: lifter.lift(TakeViews.of(pose.frames(a, b)))
 
 
-def multi_view(take: Take, config: Config, chunks: DetectionCache | None) -> TakeView:
+def multi_view(take: Take, *, config: Config, chunks: DetectionCache | None) -> TakeView:
     """A multi-camera take: every camera detected and repaired, triangulated by the multi-view
     lifter. The reference camera's clock, shots and speaker stand for the take, its 2D pose is
     kept to be drawn; the QC judges the 3D as every camera sees it (the cameras travel in the

@@ -101,7 +101,7 @@ def _mel_filterbank(nfilt: int, nfft: int, sample_rate: int) -> NDArray[np.float
     return fb
 
 
-def mel_filterbank(nfilt: int, nfft: int, sample_rate: int) -> NDArray[np.float64]:
+def mel_filterbank(nfilt: int, nfft: int, *, sample_rate: int) -> NDArray[np.float64]:
     """Triangular Mel filters `(nfilt, nfft // 2 + 1)` over the power-spectrum bins."""
     return _mel_filterbank(int(nfilt), int(nfft), int(sample_rate))
 
@@ -139,7 +139,7 @@ def _power_filterbank(
     """Windowed frames `(N, win)` → (filter-bank energies (N, nfilt), frame energies (N,))."""
     power = np.abs(np.fft.rfft(frames, config.nfft)) ** 2 / config.nfft  # Eq. 3.3
     energy = power.sum(axis=1)
-    fb = power @ mel_filterbank(config.nfilt, config.nfft, config.sample_rate).T
+    fb = power @ mel_filterbank(config.nfilt, config.nfft, sample_rate=config.sample_rate).T
     return np.where(fb == 0, _EPS, fb), np.where(energy == 0, _EPS, energy)
 
 
@@ -174,7 +174,7 @@ def delta(feat: ArrayLike, n: int = 2) -> NDArray[np.float64]:
     return out / (2 * sum(k * k for k in range(1, n + 1)))
 
 
-def features(signal: ArrayLike, sample_rate: float, config: AudioConfig) -> NDArray[np.float32]:
+def features(signal: ArrayLike, sample_rate: float, *, config: AudioConfig) -> NDArray[np.float32]:
     """Audio features `(N, F)` float32 of a mono `signal (S,)` at `config.sample_rate`.
 
     F = `feature_dim(config)`; N = `num_frames(S, config)`; row i is stamped at
@@ -201,8 +201,8 @@ def features(signal: ArrayLike, sample_rate: float, config: AudioConfig) -> NDAr
 def frame_features(
     window: ArrayLike,
     sample_rate: float,
-    config: AudioConfig,
     *,
+    config: AudioConfig,
     previous: float = 0.0,
 ) -> NDArray[np.float32]:
     """Features `(F,)` of one window `(win,)` (the latest 400 samples in live mode, §4.4.2).
@@ -248,8 +248,8 @@ def fit_znorm(
 def apply_znorm(
     feats: ArrayLike,
     mean: ArrayLike,
-    std: ArrayLike,
     *,
+    std: ArrayLike,
     std_floor: float = 1e-8,
 ) -> NDArray[np.float32]:
     """(feats − mean) / max(std, std_floor) for `feats (N, F)` or `(F,)`; float32.

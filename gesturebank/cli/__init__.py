@@ -12,6 +12,7 @@ Exit codes: 0 ok; 1 some takes failed (the summary says which and why) or the ro
 from __future__ import annotations
 
 import logging
+import warnings
 from typing import Annotated
 
 import typer
@@ -31,6 +32,11 @@ from gesturebank.cli import (
 )
 from gesturebank.cli.build import build_dataset_main
 from gesturebank.cli.terminal import missing_extras
+from gesturebank.errors import GesturebankDeprecationWarning
+
+# The user of a command sees gesturebank's deprecations (an old config key and its new name);
+# Python would show them only if __main__ raised them. Importing any command module runs this.
+warnings.simplefilter("default", GesturebankDeprecationWarning)
 
 __all__ = ["app", "build_dataset_main", "main"]
 

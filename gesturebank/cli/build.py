@@ -9,7 +9,9 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich import box
 from rich.console import Console
+from rich.padding import Padding
 from rich.table import Table
+from rich.text import Text
 
 from gesturebank.cli.options import (
     ConfigOption,
@@ -46,6 +48,7 @@ def build_dataset(
             show_default=False,
         ),
     ],
+    *,
     out_dir: Annotated[Path, typer.Argument(help="Dataset folder to create or resume.")],
     config_file: ConfigOption = None,
     detector: Annotated[str | None, typer.Option(help=f"2D detector, {one_of(DETECTORS)}.")] = None,
@@ -133,19 +136,32 @@ def build_dataset(
     raise typer.Exit(EXIT_FAILED if summary.failed else EXIT_OK)
 
 
+NARROW_HEADERS = {
+    "takes built": "takes\nbuilt",
+    "clips kept": "clips\nkept",
+    "clips rejected": "clips\nrejected",
+    "stretches dropped": "stretches\ndropped",
+}
+
+
 def print_summary(console: Console, summary: BuildSummary, *, built: bool = True) -> None:
     """The kept/rejected table and a line per take; `built` False: after `qc` (no build ran,
     so takes are counted, not built/skipped)."""
     narrow = console.width < NARROW_COLUMNS  # no vertical rules: the headers fit 80 columns
     table = (
-        Table(title=f"dataset {summary.out}", box=box.SIMPLE_HEAD, collapse_padding=True)
+        Table(
+            title=f"dataset {summary.out}",
+            box=box.SIMPLE_HEAD,
+            pad_edge=False,
+            collapse_padding=True,
+        )
         if narrow
         else Table(title=f"dataset {summary.out}")
     )
     takes = ("takes built", "skipped", "failed") if built else ("takes", "failed")
     columns = (*takes, "clips kept", "clips rejected", "stretches dropped", "usable s", "seen s")
-    for name in (*columns, "kept"):
-        table.add_column(name, justify="right")
+    for name in (*columns, "kept"):  # narrow: two-word headers on two lines, none cut
+        table.add_column(NARROW_HEADERS.get(name, name) if narrow else name, justify="right")
     visible = summary.visible_s
     counts = (
         [str(summary.count(n)) for n in ("built", "skipped", "failed")]
@@ -167,13 +183,27 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
             console.print(
                 f"[red]failed[/red] {record.take_id}: {record.failed}",
                 highlight=False,
-                soft_wrap=True,
+                soft_wrap=not narrow,
             )
             continue
         kept = sum(c.qc_status == "accepted" for c in record.data_clips)
         rejected = [c for c in record.data_clips if c.qc_status != "accepted"]
         dropped = _dropped(record)
         stretches = "stretch" if len(dropped) == 1 else "stretches"
+        if narrow:  # a block: the take's line, then its rejections and drops, wrapped at words
+            console.print(
+                f"{record.take_id}: {kept} of {len(record.data_clips)} clips kept, "
+                f"{record.usable_s:.1f} of {record.visible_s:.1f} s usable",
+                highlight=False,
+            )
+            for n, what, parts in (
+                (len(rejected), "rejected", rejected),
+                (len(dropped), f"{stretches} dropped", dropped),
+            ):
+                if n:
+                    text = Text(f"{n} {what}{_why(parts)}")
+                    console.print(Padding(text, (0, 0, 0, 2), expand=False), highlight=False)
+            continue
         console.print(
             f"{record.take_id}: {kept} of {len(record.data_clips)} clips kept, "
             f"{len(rejected)} rejected{_why(rejected)}, "
@@ -188,10 +218,10 @@ def print_summary(console: Console, summary: BuildSummary, *, built: bool = True
             f"{cached} of {summary.count('built')} takes built took their detections from the "
             "cache (`gesturebank cache info`; --no-cache runs the detector again)",
             highlight=False,
-            soft_wrap=True,
+            soft_wrap=not narrow,
         )
     for note in summary.notes:
-        console.print(f"note: {note}", highlight=False, soft_wrap=True)
+        console.print(f"note: {note}", highlight=False, soft_wrap=not narrow)
     if summary.dashboard:
         console.print(f"QC dashboard: {summary.dashboard}", highlight=False, soft_wrap=True)
     if summary.interrupted:

@@ -33,9 +33,12 @@ def cache_info() -> None:
         cache = DetectionCache()
         entries = cache.entries()
         total = sum(e.stat().st_size for e in entries)
-    where = f"from ${ENV}" if ENV in os.environ else f"the default; ${ENV} moves it"
-    out.print(f"detection cache: {cache.root} ({where})", highlight=False, soft_wrap=True)
-    out.print(f"{len(entries)} entries, {_size(total)}", highlight=False, soft_wrap=True)
+    where = f"set by ${ENV}" if ENV in os.environ else f"the default place; ${ENV} moves it"
+    # the path on a line of its own, whole (to copy), what it is below: 80 columns fit
+    out.print(f"detection cache: {cache.root}", highlight=False, soft_wrap=True)
+    out.print(f"  {where}", highlight=False)
+    noun = "entry" if len(entries) == 1 else "entries"
+    out.print(f"{len(entries)} {noun}, {_size(total)}", highlight=False)
 
 
 @cache_app.command("clear")
@@ -47,7 +50,8 @@ def cache_clear() -> None:
         cache = DetectionCache()
         removed, freed = cache.clear()
     out.print(
-        f"removed {removed} entries ({_size(freed)}) from {cache.root}",
+        f"removed {removed} {'entry' if removed == 1 else 'entries'} ({_size(freed)}) from "
+        f"{cache.root}",
         highlight=False,
         soft_wrap=True,
     )

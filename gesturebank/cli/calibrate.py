@@ -16,6 +16,7 @@ def calibrate(
         Path,
         typer.Argument(help="Folder with one sub-folder of board photos per camera."),
     ],
+    *,
     placement: Annotated[
         Path,
         typer.Option(

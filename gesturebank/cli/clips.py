@@ -22,6 +22,7 @@ from gesturebank.fileio import keep_existing
 
 def preview(
     dataset: DatasetArg,
+    *,
     out_path: Annotated[
         Path, typer.Option("--out", help="--clip: the MP4 to write; --take: a folder for them.")
     ],
@@ -51,6 +52,7 @@ def preview(
 
 def clips(
     out_dir: DatasetArg,
+    *,
     status: Annotated[
         Status | None,
         typer.Option(parser=pick(Status), help="Only clips the QC accepted or rejected."),

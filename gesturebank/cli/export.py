@@ -183,6 +183,7 @@ def export(
             "angle timeline (.csv from synthesize, export or record; a record .jsonl)."
         ),
     ],
+    *,
     fmt: Annotated[
         Format,
         typer.Option(

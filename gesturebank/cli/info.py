@@ -82,6 +82,7 @@ def fetch_samples_cmd(
 
 def config_cmd(
     config_file: ConfigOption = None,
+    *,
     sets: SetOption = None,
     commented: Annotated[
         bool,

@@ -8,7 +8,9 @@ from gesturebank.cli.terminal import out, user_errors
 from gesturebank.errors import InputError
 
 
-def qc_cmd(out_dir: DatasetArg, config_file: ConfigOption = None, sets: SetOption = None) -> None:
+def qc_cmd(
+    out_dir: DatasetArg, *, config_file: ConfigOption = None, sets: SetOption = None
+) -> None:
     """Re-run the quality checks on a dataset and write its dashboard.
 
     Measures every clip again from its arrays and judges it (jerk, unseen head or arms, bone

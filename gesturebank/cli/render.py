@@ -71,6 +71,7 @@ def _size(text: str | None) -> tuple[int, int] | None:
 
 def render(
     bvh: Annotated[Path, typer.Argument(help="The motion: a BVH file.")],
+    *,
     out_dir: Annotated[Path, typer.Argument(help="Folder to write the take and its truth into.")],
     azimuth: Annotated[
         list[float] | None,

@@ -50,12 +50,12 @@ PathLike = str | os.PathLike[str]
 
 def replay_command(
     angles_csv: PathLike,
+    *,
     backend: str,
     url: str | None = None,
     out: PathLike | None = None,
     audio: PathLike | None = None,
     config: PlaybackConfig | None = None,
-    *,
     clip: str | None = None,
     compare: PathLike | Sequence[PathLike] | None = None,
     profile: str | None = None,
@@ -103,8 +103,8 @@ def replay_command(
         label = f"{Path(angles_csv).name} {clip}" if clip else Path(angles_csv).stem
         return side_by_side(
             timelines,
-            [label, *(Path(p).stem for p in others)],
-            out,
+            labels=[label, *(Path(p).stem for p in others)],
+            out=out,
             profile=robot,
             audio=audio,
             config=cfg,
@@ -146,12 +146,12 @@ def replay_command(
 
 def live_command(
     model_dir: PathLike,
+    *,
     backend: str,
     input: str = "mic",
     url: str | None = None,
     out: PathLike | None = None,
     config: PlaybackConfig | None = None,
-    *,
     audio_config: AudioConfig | None = None,
     render: RenderConfig | None = None,
     max_seconds: float | None = None,
@@ -194,7 +194,7 @@ def live_command(
         next_chunk = next(chunks)  # fail on a missing microphone before touching the robot
         source: Chunks = _prepend(next_chunk, chunks)
     else:
-        source = wav_chunks(input, synth.hop, rate)
+        source = wav_chunks(input, synth.hop, sample_rate=rate)
     extra: dict[str, object] = (
         {"render": render} if backend == "sim"
         else {"csv": csv, "profile": synth.profile.name, "reach": model.reach}
@@ -204,7 +204,7 @@ def live_command(
     be = create(backend, url=url, out=out, audio=None if input == "mic" else input, config=cfg,
                 **extra)  # fmt: skip
     try:
-        result = run_live(synth, source, be, config=cfg)
+        result = run_live(synth, source, backend=be, config=cfg)
     finally:
         be.close()
     p50, p99 = result.latency_ms()
@@ -231,6 +231,7 @@ def replay(
             "or a dataset folder with --clip."
         ),
     ],
+    *,
     backend: BackendOption,
     url: Annotated[
         str | None, typer.Option(help="naoqi: the robot's address, e.g. tcp://192.168.1.10:9559.")
@@ -318,6 +319,7 @@ def replay(
 
 def live(
     model_dir: ModelDirArg,
+    *,
     backend: BackendOption,
     input_: Annotated[
         str, typer.Option("--input", help="'mic' (the default microphone) or a WAV file.")

@@ -10,11 +10,12 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.table import Table
 
 from gesturebank.cli.options import ConfigOption, ForceOption, SetOption, resolve_config
-from gesturebank.cli.terminal import out, user_errors
+from gesturebank.cli.terminal import NARROW_COLUMNS, out, user_errors
 from gesturebank.errors import InputError
 from gesturebank.fileio import keep_existing
 
@@ -108,31 +109,45 @@ def _p(value: float) -> str:
 
 
 def analyse_command(*, folder: Path, console: Console, include_partial: bool = False) -> None:
-    """Print the rating, paired-test and A/B tables, and where the plot went."""
+    """Print the rating, paired-test and A/B tables, and where the plot went. A terminal
+    narrower than `NARROW_COLUMNS`: tables without vertical rules, and each paired test and A/B
+    pair on a line of its own (wrapped at words), so that 80 columns show every value whole."""
     from gesturebank.study.analyse import analyse
 
     result = analyse(folder, include_partial=include_partial)
+    narrow = console.width < NARROW_COLUMNS
     used = "finished and partial" if include_partial else "finished only"
     console.print(
         f"participants: {result.finished} finished, {result.partial} partial (stopped "
         f"half-way), {result.no_answer} consented without answering; analysed: "
         f"{result.participants} ({used})",
         highlight=False,
-        soft_wrap=True,
+        soft_wrap=not narrow,
     )
     for question in sorted({r["question"] for r in result.ratings}):
-        table = Table(title=f"{question}: ratings 0–100")
+        table = _table(f"{question}: ratings 0–100", narrow)
         for col in ("condition", "n", "mean", "95 % CI (within 0–100)"):
             table.add_column(col)
         for r in (r for r in result.ratings if r["question"] == question):
             ci = f"{_num(r['ci_low'])} – {_num(r['ci_high'])}"
             table.add_row(r["condition"], str(r["n"]), _num(r["mean"]), ci)
         console.print(table)
-        tests = Table(title=f"{question}: paired tests")
+        tests = [t for t in result.tests if t["question"] == question]
+        if narrow:
+            console.print(f"\n{question}: paired tests", highlight=False, style="italic")
+            for t in tests:
+                console.print(
+                    f"  {t['a']} vs {t['b']}: n {t['n']}, mean a − b {_num(t['mean_diff'])}\n"
+                    f"    {t['test']} statistic {_num(t['statistic'], 2)}, p {_p(t['p'])}, "
+                    f"p (Holm) {_p(t['p_holm'])}",
+                    highlight=False,
+                )
+            continue
+        table = Table(title=f"{question}: paired tests")
         for col in ("a", "b", "n", "mean a − b", "test", "statistic", "p", "p (Holm)"):
-            tests.add_column(col)
-        for t in (t for t in result.tests if t["question"] == question):
-            tests.add_row(
+            table.add_column(col)
+        for t in tests:
+            table.add_row(
                 t["a"],
                 t["b"],
                 str(t["n"]),
@@ -142,8 +157,19 @@ def analyse_command(*, folder: Path, console: Console, include_partial: bool = F
                 _p(t["p"]),
                 _p(t["p_holm"]),
             )
-        console.print(tests)
-    if result.preferences:
+        console.print(table)
+    if result.preferences and narrow:
+        console.print(
+            "\nA/B preferences (binomial test against 50 %)", highlight=False, style="italic"
+        )
+        for p in result.preferences:
+            console.print(
+                f"  {p['a']} vs {p['b']}: n {p['n']}, prefer {p['a']}\n"
+                f"    {p['wins_a']}/{p['n']} ({100 * p['share_a']:.0f} %), p {_p(p['p'])}, "
+                f"p (Holm) {_p(p['p_holm'])}",
+                highlight=False,
+            )
+    elif result.preferences:
         table = Table(title="A/B preferences (binomial test against 50 %)")
         for col in ("a", "b", "n", "prefer a", "p", "p (Holm)"):
             table.add_column(col)
@@ -155,8 +181,15 @@ def analyse_command(*, folder: Path, console: Console, include_partial: bool = F
         console.print(f"plot written to {result.plot}", highlight=False, soft_wrap=True)
 
 
+def _table(title: str, narrow: bool) -> Table:
+    if narrow:  # no vertical rules
+        return Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    return Table(title=title)
+
+
 def stimuli(
     model_dirs: Annotated[list[Path], typer.Argument(help="Model folders written by `train`.")],
+    *,
     study_dir: Annotated[Path, typer.Option("--out", help="Study folder to write.")],
     audio: Annotated[
         list[Path] | None, typer.Option(help="Speech: an audio file (repeatable).")
@@ -166,6 +199,13 @@ def stimuli(
         typer.Option(
             help="Speech of a dataset clip, DATASET_DIR:CLIP_ID, with its ground truth "
             "(repeatable)."
+        ),
+    ] = None,
+    timelines: Annotated[
+        list[Path] | None,
+        typer.Option(
+            help="Another system's motion: a folder of angle timelines, one per speech "
+            "(<audio stem or clip id>.csv or .jsonl), shown as one more condition (repeatable)."
         ),
     ] = None,
     anchor: Annotated[
@@ -179,9 +219,10 @@ def stimuli(
     force: ForceOption = False,
 ) -> None:
     """Blind stimulus videos for a perceptual study: for each speech (--audio, --clip) one video
-    per model, the ground truth (clips) and an anchor — same camera ([render]) and duration,
-    audio muxed, named by random ids. STUDY/stimuli.json lists them without their conditions;
-    STUDY/key.json says which is which (keep it from participants).
+    per model and per --timelines folder, the ground truth (clips) and an anchor — same camera
+    ([render]) and duration, audio muxed, named by random ids. STUDY/stimuli.json lists them
+    without their conditions; STUDY/key.json says which is which (keep it from participants);
+    STUDY/motion/ holds the angles each video shows.
     """
     from gesturebank.study.stimuli import stimuli_command
 
@@ -193,6 +234,7 @@ def stimuli(
             out=study_dir,
             audios=audio or [],
             clips=clip or [],
+            timelines=timelines or [],
             anchor=anchor,
             anchor_seed=anchor_seed,
             render=config.render,
@@ -217,6 +259,7 @@ StudyArg = Annotated[
 @study_app.command("serve")
 def study_serve(
     study_dir: StudyArg,
+    *,
     host: Annotated[
         str, typer.Option(help="Address to listen on; another than 127.0.0.1 lets others in.")
     ] = DEFAULT_HOST,

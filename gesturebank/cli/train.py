@@ -34,6 +34,7 @@ from gesturebank.train.registry import MODELS
 
 def train_cmd(
     dataset: DatasetArg,
+    *,
     model: Annotated[str, typer.Option(help=f"The network, {one_of(MODELS)}.")] = "mlp",
     variant: Annotated[
         Variant | None,
@@ -136,6 +137,7 @@ def evaluate(
             show_default=False,
         ),
     ] = None,
+    *,
     dataset: Annotated[
         Path | None, typer.Argument(help="Dataset (default: the one it was trained on).")
     ] = None,
@@ -197,8 +199,8 @@ def evaluate(
             config = resolve_config(config_file=config_file, sets=sets, flags={}).train
             evaluate_timelines_command(
                 timelines,
-                model_dir,
-                split,
+                dataset=model_dir,
+                split=split,
                 variant=variant or "si",
                 fold=fold,
                 subject=subject,
@@ -220,6 +222,7 @@ def compare(
     model_dirs: Annotated[
         list[Path], typer.Argument(help="Model folders written by `train`, all on one split.")
     ],
+    *,
     dataset: Annotated[
         Path | None,
         typer.Option(help="Dataset (default: the one the models were trained on)."),
@@ -258,6 +261,7 @@ def compare(
 
 def synthesize(
     model_dir: ModelDirArg,
+    *,
     audio: Annotated[Path, typer.Argument(help="Speech: a WAV or any file with an audio track.")],
     out_csv: Annotated[Path, typer.Option("--out", help="CSV of angles to write.")] = Path(
         "angles.csv"

@@ -63,6 +63,7 @@ log = logging.getLogger(__name__)
 
 def data_warnings(
     model: str,
+    *,
     config: TrainConfig,
     parts: dict[str, list[Segment]],
     rate_hz: float,
@@ -100,13 +101,13 @@ def _mean_pose01(segments: list[Segment]) -> np.ndarray:
 
 def train_command(
     dataset: PathLike,
+    *,
     model: str,
     variant: str | None,
     fold: int | None = None,
     subject: str | None = None,
     out_dir: PathLike = "model",
     config: TrainConfig | None = None,
-    *,
     quiet: bool = False,
     epochs: int | None = None,
     require: str | None = None,
@@ -133,14 +134,16 @@ def train_command(
     targets = pepper.HEAD_JOINTS if cfg.target == "listener" else target_joints(MODELS.get(model))
     need = require if require is not None else default_require(targets)
     ds = open_dataset(dataset, require=need)
-    variant, subject, chose = choose_variant(ds, variant, fold, subject)
+    variant, subject, chose = choose_variant(ds, variant=variant, fold=fold, subject=subject)
     if chose:
         (on_warning or log.warning)(chose)
     if variant == "si" and fold is None:
         fold = 0
     train_segments, val_segments = (
         load_segments(
-            ds, split_items(ds, variant, p, fold=fold, subject=subject), target=cfg.target
+            ds,
+            split_items(ds, variant=variant, part=p, fold=fold, subject=subject),
+            target=cfg.target,
         )
         for p in ("train", "val")
     )
@@ -154,7 +157,7 @@ def train_command(
         raise InputError(f"{ds.path}: the {variant} split has an empty train or val part")
     n_features = train_segments[0].audio.shape[1]
     with torch_settings(cfg.seed, cfg.threads):
-        net = build_model(model, n_features, cfg)
+        net = build_model(model, n_features, config=cfg)
     part = {"si": f"fold {fold}", "sd": f"subject {subject}"}.get(variant, "split")
     what = f"{model.upper()}-{variant.upper()} {part}" + (
         " (listener)" if cfg.target == "listener" else ""
@@ -162,11 +165,19 @@ def train_command(
     # the temporary folder is made before training, so an unwritable --out fails at once
     with model_folder.writing(out) as tmp:
         parts = {"train": train_segments, "val": val_segments}  # once --out is known writable
-        for warning in data_warnings(model, cfg, parts, float(ds.info.rates.pose_hz)):
+        for warning in data_warnings(
+            model, config=cfg, parts=parts, rate_hz=float(ds.info.rates.pose_hz)
+        ):
             (on_warning or log.warning)(warning)
         bar = None if quiet else EpochBar()
         result = train(
-            net, train_segments, val_segments, cfg, progress=bar, description=what, epochs=epochs
+            net,
+            train_segments,
+            val_segments=val_segments,
+            config=cfg,
+            progress=bar,
+            description=what,
+            epochs=epochs,
         )
         export_onnx(net, tmp)
         write_loss_png(tmp / LOSS_PNG, history=result.history, title=f"{what}: loss per epoch")
@@ -186,9 +197,9 @@ def train_command(
 
 def evaluate_command(
     model_dir: PathLike,
+    *,
     dataset: PathLike | None = None,
     split: str = "test",
-    *,
     timelines: Sequence[PathLike] = (),
     console: Console | None = None,
 ) -> dict[str, Any]:
@@ -212,14 +223,14 @@ def evaluate_command(
         pred01 = [torch_predict(net, s.audio) for s in segments]
     name = f"{info.need(folder.path, 'architecture')['kind'].upper()}-{variant.upper()}"
     rate_hz = float(info.need(folder.path, "rate_hz"))
-    systems = {name: [postprocess(p, folder.profile, rate_hz, cfg) for p in pred01]}
+    systems = {name: [postprocess(p, folder.profile, rate_hz=rate_hz, config=cfg) for p in pred01]}
     systems |= _timeline_systems(timelines, segments, ds)
     results = score_systems(
         segments,
         systems | _baselines(inputs, np.asarray(norm["mean_pose01"]), folder.profile, rate_hz, cfg),
-        folder.profile,
-        rate_hz,
-        cfg,
+        profile=folder.profile,
+        rate_hz=rate_hz,
+        config=cfg,
         fgd=inputs.fgd,
         onsets=inputs.onsets,
     )
@@ -268,9 +279,9 @@ def _print_roles(scores: dict[str, dict[str, float]], title: str, out: Console) 
 
 def evaluate_timelines_command(
     timelines: Sequence[PathLike],
+    *,
     dataset: PathLike,
     split: str = "test",
-    *,
     variant: str = "si",
     fold: int | None = None,
     subject: str | None = None,
@@ -294,7 +305,9 @@ def evaluate_timelines_command(
     inputs = prepare(ds, variant=variant, fold=fold, subject=subject, part=split, config=cfg)
     systems = _timeline_systems(timelines, inputs.segments, ds)
     train_part = load_segments(
-        ds, split_items(ds, variant, "train", fold=fold, subject=subject), target=cfg.target
+        ds,
+        split_items(ds, variant=variant, part="train", fold=fold, subject=subject),
+        target=cfg.target,
     )
     if not train_part:
         raise InputError(f"{ds.path}: the train part of this split is empty (no mean pose)")
@@ -303,9 +316,9 @@ def evaluate_timelines_command(
     results = score_systems(
         inputs.segments,
         systems | _baselines(inputs, _mean_pose01(train_part), profile, rate_hz, cfg),
-        profile,
-        rate_hz,
-        cfg,
+        profile=profile,
+        rate_hz=rate_hz,
+        config=cfg,
         fgd=inputs.fgd,
         onsets=inputs.onsets,
     )
@@ -361,11 +374,19 @@ def _print_tables(
 
     notes = footnotes(results, {"fgd": inputs.fgd_note} if inputs.fgd_note else None)
     narrow = out.width < NARROW_COLUMNS  # short headers, units in a line of their own
-    out.print(table(results, title, TABLE_5_1, notes, narrow=narrow))
-    out.print(table(results, f"{title}: seed measures", SEED_MEASURES, notes, narrow=narrow))
+    out.print(table(results, title=title, columns=TABLE_5_1, notes=notes, narrow=narrow))
+    out.print(
+        table(
+            results,
+            title=f"{title}: seed measures",
+            columns=SEED_MEASURES,
+            notes=notes,
+            narrow=narrow,
+        )
+    )
     fgd_title = fgd_label(inputs.fgd)
     field_title = f"{title}: GENEA/BEAT measures ({fgd_title})"
-    out.print(table(results, field_title, FIELD_MEASURES, notes, narrow=narrow))
+    out.print(table(results, title=field_title, columns=FIELD_MEASURES, notes=notes, narrow=narrow))
     legend = [LEGEND, units((*TABLE_5_1, *SEED_MEASURES, *FIELD_MEASURES))] if narrow else [LEGEND]
     legend += [WORSE_LEGEND] if worse_than_mean_pose(results) else []
     for line in [*legend, *notes.lines]:  # narrow: wrapped at words, each note whole

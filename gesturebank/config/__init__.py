@@ -168,7 +168,7 @@ class Config(Section):
             if isinstance(data, dict) and old in data:
                 deprecated_key(f"[{old}]", f"[lifter.{old}]")
                 rest = {k: v for k, v in data.items() if k != old}
-                data = nest(rest, "lifter", {old: data[old]})
+                data = nest(rest, "lifter", values={old: data[old]})
         # playback.sim_fps became render.frame_rate (datasets and config files with it still load)
         playback = data.get("playback") if isinstance(data, dict) else None
         if isinstance(playback, dict) and "sim_fps" in playback:

@@ -156,7 +156,7 @@ class DetectorConfig(PluginSections):
             sections = _FLAT_KEYS[key]
             deprecated_key(f"detector.{key}", " and ".join(f"detector.{s}.{key}" for s in sections))
             for section in sections:
-                out = nest(out, section, {key: data[key]})
+                out = nest(out, section, values={key: data[key]})
         return out
 
 

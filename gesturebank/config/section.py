@@ -13,6 +13,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel, ConfigDict, model_validator
 from pydantic_core import PydanticCustomError
 
+from gesturebank.errors import GesturebankDeprecationWarning
 from gesturebank.registry import plugin_default, plugin_section
 
 
@@ -40,7 +41,9 @@ class PluginSections(Section):
             if isinstance(raw, BaseModel):  # already validated (a copy, an assignment)
                 continue
             try:
-                extra[name] = plugin_section(self.plugin_group, name, raw, type(self).model_fields)
+                extra[name] = plugin_section(
+                    self.plugin_group, name, raw=raw, known=type(self).model_fields
+                )
             except ValueError as exc:  # one line, at the [KIND] table: "NAME.key: problem"
                 raise PydanticCustomError("plugin_section", "{why}", {"why": str(exc)}) from None
         return self
@@ -61,12 +64,12 @@ def deprecated_key(old: str, new: str) -> None:
     """Warn once that the config key `old` is read for one more release as `new`."""
     warnings.warn(
         f"config key {old} is deprecated: use {new} (read for this release only)",
-        DeprecationWarning,
+        GesturebankDeprecationWarning,
         stacklevel=3,
     )
 
 
-def nest(data: Mapping[str, Any], key: str, values: Mapping[str, Any]) -> dict[str, Any]:
+def nest(data: Mapping[str, Any], key: str, *, values: Mapping[str, Any]) -> dict[str, Any]:
     """`data` with the mapping `values` merged under `key` (values already there win)."""
     out = dict(data)
     out[key] = {**values, **dict(out.get(key) or {})}

@@ -294,7 +294,7 @@ class TrainConfig(Section):
         for name, raw in extra.items():
             try:
                 extra[name] = plugin_section(
-                    "gesturebank.models", name, raw, type(self).model_fields
+                    "gesturebank.models", name, raw=raw, known=type(self).model_fields
                 )
             except ValueError as exc:  # one line, at the [train] table: "NAME.key: problem"
                 raise PydanticCustomError("plugin_section", "{why}", {"why": str(exc)}) from None

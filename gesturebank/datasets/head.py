@@ -38,7 +38,7 @@ class FaceHead:
         return FaceHead(self.axes[a:b], self.residual[a:b])
 
 
-def in_pose_frame(axes: np.ndarray, pose3d: Pose3D, camera: Camera | None) -> np.ndarray | None:
+def in_pose_frame(axes: np.ndarray, *, pose3d: Pose3D, camera: Camera | None) -> np.ndarray | None:
     """(T, 3, 3) camera-axes head `axes` in the coordinates of `pose3d`'s joints: a lifter's
     camera-like frame (`lift.scoring.AXES`), or the world of the calibrated `camera` that saw
     them; None for a frame neither (the face head is then not used)."""

@@ -200,7 +200,7 @@ def source_media(data: Dataset, row: ClipRow) -> Path | None:
 
 
 def write_clip_audio(
-    data: Dataset, row: ClipRow, out: str | os.PathLike[str], *, sample_rate: int
+    data: Dataset, row: ClipRow, *, out: str | os.PathLike[str], sample_rate: int
 ) -> Path | None:
     """The clip's stretch of its source audio (from clip time 0 on the source's clock) as a
     16-bit mono WAV at `out`; None when the source is missing or has no audio track."""
@@ -314,7 +314,7 @@ def clip_to_play(
     audio = None
     if with_audio:
         rate = data.info.config.audio.sample_rate
-        audio = write_clip_audio(data, row, scratch / f"{row.clip_id}.wav", sample_rate=rate)
+        audio = write_clip_audio(data, row, out=scratch / f"{row.clip_id}.wav", sample_rate=rate)
         if audio is None:
             source = Path(data.info.videos_dir) / row.source
             warnings.append(f"{source}: no source audio found; playing without sound")

@@ -39,7 +39,7 @@ from gesturebank.fileio import atomic_open, permissions, write_bytes_atomic
 
 
 def write_take(
-    out: Path, record: TakeRecord, clips: Sequence[Clip] = (), preview: bytes | None = None
+    out: Path, *, record: TakeRecord, clips: Sequence[Clip] = (), preview: bytes | None = None
 ) -> None:
     """Write a take: its clips (none for a failed take) and preview into a temporary folder that
     then replaces the take's folder, then its record — each step atomic."""
@@ -112,14 +112,16 @@ def read_record(out: Path, take_id: str) -> TakeRecord | None:
         return None
 
 
-def is_built(out: Path, take_id: str, config_digest: str) -> bool:
+def is_built(out: Path, *, take_id: str, config_digest: str) -> bool:
     """True when the take was built with this config and every clip's arrays exist."""
     record = read_record(out, take_id)
     return (
         record is not None
         and record.config_digest == config_digest
         and not record.failed
-        and all(clip_npz(out, take_id, c.clip_id).is_file() for c in record.data_clips)
+        and all(
+            clip_npz(out, take_id=take_id, clip_id=c.clip_id).is_file() for c in record.data_clips
+        )
     )
 
 

@@ -230,9 +230,9 @@ def _draw_keypoints(panel: np.ndarray, xy: np.ndarray, valid: np.ndarray, scale:
 
 def preview_clip(
     dataset: PathLike,
+    *,
     clip_id: str,
     out: PathLike,
-    *,
     render: RenderConfig,
     playback: PlaybackConfig,
     profile: str,
@@ -255,7 +255,7 @@ def preview_clip(
     clock = np.arange(n_frames) / fps  # clip time of every output frame
 
     cmd_t, cmd_angles, cmd_index = robot_track(dataset, clip, playback=playback, profile=profile)
-    poses = poses_at(cmd_t, cmd_angles, clock)
+    poses = poses_at(cmd_t, cmd_angles, frame_times=clock)
     robot_frame = cmd_index[np.clip(np.searchsorted(cmd_t, clock + 1e-9, "right") - 1, 0, None)]
 
     kp = to_coco17(clip.pose2d.keypoints, clip.pose2d.skeleton)[..., :2]
@@ -311,7 +311,7 @@ def preview_clip(
                 for packet in vstream.encode(av.VideoFrame.from_ndarray(img, format="rgb24")):
                     container.mux(packet)
             container.mux(vstream.encode(None))
-            mux_audio(container, astream, sound)
+            mux_audio(container, astream, x=sound)
     except (av.FFmpegError, OSError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
         raise InputError(f"{path}: cannot write video ({reason})") from None
@@ -337,9 +337,9 @@ def _text(panel: np.ndarray, text: str, at: tuple[int, int], size: float) -> Non
 
 def preview_take(
     dataset: PathLike,
+    *,
     take_id: str,
     out_dir: PathLike,
-    *,
     render: RenderConfig,
     playback: PlaybackConfig,
     profile: str,
@@ -348,8 +348,8 @@ def preview_take(
     return [
         preview_clip(
             dataset,
-            clip_id,
-            Path(out_dir) / f"{clip_id}.mp4",
+            clip_id=clip_id,
+            out=Path(out_dir) / f"{clip_id}.mp4",
             render=render,
             playback=playback,
             profile=profile,
@@ -364,7 +364,13 @@ def preview_command(
     """`gesturebank preview DATASET (--clip ID | --take ID) --out PATH`: the videos written."""
     render, playback, profile = config.render, config.playback, config.robot.profile
     if clip is not None and take is None:
-        return [preview_clip(dataset, clip, out, render=render, playback=playback, profile=profile)]
+        return [
+            preview_clip(
+                dataset, clip_id=clip, out=out, render=render, playback=playback, profile=profile
+            )
+        ]
     if take is not None and clip is None:
-        return preview_take(dataset, take, out, render=render, playback=playback, profile=profile)
+        return preview_take(
+            dataset, take_id=take, out_dir=out, render=render, playback=playback, profile=profile
+        )
     raise InputError("preview: give --clip ID or --take ID (one of them)")

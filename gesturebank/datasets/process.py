@@ -74,7 +74,9 @@ def head_roll_at(
     """`roll (T,)` rad at the video's `timestamps` → `(N,)` float32 on the 100 Hz `clock`, as
     the head's angles are processed (short gaps interpolated, the same low-pass; no robot
     limits: Pepper has no roll joint), NaN where the head is not `known (N,)`."""
-    values, _ = interpolate_at(roll[:, None], timestamps, clock, max_gap_s=processing.max_gap_s)
+    values, _ = interpolate_at(
+        roll[:, None], timestamps, query=clock, max_gap_s=processing.max_gap_s
+    )
     smooth = butter_lowpass(
         values, processing.rate_hz, cutoff_hz=processing.cutoff_hz, order=processing.butter_order
     )[:, 0]

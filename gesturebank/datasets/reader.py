@@ -25,7 +25,7 @@ from gesturebank.datasets.records import (
     read_clip_arrays,
     read_dataset_json,
 )
-from gesturebank.errors import InputError
+from gesturebank.errors import GesturebankDeprecationWarning, InputError
 
 # --------------------------------------------------------------------------------------------------
 # The reader
@@ -50,7 +50,7 @@ class ManifestRow:
             if key in {f.name for f in fields(record)}:
                 warnings.warn(
                     f"row[{key!r}] is deprecated: manifest rows are records, read row.{name}.{key}",
-                    DeprecationWarning,
+                    GesturebankDeprecationWarning,
                     stacklevel=2,
                 )
                 return getattr(record, key)
@@ -137,7 +137,7 @@ class Dataset:
         """All arrays of one clip as plain numpy (never unpickled)."""
         if clip_id not in self._take_of:
             raise InputError(f"{self.path}: no clip {clip_id!r} in the manifest")
-        path = clip_npz(self.path, self._take_of[clip_id], clip_id)
+        path = clip_npz(self.path, take_id=self._take_of[clip_id], clip_id=clip_id)
         try:
             return read_clip_arrays(path)
         except (OSError, ValueError) as exc:

@@ -402,7 +402,7 @@ def take_dir(out: Path, take_id: str) -> Path:
     return Path(out) / TAKES_DIR / take_id
 
 
-def clip_npz(out: Path, take_id: str, clip_id: str) -> Path:
+def clip_npz(out: Path, *, take_id: str, clip_id: str) -> Path:
     return take_dir(out, take_id) / f"{clip_id}.npz"
 
 

@@ -25,6 +25,7 @@ from gesturebank.datasets import store
 from gesturebank.datasets.card import read_takes_toml, write_card
 from gesturebank.datasets.digest import content_digest, measure_digest
 from gesturebank.datasets.judging import judged_records, write_clip
+from gesturebank.datasets.partners import pair_clips
 from gesturebank.datasets.splits import write_splits
 from gesturebank.errors import InputError
 from gesturebank.qc.checks import failures, verdicts
@@ -48,7 +49,7 @@ def _remeasure(
     clips = []
     for c in record.clips:
         if c.kind == "clip" and (recheck or c.measured != digest):
-            clip = store.read_clip(store.clip_npz(out, record.take_id, c.clip_id))
+            clip = store.read_clip(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id))
             # metrics of the whole take (trimmed_fraction) are not in the clip: kept as measured
             metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc).to_dict()}
             c = replace(c, metrics=metrics, measured=digest)
@@ -69,7 +70,7 @@ def _cut(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecor
         if not failed or any(f.scope == "take" for f in failed) or config.qc.stretch_rounds <= 0:
             rows.append(c)
             continue
-        path = store.clip_npz(out, record.take_id, c.clip_id)
+        path = store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id)
         clip = store.read_clip(path)
         trimmed = c.metrics.get("trimmed_fraction")
         kept, judged = judged_records(
@@ -86,13 +87,38 @@ def _cut(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecor
             rows.append(c)
             continue
         for piece in kept:
-            write_clip(store.clip_npz(out, record.take_id, piece.clip_id), piece)
+            write_clip(store.clip_npz(out, take_id=record.take_id, clip_id=piece.clip_id), piece)
         path.unlink()
         rows += judged
         changed = True
     if not changed:
         return record
-    return store.with_clips(record, sorted(rows, key=lambda r: r.start_s))
+    return _repaired_partners(out, store.with_clips(record, sorted(rows, key=lambda r: r.start_s)))
+
+
+def _repaired_partners(out: Path, record: store.TakeRecord) -> store.TakeRecord:
+    """After cutting, a partner may name a clip that was cut (its file gone, its pieces
+    renamed): the take's clips of several people are paired again as the build pairs them
+    (`datasets.partners.pair_clips`), the files and records whose partner changed rewritten."""
+    data = [c for c in record.clips if c.kind == "clip"]
+    if not any(c.partner_clip_id for c in data):
+        return record
+    clips = [
+        store.read_clip(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id))
+        for c in data
+    ]
+    paired = {c.clip_id: c for c in pair_clips(clips)}
+    for old in clips:
+        new = paired[old.clip_id]
+        if new.partner_clip_id != old.partner_clip_id or not np.array_equal(
+            new.partner_speaking, old.partner_speaking
+        ):
+            write_clip(store.clip_npz(out, take_id=record.take_id, clip_id=new.clip_id), new)
+    rows = [
+        replace(c, partner_clip_id=paired[c.clip_id].partner_clip_id) if c.kind == "clip" else c
+        for c in record.clips
+    ]
+    return store.with_clips(record, rows)
 
 
 def _judge(records: list[store.TakeRecord], config: Config) -> list[store.TakeRecord]:
@@ -214,4 +240,4 @@ def refresh(
     )
     store.write_dataset_json(out, info)
     write_card(out, info=info, records=records, terms=terms)
-    return write_splits(out, table.to_pylist(), config.splits)
+    return write_splits(out, records=table.to_pylist(), config=config.splits)

@@ -151,7 +151,7 @@ def dyadic(records: Sequence[Mapping[str, Any]], *, config: SplitsConfig) -> dic
 
 
 def write_splits(
-    out: Path, records: Sequence[Mapping[str, Any]], config: SplitsConfig | None = None
+    out: Path, *, records: Sequence[Mapping[str, Any]], config: SplitsConfig | None = None
 ) -> list[str]:
     """Write splits/si_fold_XX.json (when there are ≥ 3 subjects), splits/sd.json and
     splits/dyadic.json (when clips have partners).

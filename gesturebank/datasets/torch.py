@@ -71,9 +71,9 @@ class Segment:
 
 def split_items(
     dataset: Dataset,
+    *,
     variant: str,
     part: str,
-    *,
     fold: int | None = None,
     subject: str | None = None,
 ) -> list[SplitItem]:
@@ -128,7 +128,7 @@ def _subjects_text(subjects: list[str]) -> str:
 
 
 def choose_variant(
-    dataset: Dataset, variant: str | None, fold: int | None, subject: str | None
+    dataset: Dataset, *, variant: str | None, fold: int | None, subject: str | None
 ) -> tuple[str, str | None, str | None]:
     """The split `train` uses when --variant (or --subject) is not given: si when the dataset
     has subject-independent folds (or a --fold is given), sd when a --subject is, else sd of
@@ -207,12 +207,18 @@ def load_segments(
         if subject not in stats:
             stats[subject] = znorm_stats(dataset, subject)
         mean, std = stats[subject]
-        audio = apply_znorm(arrays["audio"][start:end], mean, std)
+        audio = apply_znorm(arrays["audio"][start:end], mean, std=std)
         angles01 = np.asarray(arrays["angles01"][start:end], dtype=np.float32)
         angles = np.asarray(arrays["angles"][start:end], dtype=np.float32)
         role = np.asarray(arrays["role"], np.int8)[start:end]
         segment: Segment | None = make_segment(
-            clip_id, subject, start, audio, angles01, angles, role=role
+            clip_id,
+            subject=subject,
+            start=start,
+            audio=audio,
+            angles01=angles01,
+            angles=angles,
+            role=role,
         )
         if target == "listener" and segment is not None:
             segment = _as_listener(segment, arrays, start, end)
@@ -244,6 +250,7 @@ def _as_listener(
 
 def make_segment(
     clip_id: str,
+    *,
     subject: str,
     start: int,
     audio: np.ndarray,
@@ -268,7 +275,7 @@ def make_segment(
     )
 
 
-def masked_mse(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+def masked_mse(pred: torch.Tensor, target: torch.Tensor, *, mask: torch.Tensor) -> torch.Tensor:
     """Mean of (pred − target)² over the known entries (loss L, Eq. 3.15, NaN-free)."""
     m = mask.to(pred.dtype)
     return ((pred - target) ** 2 * m).sum() / m.sum().clamp_min(1.0)

@@ -26,7 +26,9 @@ def seen_from_the_front(xy: np.ndarray) -> np.ndarray:
         xy[..., i["right_shoulder"], :],
         xy[..., i["nose"], :],
     )
-    across, up = torso_vectors(ls, rs, xy[..., i["left_hip"], :], xy[..., i["right_hip"], :])
+    across, up = torso_vectors(
+        ls, rs, left_hip=xy[..., i["left_hip"], :], right_hip=xy[..., i["right_hip"], :]
+    )
     hips = np.isfinite(up).all(axis=-1, keepdims=True)
     up = np.where(hips, up, nose - (ls + rs) / 2)
     turn = across[..., 0] * up[..., 1] - across[..., 1] * up[..., 0]
@@ -35,7 +37,7 @@ def seen_from_the_front(xy: np.ndarray) -> np.ndarray:
 
 
 def front_share(
-    ids: np.ndarray, front: np.ndarray, cands: Mapping[int, object]
+    ids: np.ndarray, front: np.ndarray, *, cands: Mapping[int, object]
 ) -> dict[int, float]:
     """Per candidate, the share of its frames with its torso seen from the front: `ids (n, P)`
     the slots' track ids and `front (n, P)` (`seen_from_the_front`) over a span."""
@@ -43,7 +45,7 @@ def front_share(
 
 
 def bystanders_left_out(
-    cands: dict[int, dict[str, float]], front: dict[int, float], config: TrackingConfig
+    cands: dict[int, dict[str, float]], front: dict[int, float], *, config: TrackingConfig
 ) -> dict[int, dict[str, float]]:
     """The candidates who can veto the choice where no mouth decides (issue 41). People seen
     from behind (torso turned away in over half their frames, `front`) do not set the scale

@@ -73,7 +73,7 @@ def _sample_spans(size: int) -> list[tuple[int, int]]:
     return [(0, _HEAD), *((int(o), _BLOCK) for o in inner), (size - _TAIL, _TAIL)]
 
 
-def cache_key(digest: str, detector: str, params: Mapping[str, Any]) -> str:
+def cache_key(digest: str, detector: str, *, params: Mapping[str, Any]) -> str:
     """Hex key of one detection run: video digest, detector name and every setting that matters."""
     blob = json.dumps(
         {"format": FORMAT, "video": digest, "detector": detector, "params": params},

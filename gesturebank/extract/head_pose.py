@@ -226,7 +226,7 @@ class HeadPoses:
 
 
 def spread_heads(
-    rows: np.ndarray, axes: np.ndarray, centre: np.ndarray, residual: np.ndarray, n_frames: int
+    rows: np.ndarray, axes: np.ndarray, *, centre: np.ndarray, residual: np.ndarray, n_frames: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The sampled frames `rows (S,)` (increasing) onto all `n_frames`, per track: axes
     (S, M, 3, 3), centre (S, M, 2), residual (S, M) interpolated linearly between the two

@@ -132,7 +132,7 @@ def split_at_cuts(*, ids: np.ndarray, shot: np.ndarray) -> np.ndarray:
 
 
 def find_switches(
-    timestamps: np.ndarray, ids: np.ndarray, window_s: float = TrackingConfig().switch_window_s
+    timestamps: np.ndarray, ids: np.ndarray, *, window_s: float = TrackingConfig().switch_window_s
 ) -> tuple[Switch, ...]:
     """Hand-overs: a track (re)appears within `window_s` after another one vanished.
 
@@ -166,7 +166,7 @@ def find_switches(
     return tuple(out)
 
 
-def gather(multi: MultiPose2D, ids: np.ndarray, track_id: int | np.ndarray) -> Pose2D:
+def gather(multi: MultiPose2D, ids: np.ndarray, *, track_id: int | np.ndarray) -> Pose2D:
     """The Pose2D of one track, or of a `(T,)` track id per frame (-1 = nobody): (T, K, 3), NaN
     in frames where that track is absent."""
     want = np.broadcast_to(np.asarray(track_id, dtype=np.int64), (len(multi),))

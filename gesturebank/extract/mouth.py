@@ -116,7 +116,7 @@ class FaceLandmarker:
     def __call__(self, image: np.ndarray, roi: Roi) -> FaceMesh:
         """Landmarks of the face in `roi` of the RGB uint8 `image`."""
         to_image = roi.crop_transform(FACE_SIZE)
-        crop = warp(image, to_image, FACE_SIZE, cv2.BORDER_REPLICATE) / 255.0
+        crop = warp(image, to_image, size=FACE_SIZE, border=cv2.BORDER_REPLICATE) / 255.0
         self._interpreter.set_tensor(self._input, crop[None].astype(np.float32))
         self._interpreter.invoke()
         mesh = self._interpreter.get_tensor(self._mesh).reshape(468, 3).astype(np.float64)

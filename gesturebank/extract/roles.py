@@ -249,7 +249,7 @@ def heard_before(audio: Audio | None, *, times: np.ndarray, config: SpeechConfig
     return np.asarray(csum[hi] - csum[lo] > 0)
 
 
-def spread(rows: np.ndarray, values: np.ndarray, n_frames: int, fill: float | int) -> np.ndarray:
+def spread(rows: np.ndarray, values: np.ndarray, *, n_frames: int, fill: float | int) -> np.ndarray:
     """(T, ...) each frame takes the value of the nearest of the sampled frames `rows` (S,)."""
     out = np.full((n_frames, *values.shape[1:]), fill, values.dtype)
     if not len(rows):
@@ -327,8 +327,8 @@ def measure_people(
         found = measure_faces(
             iter_frames(video, selection, threads=threads), timestamps=ts, boxes=boxes, n_tracks=m_n
         )
-    heads = HeadPoses(track_ids, *spread_heads(found.rows, found.axes, found.centre,
-                                               found.residual, t_n))  # fmt: skip
+    heads = HeadPoses(track_ids, *spread_heads(found.rows, found.axes, centre=found.centre,
+                                               residual=found.residual, n_frames=t_n))  # fmt: skip
     if not mouths:
         return None, heads
     rows, opening = found.rows, found.opening
@@ -345,11 +345,14 @@ def measure_people(
         s, r = sampled_roles(
             opening=opening, envelope=env, heard=heard, rate_hz=rate, config=config
         )
-        score = spread(rows, s.astype(np.float32), t_n, np.nan)
-        role = spread(rows, r, t_n, UNKNOWN)
+        score = spread(rows, s.astype(np.float32), n_frames=t_n, fill=np.nan)
+        role = spread(rows, r, n_frames=t_n, fill=UNKNOWN)
     elif len(rows):
         role = spread(
-            rows, np.where(np.isfinite(opening), LISTENING, UNKNOWN).astype(np.int8), t_n, UNKNOWN
+            rows,
+            np.where(np.isfinite(opening), LISTENING, UNKNOWN).astype(np.int8),
+            n_frames=t_n,
+            fill=UNKNOWN,
         )
     measured[rows] = np.isfinite(opening)
     # Nobody's role where they are not in the picture.

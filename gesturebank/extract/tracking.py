@@ -240,7 +240,7 @@ class _Scene:
         if k not in self._speed:
             t_idx = np.flatnonzero((self.ids == k).any(axis=1))
             lo, hi = int(t_idx[0]), int(t_idx[-1]) + 1
-            part = gather(self.multi.take(np.arange(lo, hi)), self.ids[lo:hi], k)
+            part = gather(self.multi.take(np.arange(lo, hi)), self.ids[lo:hi], track_id=k)
             speed = head_hand_speed(
                 keypoints=part.keypoints, timestamps=part.timestamps, skeleton=part.skeleton
             )
@@ -458,8 +458,8 @@ def _by_roles(
         return out, True
     cands = _candidates(scores)
     # small, far or edge-of-frame people are bystanders: they never veto (issue 41)
-    front = front_share(scene.ids[start:stop], scene.front[start:stop], cands)
-    rivals = bystanders_left_out(cands, front, scene.config)
+    front = front_share(scene.ids[start:stop], scene.front[start:stop], cands=cands)
+    rivals = bystanders_left_out(cands, front, config=scene.config)
     together = [(scene.ids[start:stop] == k).any(axis=1) for k in rivals]
     # one person is alone even when the tracker broke them into several tracks one after another
     if len(rivals) <= 1 or int(np.sum(together, axis=0).max()) <= 1:
@@ -552,12 +552,12 @@ def main_speaker(
                 role[a:b] = UNKNOWN
         else:
             segments += _choose(scene, a, b, shot=int(s), reason="shot", exclude=frozenset())
-        switches += find_switches(multi.timestamps[a:b], ids[a:b], config.switch_window_s)
+        switches += find_switches(multi.timestamps[a:b], ids[a:b], window_s=config.switch_window_s)
 
     main_ids = np.full(len(multi), -1, np.int64)
     for a, b, choice in segments:
         main_ids[a:b] = choice.main_id
-    pose = gather(multi, ids, main_ids)
+    pose = gather(multi, ids, track_id=main_ids)
     spoken = [c for _, _, c in segments if c.main_id >= 0]
     longest = (
         max(spoken, key=lambda c: c.end_s - c.start_s)

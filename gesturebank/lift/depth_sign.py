@@ -21,7 +21,7 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 
-def rays(pixels: np.ndarray, focal: np.ndarray, center: np.ndarray) -> np.ndarray:
+def rays(pixels: np.ndarray, focal: np.ndarray, *, center: np.ndarray) -> np.ndarray:
     """(..., 3) unit rays through ideal pinhole `pixels` (..., 2); NaN stays NaN."""
     xy = (np.asarray(pixels, np.float64) - center) / focal
     r = np.concatenate([xy, np.ones((*xy.shape[:-1], 1))], axis=-1)
@@ -29,7 +29,7 @@ def rays(pixels: np.ndarray, focal: np.ndarray, center: np.ndarray) -> np.ndarra
 
 
 def ray_candidates(
-    parent: np.ndarray, ray: np.ndarray, length: float | np.ndarray
+    parent: np.ndarray, ray: np.ndarray, *, length: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """(near, far) child positions (..., 3): on the unit `ray` (..., 3) from the camera centre,
     `length` from `parent` (..., 3). Where the ray misses that sphere (the 2D bone is longer than
@@ -41,7 +41,7 @@ def ray_candidates(
 
 
 def depth_readings(
-    parent: np.ndarray, ray: np.ndarray, length: float, *, levels: int, length_sd: float
+    parent: np.ndarray, ray: np.ndarray, *, length: float, levels: int, length_sd: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """(T, S, 3) child positions on the unit `ray` (T, 3) that a bone of `length` from `parent`
     (T, 3) may reach, and (T, S) what each costs: with 2 `levels`, the exact `near` and `far`
@@ -50,7 +50,7 @@ def depth_readings(
     units of `length_sd` × length, squared — so a bone near the image plane, whose exact depth
     a small error of its length changes a lot, is not forced off it."""
     if levels == 2:
-        near, far = ray_candidates(parent, ray, length)
+        near, far = ray_candidates(parent, ray, length=length)
         return np.stack([near, far], axis=1), np.zeros((len(parent), 2))
     along = np.sum(parent * ray, axis=-1)
     miss = np.sum(parent * parent, axis=-1) - along**2  # squared distance of the ray from parent
@@ -62,7 +62,7 @@ def depth_readings(
 
 
 def torso_frame(
-    left_shoulder: np.ndarray, right_shoulder: np.ndarray, mid_hip: np.ndarray
+    left_shoulder: np.ndarray, right_shoulder: np.ndarray, *, mid_hip: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(forward, left, up) unit vectors (..., 3) of a torso (retargeting's body frame: up =
     mid-hip → mid-shoulders, left ⟂ up, forward = left × up; right-handed input)."""
@@ -96,8 +96,8 @@ def behind_cost(vector: np.ndarray, forward: np.ndarray, *, limit: float) -> np.
 def inside_torso_cost(
     point: np.ndarray,
     neck: np.ndarray,
-    frame: tuple[np.ndarray, np.ndarray, np.ndarray],
     *,
+    frame: tuple[np.ndarray, np.ndarray, np.ndarray],
     half_width: float,
     height: float,
     half_depth: float,
@@ -115,8 +115,8 @@ def inside_torso_cost(
 def decode_path(
     positions: np.ndarray,
     unary: np.ndarray,
-    times: np.ndarray,
     *,
+    times: np.ndarray,
     speed: float,
     accel: float,
 ) -> np.ndarray:

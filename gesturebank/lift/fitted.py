@@ -78,7 +78,7 @@ class FittedReport:
 
 
 def pinhole(
-    xy: np.ndarray, image_size: tuple[int, int], camera: Camera | None, *, fov_deg: float
+    xy: np.ndarray, image_size: tuple[int, int], *, camera: Camera | None, fov_deg: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Focal (2,), principal point (2,) and keypoints xy (..., 2) as ideal pinhole pixels: the
     calibrated `camera`'s (undistorted), else a focal from `fov_deg` across the longer side."""
@@ -134,7 +134,7 @@ class FittedLifter:
         joints = np.full((T, len(COCO17), 3), np.nan)
         disagree = np.zeros((T, len(COCO17)), bool)
         if usable.size:
-            rot = ray_rotations(neck_px[usable], focal, center)
+            rot = ray_rotations(neck_px[usable], focal, center=center)
             prior = np.einsum("tij,tbj->tbi", rot, prior_bones[usable])
             prior /= np.linalg.norm(prior, axis=-1, keepdims=True)
             has_prior = np.isfinite(prior).all(axis=-1)
@@ -202,7 +202,7 @@ class FittedLifter:
     def _camera(
         self, xy: np.ndarray, image_size: tuple[int, int], camera: Camera | None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return pinhole(xy, image_size, camera, fov_deg=self.options.fov_deg)
+        return pinhole(xy, image_size, camera=camera, fov_deg=self.options.fov_deg)
 
     def _prior(self, pose2d: Pose2D) -> tuple[np.ndarray, str]:
         """Prior joints (T, 17, 3) in camera axes, metres: BlazePose world, else geometric."""

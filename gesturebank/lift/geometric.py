@@ -136,8 +136,8 @@ def foreshortening_depth(length: np.ndarray, measured: np.ndarray) -> np.ndarray
 def choose_sign(
     parent_z: np.ndarray,
     dz: np.ndarray,
-    length: np.ndarray,
     *,
+    length: np.ndarray,
     prior: bool,
     keep_front: bool,
     tolerance: float,
@@ -171,7 +171,7 @@ def inside_quad(points: np.ndarray, quad: np.ndarray) -> np.ndarray:
 
 
 def torso_yaw_depths(
-    xy: np.ndarray, seen: np.ndarray, cfg: GeometricConfig
+    xy: np.ndarray, seen: np.ndarray, *, cfg: GeometricConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """A3 off: depths (T, 4) of (left/right shoulder, left/right hip) and (T,) bool ambiguous.
 
@@ -212,7 +212,7 @@ class _Lifted:
     lengths: dict[str, np.ndarray]  # bone → (T,) estimated length, pixels
 
 
-def lift_depths(xy: np.ndarray, confidence: np.ndarray, cfg: GeometricConfig) -> _Lifted:
+def lift_depths(xy: np.ndarray, confidence: np.ndarray, *, cfg: GeometricConfig) -> _Lifted:
     """Depths (pixels, z towards the camera, 0 on the torso plane) of COCO-17 keypoints.
 
     xy: (T, 17, 2) pixels, NaN = missing; confidence: (T, 17) in [0, 1].
@@ -226,7 +226,7 @@ def lift_depths(xy: np.ndarray, confidence: np.ndarray, cfg: GeometricConfig) ->
     if cfg.torso_facing_camera:
         z[:, torso] = 0.0
     else:
-        z[:, torso], amb = torso_yaw_depths(xy, seen, cfg)
+        z[:, torso], amb = torso_yaw_depths(xy, seen, cfg=cfg)
         flags["ambig"][:, torso] |= amb[:, None]
     z = np.where(np.isfinite(xy).all(axis=-1), z, np.nan)
 
@@ -250,7 +250,7 @@ def lift_depths(xy: np.ndarray, confidence: np.ndarray, cfg: GeometricConfig) ->
         z[:, j], flags["ambig"][:, j] = choose_sign(
             neck_z,
             dz,
-            length,
+            length=length,
             prior=cfg.head_in_front,
             keep_front=False,
             tolerance=cfg.ambiguity_tolerance,
@@ -265,7 +265,7 @@ def lift_depths(xy: np.ndarray, confidence: np.ndarray, cfg: GeometricConfig) ->
         z[:, e], flags["ambig"][:, e] = choose_sign(
             z[:, s],
             dz,
-            length,
+            length=length,
             prior=cfg.arms_in_front,
             keep_front=False,
             tolerance=cfg.ambiguity_tolerance,
@@ -277,7 +277,7 @@ def lift_depths(xy: np.ndarray, confidence: np.ndarray, cfg: GeometricConfig) ->
         z[:, w], flags["ambig"][:, w] = choose_sign(
             z[:, e],
             dz,
-            length,
+            length=length,
             prior=cfg.wrist_beyond_elbow,
             keep_front=cfg.arms_in_front,
             tolerance=cfg.ambiguity_tolerance,
@@ -337,7 +337,7 @@ class GeometricLifter:
         xy = np.where(usable[..., None], kp[..., :2], np.nan)
         conf = np.where(usable, conf, np.nan)
 
-        lifted = lift_depths(xy, conf, cfg)
+        lifted = lift_depths(xy, conf, cfg=cfg)
         scale = self._scale(xy, conf, pose2d.image_size[1])
         neck = (xy[:, _I["left_shoulder"]] + xy[:, _I["right_shoulder"]]) / 2
         origin = np.nanmedian(neck, axis=0) if np.isfinite(neck).any() else np.full(2, np.nan)

@@ -66,10 +66,12 @@ _FACE_BONES = (("nose", "left_eye"), ("nose", "right_eye"), ("left_eye", "left_e
                ("right_eye", "right_ear"))  # fmt: skip
 
 
-def ray_pair(parent: np.ndarray, ray: np.ndarray, length: float) -> tuple[np.ndarray, np.ndarray]:
+def ray_pair(
+    parent: np.ndarray, ray: np.ndarray, *, length: float
+) -> tuple[np.ndarray, np.ndarray]:
     """The arms' readings: the exact near and far points (T, 2, 3), costing nothing (T, 2).
     Depth levels along the ray (as for the shoulder line) were worse for the arms on test.bvh."""
-    return depth_readings(parent, ray, length, levels=2, length_sd=1.0)
+    return depth_readings(parent, ray, length=length, levels=2, length_sd=1.0)
 
 
 def _expand(frame: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -129,7 +131,7 @@ class ResolvedLifter:
         focal, center, pixels = pinhole(
             np.where(seen[..., None], kp[..., :2], np.nan),
             coco.image_size,
-            camera,
+            camera=camera,
             fov_deg=self.fitted.fov_deg,
         )
         references = []
@@ -202,8 +204,8 @@ class ResolvedLifter:
         metres = self.geometric.shoulder_width_m / (2 * ratios["shoulders"])  # per scale unit
         lengths = {k: v * metres for k, v in ratios.items()}
         depth = focal.mean() * metres / scale  # the neck's z
-        ray = rays(pixels, focal, center)
-        neck_ray = rays(neck_px, focal, center)
+        ray = rays(pixels, focal, center=center)
+        neck_ray = rays(neck_px, focal, center=center)
         neck = neck_ray * (depth / neck_ray[:, 2])[:, None]
         pixel_m = np.stack([pixels, np.broadcast_to(focal, pixels.shape)], axis=-1)
         return _Scene(ray, neck, lengths, times, references, pixel_m)
@@ -213,15 +215,23 @@ class ResolvedLifter:
         cfg, L = self.options, scene.lengths
         neck, ray = scene.neck, scene.ray
         left, left_cost = depth_readings(
-            neck, ray[:, _LS], L["shoulders"], levels=cfg.depth_levels, length_sd=cfg.length_sd
+            neck,
+            ray[:, _LS],
+            length=L["shoulders"],
+            levels=cfg.depth_levels,
+            length_sd=cfg.length_sd,
         )
         right, right_cost = depth_readings(
-            neck, ray[:, _RS], L["shoulders"], levels=cfg.depth_levels, length_sd=cfg.length_sd
+            neck,
+            ray[:, _RS],
+            length=L["shoulders"],
+            levels=cfg.depth_levels,
+            length_sd=cfg.length_sd,
         )
-        nose = ray_candidates(neck, ray[:, _NOSE], L["nose"])
+        nose = ray_candidates(neck, ray[:, _NOSE], length=L["nose"])
         mid_hip_ray = ray[:, [_LH, _RH]].mean(axis=1)
         mid_hip_ray /= np.linalg.norm(mid_hip_ray, axis=-1, keepdims=True)
-        mid_hip = ray_candidates(neck, mid_hip_ray, L["spine"])[1]
+        mid_hip = ray_candidates(neck, mid_hip_ray, length=L["spine"])[1]
         n_levels = left.shape[1]  # reading k of the left shoulder goes with n−1−k of the right
         states = [(k, n) for k in range(n_levels) for n in (0, 1)]
         positions = np.stack(
@@ -230,17 +240,19 @@ class ResolvedLifter:
         )  # (T, S, 3, 3)
         unary = np.zeros(positions.shape[:2])
         for i, (k, n) in enumerate(states):
-            forward = torso_frame(left[:, k], right[:, n_levels - 1 - k], mid_hip)[0]
+            forward = torso_frame(left[:, k], right[:, n_levels - 1 - k], mid_hip=mid_hip)[0]
             ahead = np.sum((nose[n] - neck) * forward, -1) / L["nose"]
             unary[:, i] = cfg.face_weight * np.clip(cfg.face_ahead - ahead, 0.0, None)
             unary[:, i] += left_cost[:, k] + right_cost[:, n_levels - 1 - k]
-        path = decode_path(positions, unary, scene.times, speed=cfg.speed_m_s, accel=cfg.accel_m_s2)
+        path = decode_path(
+            positions, unary, times=scene.times, speed=cfg.speed_m_s, accel=cfg.accel_m_s2
+        )
         t = np.arange(len(path))
         chosen = positions[t, path]
         joints[:, _LS], joints[:, _RS], joints[:, _NOSE] = chosen[:, 0], chosen[:, 1], chosen[:, 2]
         # the hip line turned as the shoulder line: its left end as much nearer or farther
         shoulder_dz = joints[:, _LS, 2] - joints[:, _RS, 2]
-        hips = [ray_candidates(mid_hip, ray[:, h], L["hips"]) for h in (_LH, _RH)]
+        hips = [ray_candidates(mid_hip, ray[:, h], length=L["hips"]) for h in (_LH, _RH)]
         left_hip_near = shoulder_dz < 0
         joints[:, _LH] = np.where(left_hip_near[:, None], hips[0][0], hips[0][1])
         joints[:, _RH] = np.where(left_hip_near[:, None], hips[1][1], hips[1][0])
@@ -268,31 +280,31 @@ class ResolvedLifter:
         s, e, w = (_I[f"{side}_{j}"] for j in ("shoulder", "elbow", "wrist"))
         shoulder = joints[:, s]
         mid_hip = joints[:, [_LH, _RH]].mean(axis=1)
-        frame = torso_frame(joints[:, _LS], joints[:, _RS], mid_hip)
+        frame = torso_frame(joints[:, _LS], joints[:, _RS], mid_hip=mid_hip)
         neck = (joints[:, _LS] + joints[:, _RS]) / 2
         box = {"half_width": L["shoulders"] * 0.8, "height": L["spine"], "half_depth": 0.1}
         motion = {"speed": cfg.speed_m_s, "accel": cfg.accel_m_s2}
-        elbows, cost = ray_pair(shoulder, scene.ray[:, e], L["upper"])
+        elbows, cost = ray_pair(shoulder, scene.ray[:, e], length=L["upper"])
         upper = elbows - shoulder[:, None]
         cost = cost + cfg.anatomy_weight * (
             behind_cost(upper, frame[0][:, None], limit=cfg.max_behind)
-            + inside_torso_cost(elbows, neck[:, None], _expand(frame), **box) / 0.1
+            + inside_torso_cost(elbows, neck[:, None], frame=_expand(frame), **box) / 0.1
         )
         cost = cost + self._detector_cost(scene, upper, s, e)
-        path = decode_path(elbows[:, :, None], cost, scene.times, **motion)
+        path = decode_path(elbows[:, :, None], cost, times=scene.times, **motion)
         elbow = elbows[np.arange(len(path)), path]
         joints[:, e] = elbow
-        wrists, cost = ray_pair(elbow, scene.ray[:, w], L["fore"])
+        wrists, cost = ray_pair(elbow, scene.ray[:, w], length=L["fore"])
         fore = wrists - elbow[:, None]
         ahead = np.sum((wrists - shoulder[:, None]) * frame[0][:, None], -1)
         ahead = ahead / (L["upper"] + L["fore"])
         cost = cost + cfg.anatomy_weight * (
             elbow_fold_cost((elbow - shoulder)[:, None], fore, max_bend_deg=cfg.max_elbow_bend_deg)
-            + inside_torso_cost(wrists, neck[:, None], _expand(frame), **box) / 0.1
+            + inside_torso_cost(wrists, neck[:, None], frame=_expand(frame), **box) / 0.1
         )
         cost = cost + cfg.front_weight * np.clip(-ahead, 0.0, None)
         cost = cost + self._detector_cost(scene, fore, e, w)
-        path = decode_path(wrists[:, :, None], cost, scene.times, **motion)
+        path = decode_path(wrists[:, :, None], cost, times=scene.times, **motion)
         joints[:, w] = wrists[np.arange(len(path)), path]
 
     def _detector_cost(self, scene: _Scene, bones: np.ndarray, a: int, b: int) -> np.ndarray:
@@ -310,9 +322,11 @@ class ResolvedLifter:
     def _face(self, scene: _Scene, joints: np.ndarray) -> None:
         """Eyes and ears: the reading further behind its parent along the torso's forward."""
         mid_hip = joints[:, [_LH, _RH]].mean(axis=1)
-        forward = torso_frame(joints[:, _LS], joints[:, _RS], mid_hip)[0]
+        forward = torso_frame(joints[:, _LS], joints[:, _RS], mid_hip=mid_hip)[0]
         for a, b in _FACE_BONES:
             parent = joints[:, _I[a]]
-            near, far = ray_candidates(parent, scene.ray[:, _I[b]], scene.lengths[f"{a}-{b}"])
+            near, far = ray_candidates(
+                parent, scene.ray[:, _I[b]], length=scene.lengths[f"{a}-{b}"]
+            )
             behind = np.sum((near - far) * forward, -1) < 0
             joints[:, _I[b]] = np.where(behind[:, None], near, far)

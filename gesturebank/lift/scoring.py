@@ -103,7 +103,7 @@ def look_at(
     return Camera("truth", size, K, np.zeros(0), rot, -rot @ np.asarray(eye, float))
 
 
-def project_view(joints: np.ndarray, camera: Camera, timestamps: np.ndarray) -> Pose2D:
+def project_view(joints: np.ndarray, camera: Camera, *, timestamps: np.ndarray) -> Pose2D:
     """COCO-17 Pose2D of world joints (T, 17, 3): their pixels, confidence 1 (NaN if missing)."""
     xy = camera.project(np.asarray(joints, np.float64))
     conf = np.where(np.isfinite(xy).all(axis=-1), 1.0, np.nan)
@@ -140,7 +140,7 @@ def angle_error_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def sign_errors(
-    lifted: np.ndarray, truth: np.ndarray, camera: Camera
+    lifted: np.ndarray, truth: np.ndarray, *, camera: Camera
 ) -> dict[str, tuple[int, int]]:
     """Arm bone → (deep frames, wrong frames): lifted joints (T, 17, 3) in camera axes against
     world truth (T, 17, 3) seen by `camera` (module docstring)."""
@@ -197,7 +197,7 @@ def score_angles(
 
 
 def score_lift(
-    lifted: Pose3D, truth: np.ndarray, camera: Camera, *, retarget: RetargetConfig
+    lifted: Pose3D, truth: np.ndarray, *, camera: Camera, retarget: RetargetConfig
 ) -> LiftScore:
     """Score one lift (any lifter's output frame) of `camera`'s view of world joints `truth`
     (T, 17, 3), through the retargeting `retarget`."""
@@ -205,5 +205,5 @@ def score_lift(
     angles = pepper_angles(joints, config=retarget)
     true_angles = pepper_angles(truth, config=retarget)
     per_joint, elbow, hand, head = score_angles(angles, true_angles)
-    signs = sign_errors(joints, truth, camera)
+    signs = sign_errors(joints, truth, camera=camera)
     return LiftScore(per_joint, signs, elbow, hand, head, head_bias_deg(angles, true_angles))

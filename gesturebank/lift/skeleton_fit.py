@@ -73,7 +73,7 @@ def take_lengths(bones: np.ndarray) -> np.ndarray:
     return med
 
 
-def ray_rotations(pixels: np.ndarray, focal: np.ndarray, center: np.ndarray) -> np.ndarray:
+def ray_rotations(pixels: np.ndarray, focal: np.ndarray, *, center: np.ndarray) -> np.ndarray:
     """(T, 3, 3) rotations turning the optical axis onto the ray through `pixels` (T, 2)."""
     ray = np.concatenate([(pixels - center) / focal, np.ones((len(pixels), 1))], axis=1)
     ray /= np.linalg.norm(ray, axis=1, keepdims=True)

@@ -64,7 +64,10 @@ def unit_scale(motion: Motion, units: str, *, source: str = "BVH") -> float:
 def _rest_axes(rest: np.ndarray, at: Mapping[str, int]) -> np.ndarray:
     """(3, 3) rows forward, up, left of the rest pose (the body frame, right-handed)."""
     forward, left, up = body_frame(
-        *(rest[at[k]] for k in ("left_shoulder", "right_shoulder", "left_hip", "right_hip"))
+        rest[at["left_shoulder"]],
+        rest[at["right_shoulder"]],
+        left_hip=rest[at["left_hip"]],
+        right_hip=rest[at["right_hip"]],
     )
     return np.stack([forward, up, left])
 
@@ -76,7 +79,10 @@ def body_axes(joints: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     j = np.asarray(joints, dtype=np.float64)
     i = COCO17.index
     across, up = torso_vectors(
-        *(j[:, i[k]] for k in ("left_shoulder", "right_shoulder", "left_hip", "right_hip"))
+        j[:, i["left_shoulder"]],
+        j[:, i["right_shoulder"]],
+        left_hip=j[:, i["left_hip"]],
+        right_hip=j[:, i["right_hip"]],
     )
     ok = np.isfinite(up).all(axis=1) & np.isfinite(across).all(axis=1)
     if not ok.any():

@@ -82,7 +82,7 @@ def threshold(key: str, config: QCConfig) -> tuple[Literal["max", "min"], float]
     return None if check is None or limit is None else (check.side, limit)
 
 
-def fails(key: str, value: float | None, config: QCConfig) -> bool:
+def fails(key: str, value: float | None, *, config: QCConfig) -> bool:
     """Whether metric `key` at `value` fails its absolute check (NaN and None fail nothing)."""
     check = by_metric(key)
     return check is not None and check.fails(value, config)

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from gesturebank.clip import PART_KEYPOINTS, PARTS, Clip, part_columns, part_mask, parts_of
 from gesturebank.config import ProcessingConfig, QCConfig
@@ -115,7 +116,7 @@ def jerkiness_per_joint(angles: np.ndarray, rate_hz: float) -> F64:
         return np.where(n > 0, 0.5 * f**5 * total.sum(axis=0) / n, np.nan)
 
 
-def uniform(values: np.ndarray, timestamps: np.ndarray, rate_hz: float, *, max_gap_s: float) -> F64:
+def uniform(values: np.ndarray, timestamps: np.ndarray, *, rate_hz: float, max_gap_s: float) -> F64:
     """`values (T, D)` at irregular `timestamps (T,)` linearly resampled to `rate_hz`: `(N, D)`.
 
     Gaps longer than `max_gap_s` stay NaN (see `filters.interpolate_at`).
@@ -123,7 +124,7 @@ def uniform(values: np.ndarray, timestamps: np.ndarray, rate_hz: float, *, max_g
     v = np.asarray(values, dtype=np.float64)
     if len(v) < 2:
         return v.reshape(len(v), -1)
-    _, out, _ = resample_to_clock(v, timestamps, rate_hz, max_gap_s=max_gap_s)
+    _, out, _ = resample_to_clock(v, timestamps, rate_hz=rate_hz, max_gap_s=max_gap_s)
     return np.asarray(out, dtype=np.float64)
 
 
@@ -240,7 +241,7 @@ def _max(values: np.ndarray) -> float:
 
 
 def limit_frames(
-    angles: np.ndarray, lower: np.ndarray, upper: np.ndarray, tol: float = 1e-5
+    angles: np.ndarray, lower: np.ndarray, *, upper: np.ndarray, tol: float = 1e-5
 ) -> NDArray[np.bool_]:
     """`(N, D)` True where an angle of `angles (N, D)` sits on its limit (within `tol`)."""
     a = np.asarray(angles, dtype=np.float64)
@@ -266,7 +267,7 @@ def spectrum(values: np.ndarray, rate_hz: float) -> tuple[F64, F64]:
     return np.asarray(np.fft.rfftfreq(len(v), 1.0 / rate_hz), dtype=np.float64), power
 
 
-def high_freq_fraction(values: np.ndarray, rate_hz: float, above_hz: float = 7.0) -> float:
+def high_freq_fraction(values: np.ndarray, *, rate_hz: float, above_hz: float = 7.0) -> float:
     """Share of the power of `values (N, D)` above `above_hz`, all columns together (the mean
     excluded): jitter. NaN when the clock cannot show `above_hz` or nothing moves."""
     if above_hz >= rate_hz / 2 or len(values) < 8:
@@ -298,24 +299,42 @@ def measure_settings(qc: QCConfig) -> dict[str, float]:
         "jitter_above_hz": qc.jitter_above_hz,
         "frozen_limit_tol": qc.frozen_limit_tol,
         "frozen_min_motion": qc.frozen_min_motion,
+        "frozen_motion_window_s": qc.frozen_motion_window_s,
         "max_speed_factor": qc.max_speed_factor,
     }
 
 
-def frozen_spans_s(
-    held: np.ndarray, person: np.ndarray, rate_hz: float, *, min_motion: float
-) -> F64:
-    """Per column of `held (N, D)` (the robot's joint held at a limit), the longest run in
-    seconds over which the person's angle `person (N, D)` spans more than `min_motion` rad: the
-    robot stands frozen while the person moves. 0 where there is none."""
-    out = np.zeros(held.shape[1])
+def frozen_frames(
+    held: np.ndarray, person: np.ndarray, *, rate_hz: float, min_motion: float, window_s: float
+) -> NDArray[np.bool_]:
+    """`(N, D)` the samples at which the robot's joint is held at a limit (`held (N, D)`) while
+    the person's angle `person (N, D)` moves: it spans more than `min_motion` rad within the
+    `window_s` around the sample, inside the same held run (issue 41: a limb folded past the
+    limit and kept still is the robot's best pose, not a frozen one)."""
+    out = np.zeros(held.shape, bool)
+    half = max(1, round(window_s * rate_hz / 2))
     for j in range(held.shape[1]):
         edges = np.flatnonzero(np.diff(np.concatenate([[0], held[:, j].astype(np.int8), [0]])))
         for start, stop in zip(edges[::2], edges[1::2], strict=True):
             span = person[start:stop, j]
-            span = span[np.isfinite(span)]
-            if len(span) and span.max() - span.min() > min_motion:
-                out[j] = max(out[j], (stop - start) / rate_hz)
+            if not np.isfinite(span).any():
+                continue
+            size = min(2 * half + 1, len(span))
+            hi = maximum_filter1d(np.where(np.isfinite(span), span, -np.inf), size, mode="nearest")
+            lo = minimum_filter1d(np.where(np.isfinite(span), span, np.inf), size, mode="nearest")
+            with np.errstate(invalid="ignore"):
+                out[start:stop, j] = np.isfinite(hi - lo) & (hi - lo > min_motion)
+    return out
+
+
+def frozen_spans_s(frozen: np.ndarray, *, rate_hz: float) -> F64:
+    """Per column of `frozen (N, D)` (`frozen_frames`), its longest run in seconds: the robot
+    stands frozen while the person moves. 0 where there is none."""
+    out = np.zeros(frozen.shape[1])
+    for j in range(frozen.shape[1]):
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], frozen[:, j].astype(np.int8), [0]])))
+        if len(edges):
+            out[j] = float(np.max(edges[1::2] - edges[::2])) / rate_hz
     return out
 
 
@@ -349,7 +368,7 @@ def reach_frames(
         )
     beyond = out_of_reach(person, profile) & known
     a = np.asarray(clip.angles, dtype=np.float64)
-    held = known & limit_frames(a, profile.lower, profile.upper, qc.frozen_limit_tol)
+    held = known & limit_frames(a, profile.lower, upper=profile.upper, tol=qc.frozen_limit_tol)
     return beyond, held, np.asarray(person, dtype=np.float64)
 
 
@@ -366,7 +385,9 @@ def reach_metrics(
     n = len(clip.times)
     beyond, held, person = reach_frames(clip, profile=profile, qc=qc, rate_hz=rate_hz)
     known = np.asarray(clip.mask, dtype=bool)
-    frozen = frozen_spans_s(held, person, rate_hz, min_motion=qc.frozen_min_motion)
+    moving = frozen_frames(held, person, rate_hz=rate_hz, min_motion=qc.frozen_min_motion,
+                           window_s=qc.frozen_motion_window_s)  # fmt: skip
+    frozen = frozen_spans_s(moving, rate_hz=rate_hz)
     return ReachMetrics(
         out_of_reach_fraction=float(beyond.any(axis=1).mean()) if n else nan,
         # 0 for a joint never seen (no NaN, so that two builds compare equal)
@@ -406,7 +427,9 @@ def analysis_angles(clip: Clip, qc: QCConfig) -> F64:
     if len(raw) < 2:
         return np.empty((0, len(JOINTS)))
     # unwrapped first: a step across ±π (an angle beyond the robot's range) is no motion
-    return uniform(unwrap_angles(raw), clip.timestamps, qc.analysis_rate_hz, max_gap_s=_MAX_GAP_S)
+    return uniform(
+        unwrap_angles(raw), clip.timestamps, rate_hz=qc.analysis_rate_hz, max_gap_s=_MAX_GAP_S
+    )
 
 
 class JudgedPoints(NamedTuple):
@@ -511,7 +534,9 @@ def clip_metrics(clip: Clip, *, profile: RobotProfile, qc: QCConfig) -> ClipMetr
         frozen_at_limit_s_per_joint=reach.frozen_at_limit_s_per_joint,
         frozen_at_limit_s=reach.frozen_at_limit_s,
         invariants=invariant_metrics(clip, profile=profile, qc=qc, jerk=jerk, jerk_raw=jerk_raw),
-        jitter_fraction=high_freq_fraction(raw_u, hz, qc.jitter_above_hz) if len(raw_u) else nan,
+        jitter_fraction=high_freq_fraction(raw_u, rate_hz=hz, above_hz=qc.jitter_above_hz)
+        if len(raw_u)
+        else nan,
         motion_range=motion_range(clip.angles),
         # motion capture has no camera: a view cannot cost its measured 3D anything (issue 41)
         facing_away_fraction=nan if is_mocap(clip) else _share(away, shoulders),

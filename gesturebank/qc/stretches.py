@@ -96,20 +96,17 @@ def beyond_reach(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
 
 
 def frozen_at_limit(clip: Clip, config: QCConfig, profile: RobotProfile) -> Signal:
-    """Events: of each run held at a limit while the person moves (`metrics.frozen_spans_s`)
+    """Events: of each run frozen at a limit while the person moves (`metrics.frozen_frames`)
     longer than qc.max_frozen_at_limit_s, its middle: what is left of the run either side is
     less than the limit, so each of the pieces it ends or starts passes."""
     rate = _rate(clip)
     _, held, person = M.reach_frames(clip, profile=profile, qc=config, rate_hz=rate)
+    frozen = M.frozen_frames(held, person, rate_hz=rate, min_motion=config.frozen_min_motion,
+                             window_s=config.frozen_motion_window_s)  # fmt: skip
     limit = math.floor(_limit(config, "max_frozen_at_limit_s") * rate) - 1  # samples, strictly
     bad = np.zeros(len(clip.times), bool)
-    for j in range(held.shape[1]):
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], held[:, j].astype(np.int8), [0]])))
-        for start, stop in zip(edges[::2], edges[1::2], strict=True):
-            span = person[start:stop, j]
-            span = span[np.isfinite(span)]
-            if not (len(span) and span.max() - span.min() > config.frozen_min_motion):
-                continue
+    for j in range(frozen.shape[1]):
+        for start, stop in _runs(frozen[:, j]):
             if stop - start > limit + 1:  # fails: keep at most `limit` samples at each end
                 bad[start + limit : max(stop - limit, start + limit + 1)] = True
     return _events(_at_frames(bad, clip))
@@ -369,7 +366,7 @@ def _same(values: np.ndarray) -> list[tuple[int, int]]:
 # A piece of a clip, and the judging loop
 
 
-def piece(clip: Clip, start: int, stop: int, clip_id: str) -> Clip:
+def piece(clip: Clip, start: int, *, stop: int, clip_id: str) -> Clip:
     """Video frames [start, stop) of `clip` as a clip of its own: the 100 Hz samples between
     their first and last frame (as the build's audio clock takes them), its clock's 0 on the
     first of those."""
@@ -453,7 +450,7 @@ def judge(
         for a, b, r in plan.dropped
     ]
     for k, (a, b) in enumerate(plan.kept):
-        part = piece(clip, a, b, f"{clip.clip_id}.{k}")
+        part = piece(clip, a, stop=b, clip_id=f"{clip.clip_id}.{k}")
         out += judge(
             part, measure=measure, config=config, profile=profile, min_s=min_s, rounds=rounds - 1
         )

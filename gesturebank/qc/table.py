@@ -119,7 +119,7 @@ def _frozen_reason(value: float, limit: float, m: ClipMetrics, c: QCConfig) -> s
     return (
         f"robot frozen at a limit: {m.frozen_joint} held within {c.frozen_limit_tol:g} rad of its "
         f"limit for {value:.1f} s while the person's angle moves more than "
-        f"{c.frozen_min_motion:g} rad (max {limit:g} s)"
+        f"{c.frozen_min_motion:g} rad in {c.frozen_motion_window_s:g} s (max {limit:g} s)"
     )
 
 

@@ -27,7 +27,7 @@ def _torso_axes(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarr
     whether both were seen. Image coordinates (y down); the body may lean any way."""
     ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
     lh, rh = _I["left_hip"], _I["right_hip"]
-    across, up = torso_vectors(xy[:, ls], xy[:, rs], xy[:, lh], xy[:, rh])
+    across, up = torso_vectors(xy[:, ls], xy[:, rs], left_hip=xy[:, lh], right_hip=xy[:, rh])
     hips = valid[:, lh] & valid[:, rh]
     up = np.where(hips[:, None], up, xy[:, nose] - (xy[:, ls] + xy[:, rs]) / 2)
     seen = valid[:, ls] & valid[:, rs] & (hips | valid[:, nose])
@@ -55,12 +55,12 @@ def sideways(xy: np.ndarray, valid: np.ndarray) -> NDArray[np.bool_]:
     """`(T,)` frames where the nose lies beyond a shoulder along the shoulder line (a side view;
     youtube-gesture-dataset's "nose outside the shoulders", measured along the shoulders rather
     than the image's x axis so that a lean is not a side view)."""
-    along, seen = _along(xy, valid)
+    along, seen = nose_along(xy, valid)
     with np.errstate(invalid="ignore"):
         return np.asarray(seen & (np.abs(along) > 0.5))
 
 
-def _along(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def nose_along(xy: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """`(T,)` where the nose lies along the shoulder line (0 between the shoulders, ±0.5 on a
     shoulder) and whether the nose and both shoulders were seen."""
     ls, rs, nose = _I["left_shoulder"], _I["right_shoulder"], _I["nose"]
@@ -97,7 +97,7 @@ def sideways_from_all(views: Sequence[np.ndarray], valid: np.ndarray) -> NDArray
     side = np.ones(len(valid), dtype=bool)
     seen = np.zeros(len(valid), dtype=bool)
     for xy in views:
-        along, seen = _along(xy, valid)
+        along, seen = nose_along(xy, valid)
         with np.errstate(invalid="ignore"):
             side &= ~(np.abs(along) <= 0.5)
     return np.asarray(seen & side)

@@ -144,7 +144,9 @@ def filled_confidence(*, confidence: np.ndarray, known: np.ndarray, filled: np.n
 # Outliers of a take, replaced like gaps
 
 
-def take_outliers(points: F64, timestamps: F64, skeleton: Skeleton, config: RepairConfig) -> Bools:
+def take_outliers(
+    points: F64, timestamps: F64, *, skeleton: Skeleton, config: RepairConfig
+) -> Bools:
     """(T, K) Hampel outliers of `points (T, K, C)`; none when the take has no shoulder width."""
     scale = shoulder_width(points=points, skeleton=skeleton)
     if not np.isfinite(scale):
@@ -158,7 +160,7 @@ def take_outliers(points: F64, timestamps: F64, skeleton: Skeleton, config: Repa
 
 
 def replace_outliers(
-    points: F64, outliers: Bools, timestamps: F64, max_gap_s: float
+    points: F64, outliers: Bools, *, timestamps: F64, max_gap_s: float
 ) -> tuple[F64, Bools]:
     """`points (T, K, C)` with the outliers set missing and every gap up to max_gap_s filled;
     returns them and the (T, K) samples filled."""
@@ -168,13 +170,13 @@ def replace_outliers(
 
 
 def refill(
-    points: F64, confidence: F64, outliers: Bools, timestamps: F64, max_gap_s: float
+    points: F64, confidence: F64, *, outliers: Bools, timestamps: F64, max_gap_s: float
 ) -> tuple[F64, F64, Bools]:
     """`replace_outliers` with the confidence `(T, K)` of what was filled (`filled_confidence`;
     NaN for an outlier left missing); returns points, confidence and the (T, K) gap samples
     filled (the refilled outliers not among them)."""
     known = np.isfinite(points).all(axis=-1) & ~outliers
-    out, filled = replace_outliers(points, outliers, timestamps, max_gap_s)
+    out, filled = replace_outliers(points, outliers, timestamps=timestamps, max_gap_s=max_gap_s)
     conf = filled_confidence(confidence=confidence, known=known, filled=filled)
     conf[outliers & ~filled] = np.nan
     return out, conf, filled & ~outliers

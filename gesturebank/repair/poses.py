@@ -81,15 +81,21 @@ def repair_pose2d(pose: Pose2D, *, config: RepairConfig) -> tuple[Pose2D, Repair
     world = None if pose.world is None else pose.world.astype(np.float64)
     flipped = np.zeros(len(kp), dtype=bool)
     if config.swaps:
-        kp, world, flipped = repair_swaps(kp, world, ts, skeleton, config)
+        kp, world, flipped = repair_swaps(
+            kp, world, timestamps=ts, skeleton=skeleton, config=config
+        )
 
-    outliers = take_outliers(kp[..., :2], ts, skeleton, config)
+    outliers = take_outliers(kp[..., :2], ts, skeleton=skeleton, config=config)
     if world is not None:
-        outliers |= take_outliers(world, ts, skeleton, config)
-    xy, conf, gaps = refill(kp[..., :2], kp[..., 2], outliers, ts, config.max_gap_s)
+        outliers |= take_outliers(world, ts, skeleton=skeleton, config=config)
+    xy, conf, gaps = refill(
+        kp[..., :2], kp[..., 2], outliers=outliers, timestamps=ts, max_gap_s=config.max_gap_s
+    )
     out_kp = np.concatenate([xy, conf[..., None]], axis=-1)
     if world is not None:
-        world, world_filled = replace_outliers(world, outliers, ts, config.max_gap_s)
+        world, world_filled = replace_outliers(
+            world, outliers, timestamps=ts, max_gap_s=config.max_gap_s
+        )
         gaps |= world_filled & ~outliers
 
     repaired = _changed(pose.keypoints.astype(np.float64), out_kp)
@@ -115,9 +121,11 @@ def repair_pose3d(pose: Pose3D, *, config: RepairConfig) -> tuple[Pose3D, Repair
     the labels they were given). Confidence of filled joints as in 2D."""
     ts = pose.timestamps
     joints = pose.joints.astype(np.float64)
-    outliers = take_outliers(joints, ts, COCO17, config)
+    outliers = take_outliers(joints, ts, skeleton=COCO17, config=config)
     conf0 = pose.confidence.astype(np.float64)
-    out_joints, conf, gaps = refill(joints, conf0, outliers, ts, config.max_gap_s)
+    out_joints, conf, gaps = refill(
+        joints, conf0, outliers=outliers, timestamps=ts, max_gap_s=config.max_gap_s
+    )
     before = np.concatenate([joints, conf0[..., None]], axis=-1)
     after = np.concatenate([out_joints, conf[..., None]], axis=-1)
     report = RepairReport(

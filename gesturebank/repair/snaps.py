@@ -27,7 +27,7 @@ from gesturebank.repair.keypoints import shoulder_width
 from gesturebank.skeletons import get_skeleton
 
 
-def others_of(multi: MultiPose2D, ids: np.ndarray, track: np.ndarray) -> np.ndarray:
+def others_of(multi: MultiPose2D, ids: np.ndarray, *, track: np.ndarray) -> np.ndarray:
     """`(T, P, K, 2)` pixels of everybody detected in each frame but the person of `track (T,)`
     (their track id per frame, -1 nobody): the slots `ids (T, P)` gives another id, or none."""
     own = (np.asarray(ids) == np.asarray(track)[:, None]) & (np.asarray(track)[:, None] >= 0)

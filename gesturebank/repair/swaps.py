@@ -228,7 +228,7 @@ def exchange(values: np.ndarray, *, pairs: np.ndarray, frames: np.ndarray) -> np
 
 
 def repair_swaps(
-    kp: F64, world: F64 | None, timestamps: F64, skeleton: Skeleton, config: RepairConfig
+    kp: F64, world: F64 | None, *, timestamps: F64, skeleton: Skeleton, config: RepairConfig
 ) -> tuple[F64, F64 | None, Bools]:
     """Swap repair of 2D keypoints `(T, K, 3)` (and world `(T, K, 3)` alike, flipped where the
     2D labels are); returns them with the `(T,)` mask of frames where some group was flipped."""

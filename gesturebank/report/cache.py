@@ -51,7 +51,10 @@ def _page_key(out: Path, record: store.TakeRecord, info: store.DatasetInfo, code
         json.dumps([info.joints, info.limits], sort_keys=True),
         info.config.qc.model_dump_json(),  # the thresholds beside the metrics
         _stat(folder / store.PREVIEW),
-        [_stat(store.clip_npz(out, record.take_id, c.clip_id)) for c in record.data_clips],
+        [
+            _stat(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id))
+            for c in record.data_clips
+        ],
     ]
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:20]
 
@@ -99,10 +102,12 @@ def write_dashboard(out: Path) -> Path:
         wanted.add(page.name)
         key = _page_key(out, record, info, code)
         if _existing_key(page) != key:
-            write_bytes_atomic(page, render_take(out, record, info, key).encode("utf-8"))
+            write_bytes_atomic(
+                page, render_take(out, record=record, info=info, key=key).encode("utf-8")
+            )
     for page in pages.glob("*.html"):
         if page.name not in wanted:
             page.unlink(missing_ok=True)
     index = out / QC_DIR / "index.html"
-    _write_if_changed(index, index_page(out, info, records))
+    _write_if_changed(index, index_page(out, info=info, records=records))
     return index

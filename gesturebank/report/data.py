@@ -166,9 +166,9 @@ def jerk_data(records: Sequence[store.TakeRecord], joints: Sequence[str]) -> dic
 # Take page: data
 
 
-def load_clip(out: Path, take_id: str, clip_id: str) -> Clip | str:
+def load_clip(out: Path, *, take_id: str, clip_id: str) -> Clip | str:
     """The clip's arrays, or why they cannot be read."""
-    path = store.clip_npz(out, take_id, clip_id)
+    path = store.clip_npz(out, take_id=take_id, clip_id=clip_id)
     try:
         clip = store.read_clip(path)
     except (OSError, ValueError, InputError) as exc:
@@ -452,6 +452,7 @@ def _preview(
 
 def take_data(
     out: Path,
+    *,
     record: store.TakeRecord,
     info: store.DatasetInfo,
     clips: Mapping[str, Clip | str],

@@ -206,7 +206,7 @@ def _reasons_table(records: Sequence[store.TakeRecord]) -> str:
     return _table(head, rows, cls="sortable", id_="reasons", sorted_by=2) + note
 
 
-def index_page(out: Path, info: store.DatasetInfo, records: Sequence[store.TakeRecord]) -> str:
+def index_page(out: Path, *, info: store.DatasetInfo, records: Sequence[store.TakeRecord]) -> str:
     data = jerk_data(records, info.joints)
     body = [
         "<h1>gesturebank QC</h1>",
@@ -447,10 +447,13 @@ _SPEAKER_NOTE = (
 )
 
 
-def take_page(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key: str) -> str:
-    clips = {c.clip_id: load_clip(out, record.take_id, c.clip_id) for c in record.data_clips}
+def take_page(out: Path, *, record: store.TakeRecord, info: store.DatasetInfo, key: str) -> str:
+    clips = {
+        c.clip_id: load_clip(out, take_id=record.take_id, clip_id=c.clip_id)
+        for c in record.data_clips
+    }
     choices = speaker_choices(record.tracking)
-    data = take_data(out, record, info, clips, choices)
+    data = take_data(out, record=record, info=info, clips=clips, choices=choices)
     body = [
         "<p><a href='../index.html'>← all takes</a></p>",
         f"<h1>{_e(record.take_id)}</h1>",
@@ -474,10 +477,10 @@ def take_page(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key:
     return _page(f"QC {record.take_id}", "".join(body), data, key)
 
 
-def render_take(out: Path, record: store.TakeRecord, info: store.DatasetInfo, key: str) -> str:
+def render_take(out: Path, *, record: store.TakeRecord, info: store.DatasetInfo, key: str) -> str:
     """The take's page; one that cannot be drawn says why (and is tried again next time)."""
     try:
-        return take_page(out, record, info, key)
+        return take_page(out, record=record, info=info, key=key)
     except Exception as exc:  # one odd take must not cost the dashboard of every other
         log.warning("%s: cannot draw its QC page (%s)", record.take_id, exc, exc_info=True)
         body = f"<h1>{_e(record.take_id)}</h1><p class='failed'>Page not drawn: {_e(exc)}</p>"

@@ -36,7 +36,7 @@ class VirtualClock:
         self.t += max(seconds, 0.0)
 
 
-def adaptive_sleep(due: float, now: float, eta: float) -> float:
+def adaptive_sleep(due: float, now: float, *, eta: float) -> float:
     """Sleep before sending a frame due at `due` when the clock reads `now` (Eq. 4.1):
     η·(due − now) if the frame is still ahead, else 0 (a late frame goes out at once)."""
     return eta * (due - now) if due > now else 0.0  # Eq. 4.1

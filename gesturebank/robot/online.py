@@ -152,8 +152,10 @@ class LiveSynth:
         w = self.window
         w[: -self.hop] = w[self.hop :]
         w[-self.hop :] = x
-        feats = frame_features(w[1:], self.audio.sample_rate, self.audio, previous=float(w[0]))
-        z = apply_znorm(feats, self.model.audio_mean, self.model.audio_std)
+        feats = frame_features(
+            w[1:], self.audio.sample_rate, config=self.audio, previous=float(w[0])
+        )
+        z = apply_znorm(feats, self.model.audio_mean, std=self.model.audio_std)
         if self.speech is not None:  # the speaker's flag: the person at the microphone speaks
             z = np.append(z, np.float32(self.speech.push(x)))
         angles01 = self.model.model.step(z)
@@ -170,7 +172,7 @@ class LiveSynth:
 Chunks = Iterator[tuple[np.ndarray, float]]
 
 
-def wav_chunks(path: PathLike, hop: int, sample_rate: int, *, realtime: bool = True) -> Chunks:
+def wav_chunks(path: PathLike, hop: int, *, sample_rate: int, realtime: bool = True) -> Chunks:
     """Stream an audio file in `hop`-sample chunks; in real time, chunk k becomes available
     (k + 1) hops after the start, as from a microphone. A partial last chunk is dropped."""
     from gesturebank.audio.io import read_audio
@@ -249,8 +251,8 @@ class LiveResult:
 def run_live(
     synth: LiveSynth,
     chunks: Chunks,
-    backend: Backend,
     *,
+    backend: Backend,
     config: PlaybackConfig | None = None,
     clock: Clock | None = None,
 ) -> LiveResult:

@@ -112,7 +112,7 @@ class Player:
         """Send `angles[i]` at t0 + `times[i]` (playback clock), each after Eq. 4.1's sleep."""
         record = phase == "timeline"
         for t, pose in zip(times, angles, strict=True):
-            self.clock.sleep(adaptive_sleep(self.t0 + t, self.clock.now(), self.cfg.eta))
+            self.clock.sleep(adaptive_sleep(self.t0 + t, self.clock.now(), eta=self.cfg.eta))
             if record:
                 self.due.append(float(t))
                 self.sent.append(self.clock.now() - self.t0)
@@ -151,7 +151,7 @@ class Player:
             self.stream(times, angles, "timeline")
             return
         assert isinstance(self.backend, Interpolating)
-        self.clock.sleep(adaptive_sleep(self.t0 + times[0], self.clock.now(), 1.0))
+        self.clock.sleep(adaptive_sleep(self.t0 + times[0], self.clock.now(), eta=1.0))
         t_call = self.clock.now() - self.t0
         keep = times > t_call + 1e-3  # the robot already holds every earlier (past) key
         if not np.any(keep):

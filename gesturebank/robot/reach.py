@@ -32,7 +32,7 @@ TURN = 2.0 * np.pi
 
 
 def continuous(
-    angles: np.ndarray, lower: np.ndarray | None = None, upper: np.ndarray | None = None
+    angles: np.ndarray, lower: np.ndarray | None = None, *, upper: np.ndarray | None = None
 ) -> np.ndarray:
     """`angles (T, D)` rad → float64 (T, D): each column unwrapped over its finite values, i.e.
     every known frame on the branch nearest the previous known one (across NaN gaps too), the
@@ -106,8 +106,8 @@ def unlimited_angles(
     never filtered as a sweep across the joint's range nor wrapped to the other side of it,
     until it comes back inside `profile`'s limits on another branch (`continuous`)."""
     p = processing
-    steady = continuous(raw, profile.lower, profile.upper)
-    angles, gaps = interpolate_at(steady, timestamps, clock, max_gap_s=p.max_gap_s)
+    steady = continuous(raw, profile.lower, upper=profile.upper)
+    angles, gaps = interpolate_at(steady, timestamps, query=clock, max_gap_s=p.max_gap_s)
     smooth = butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order)
     return smooth, gaps
 
@@ -140,7 +140,7 @@ def hold_free(values: np.ndarray, weight: np.ndarray, *, start: float = 0.0) -> 
 
 
 def soft_limits(
-    angles: np.ndarray, lower: np.ndarray, upper: np.ndarray, *, margin: float
+    angles: np.ndarray, lower: np.ndarray, *, upper: np.ndarray, margin: float
 ) -> np.ndarray:
     """`angles (N, D)` compressed into (lower, upper) per column: identity up to `margin` rad
     m (at most a quarter of the range) from a limit, edge + m·tanh((x − edge) / m) beyond that
@@ -164,7 +164,7 @@ def reach_map(
     dataset's angles are made; players only guard the limits (`pepper.clamp`)."""
     a = np.asarray(angles, dtype=np.float64)
     if retarget.reach == "soft":
-        a = soft_limits(a, profile.lower, profile.upper, margin=retarget.soft_margin)
+        a = soft_limits(a, profile.lower, upper=profile.upper, margin=retarget.soft_margin)
     # clamped in the stored dtype: float32(limit) can lie outside the float64 limit
     return pepper.clamp(a.astype(np.float32), profile)
 

@@ -30,7 +30,7 @@ AUDIO_RATE = 16000
 _TEXT = (20, 20, 20)  # RGB
 
 
-def poses_at(times: np.ndarray, angles: np.ndarray, frame_times: np.ndarray) -> np.ndarray:
+def poses_at(times: np.ndarray, angles: np.ndarray, *, frame_times: np.ndarray) -> np.ndarray:
     """Zero-order hold: the last pose of `angles (N, 11)` at or before each frame time `(K,)`.
 
     Frames before the first command show the first pose. Returns `(K, 11)`.
@@ -86,7 +86,7 @@ def write_video(
     path = Path(out)
     n_frames = max(1, round(duration * cfg.frame_rate))
     frame_times = start + np.arange(n_frames) / cfg.frame_rate
-    poses = [poses_at(times, angles, frame_times) for _, times, angles in tracks]
+    poses = [poses_at(times, angles, frame_times=frame_times) for _, times, angles in tracks]
     sound = _audio(audio, n_frames / cfg.frame_rate, -start)
     try:
         with atomic_open(path) as f, av.open(f, mode="w", format="mp4") as container:
@@ -152,11 +152,11 @@ def _encode(
             container.mux(packet)
     container.mux(vstream.encode(None))
     if astream is not None and sound is not None:
-        mux_audio(container, astream, sound)
+        mux_audio(container, astream, x=sound)
 
 
 def mux_audio(
-    container: av.container.OutputContainer, stream: av.AudioStream, x: np.ndarray
+    container: av.container.OutputContainer, stream: av.AudioStream, *, x: np.ndarray
 ) -> None:
     """Encode the mono signal `x` (float32 at AUDIO_RATE) into `stream` of `container`."""
     step = 1024  # AAC frame size

@@ -230,8 +230,13 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 def _body_frame(p: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Torso axes (forward, left, up), each (3, T) unit: the body frame of `geometry`."""
-    torso = (p["left_shoulder"], p["right_shoulder"], p["left_hip"], p["right_hip"])
-    return body_frame(*torso, axis=0)
+    return body_frame(
+        p["left_shoulder"],
+        p["right_shoulder"],
+        left_hip=p["left_hip"],
+        right_hip=p["right_hip"],
+        axis=0,
+    )
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:

@@ -2,8 +2,10 @@
 
 For each speech source — an audio file (`--audio A.wav`) or a dataset clip (`--clip
 DATASET:CLIP_ID`, whose audio is cut from its source video) — one video per condition: every
-model's motion (offline synthesis, `train.synthesis.synthesize`), the ground truth (clips
-only: the clip's own angles), and an anchor (`mean-pose`: the first model's training mean pose,
+model's motion (offline synthesis, `train.synthesis.synthesize`), every other system's angle
+timelines (`--timelines DIR`: one file per speech source, `<name>.csv` or the `.jsonl` a record
+backend writes, in any dialect `robot.timeline` reads), the ground truth (clips only: the clip's
+own angles), and an anchor (`mean-pose`: the first model's training mean pose,
 held still; `random-clip`: another clip of the first model's dataset, chosen by a seed). Every
 video of one source has the same camera (`[render]`), the same duration (the audio's) and the
 audio muxed; motion is made safe as replay makes it (clamp and speed limit), without the safety
@@ -15,6 +17,8 @@ Layout of the study folder:
     videos/<id>.mp4     one stimulus (H.264 + AAC)
     posters/<id>.jpg    its poster frame (the middle frame), shown before it is played
     audio/<name>.wav    the speech of each clip source (16 kHz mono), as muxed
+    motion/<id>.csv     the angles the video shows (an angle timeline, after the player's
+                        safety), for the operator; the study app does not serve it
     stimuli.json        the manifest, for the study app and participants' pages — no conditions
     key.json            id → condition, model folder, speech source: for the operator only
 
@@ -33,11 +37,13 @@ key.json (format "gesturebank-stimuli-key/1"):
     {"format": "gesturebank-stimuli-key/1",
      "videos": {"<id>": {"audio": "<name>", "condition": "<model name>" | "ground-truth" |
                           "anchor", "role": "model" | "reference" | "anchor",
-                          "model_dir": "<path>" | null, "source": "<audio path or DATASET:CLIP>",
+                          "model_dir": "<path>" | null, "timelines": "<path>" | null,
+                          "source": "<audio path or DATASET:CLIP>",
                           "anchor": "mean-pose" | "random-clip" | null}}}
 
-Model names are the model folders' names (with the parent's when two clash), as `compare`
-names them. In MUSHRA terms the ground truth is the hidden reference and the anchor the anchor.
+Model names are the model folders' and timeline folders' names (with the parent's when two
+clash), as `compare` names them; a timeline folder's system has the role "model". In MUSHRA
+terms the ground truth is the hidden reference and the anchor the anchor.
 """
 
 from __future__ import annotations
@@ -59,7 +65,7 @@ from gesturebank.errors import InputError
 from gesturebank.fileio import write_bytes_atomic
 from gesturebank.robot import pepper
 from gesturebank.robot.safety import safe_angles, speed_profile
-from gesturebank.robot.timeline import Timeline, read_timeline
+from gesturebank.robot.timeline import Timeline, read_timeline, write_timeline
 
 PathLike = str | os.PathLike[str]
 Anchor = Literal["mean-pose", "random-clip"]
@@ -67,6 +73,7 @@ ANCHORS: tuple[Anchor, ...] = ("mean-pose", "random-clip")
 FORMAT, KEY_FORMAT = "gesturebank-stimuli/1", "gesturebank-stimuli-key/1"
 MANIFEST, KEY = "stimuli.json", "key.json"
 _RATE = 16000
+TIMELINE_SUFFIXES = (".csv", ".jsonl")  # a system's timeline of one speech; the first found
 
 
 @dataclass(frozen=True)
@@ -97,7 +104,7 @@ def _clip_audio(dataset: Path, clip_id: str, out: Path) -> tuple[str, Path]:
     ds = datasets.open(dataset)
     row = resolve_clip(ds, clip_id)
     out.parent.mkdir(parents=True, exist_ok=True)
-    wav = write_clip_audio(ds, row, out, sample_rate=_RATE)
+    wav = write_clip_audio(ds, row, out=out, sample_rate=_RATE)
     if wav is None:
         source = source_media(ds, row) or Path(ds.info.videos_dir) / row.source
         raise InputError(f"{source}: no audio for clip {row.clip_id} (gone, or no audio track)")
@@ -133,6 +140,28 @@ def _sources(audios: Sequence[PathLike], clips: Sequence[str], out: Path) -> lis
     return found
 
 
+def _system_timeline(folder: Path, source: str, profile: str) -> Timeline:
+    """`folder`'s timeline of speech `source`; InputError (one line, naming the file) when it is
+    missing, unreadable or for another robot profile (one that names none is taken as ours)."""
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a folder of angle timelines (--timelines)")
+    path = next(
+        (p for s in TIMELINE_SUFFIXES if (p := folder / f"{source}{s}").is_file()),
+        folder / f"{source}{TIMELINE_SUFFIXES[0]}",
+    )
+    if not path.is_file():
+        raise InputError(
+            f"{path}: no timeline for speech {source} (one file per speech, named by its "
+            "audio's stem or clip id)"
+        )
+    line = read_timeline(path)
+    if line.profile is not None and line.profile != profile:
+        raise InputError(
+            f"{path}: angles for robot profile {line.profile}; the study's is {profile}"
+        )
+    return line
+
+
 def _hold(pose: np.ndarray, duration: float, rate_hz: float = 100.0) -> Timeline:
     n = max(1, round(duration * rate_hz))
     return Timeline.of(np.arange(n) / rate_hz, np.tile(pose, (n, 1)))
@@ -158,6 +187,7 @@ def stimuli_command(
     model_dirs: Sequence[PathLike],
     out: PathLike,
     audios: Sequence[PathLike] = (),
+    timelines: Sequence[PathLike] = (),
     clips: Sequence[str] = (),
     anchor: Anchor = "mean-pose",
     anchor_seed: int = 0,
@@ -167,8 +197,9 @@ def stimuli_command(
 ) -> dict[str, Any]:
     """Render the stimuli into the study folder `out`; returns the manifest written.
 
-    `anchor_seed` picks the random-clip anchor and the order of each group's videos; the ids
-    are random every run (`secrets`).
+    `timelines`: folders of other systems' angle timelines, one condition each. `anchor_seed`
+    picks the random-clip anchor and the order of each group's videos; the ids are random every
+    run (`secrets`).
     """
     from gesturebank.robot.render import write_video
     from gesturebank.study.posters import poster_path, write_poster
@@ -191,33 +222,43 @@ def stimuli_command(
     mean_pose = pepper.denormalise(
         np.asarray(folders[0].norm["mean_pose01"]).reshape(1, -1), folders[0].profile
     )[0]
-    names = model_names([Path(d) for d in model_dirs])
+    names = model_names([*map(Path, model_dirs), *map(Path, timelines)])
+    shown_profile = robot.name
     groups: list[dict[str, Any]] = []
     key: dict[str, dict[str, Any]] = {}
     used: set[str] = set()
     with tempfile.TemporaryDirectory(prefix=".stimuli-", dir=_parent(root)) as tmp:
         for src in sources:
             duration = _duration(src.audio)
-            conditions: list[tuple[str, str, str | None, Timeline]] = []
-            for name, model_dir in zip(names, model_dirs, strict=True):
+            conditions: list[tuple[str, str, str | None, str | None, Timeline]] = []
+            for name, model_dir in zip(names[: len(model_dirs)], model_dirs, strict=True):
                 csv = Path(tmp) / f"{len(key) + len(conditions)}.csv"
                 synthesize(model_dir=model_dir, audio_path=src.audio, out_csv=csv)
-                conditions.append((name, "model", os.fspath(model_dir), read_timeline(csv)))
+                line = read_timeline(csv)
+                conditions.append((name, "model", os.fspath(model_dir), None, line))
+            for name, system_dir in zip(names[len(model_dirs) :], timelines, strict=True):
+                line = _system_timeline(Path(system_dir), src.name, shown_profile)
+                conditions.append((name, "model", None, os.fspath(system_dir), line))
             if src.dataset is not None and src.clip_id is not None:
                 truth = clip_timeline(src.dataset, src.clip_id)
-                conditions.append(("ground-truth", "reference", None, truth))
+                conditions.append(("ground-truth", "reference", None, None, truth))
             if anchor == "mean-pose":
                 still = _hold(mean_pose, duration)
             else:
                 dataset = src.dataset or Path(folders[0].info.need(folders[0].path, "dataset"))
                 still = _random_clip(dataset, {src.clip_id or ""}, rng)
-            conditions.append(("anchor", "anchor", None, still))
+            conditions.append(("anchor", "anchor", None, None, still))
             videos = []
-            for condition, role, folder, timeline in conditions:
+            for condition, role, folder, system, timeline in conditions:
                 vid = _new_id(used)
                 tl = _cut(timeline, duration)
+                shown = safe_angles(tl, robot)
+                write_timeline(
+                    root / "motion" / f"{vid}.csv",
+                    Timeline.of(tl.times, shown, profile=shown_profile, reach=tl.reach),
+                )
                 write_video(
-                    [("", tl.times, safe_angles(tl, robot))],
+                    [("", tl.times, shown)],
                     root / "videos" / f"{vid}.mp4",
                     duration=duration,
                     audio=src.audio,
@@ -230,6 +271,7 @@ def stimuli_command(
                     "condition": condition,
                     "role": role,
                     "model_dir": folder,
+                    "timelines": system,
                     "source": src.label,
                     "anchor": anchor if role == "anchor" else None,
                 }

@@ -89,7 +89,7 @@ def _box(figures: Sequence[Figure], frame: int, camera: Camera, scale: int) -> t
     )
 
 
-def cast(figures: Sequence[Figure], frame: int, rays: np.ndarray, box: tuple[int, ...]) -> Hits:
+def cast(figures: Sequence[Figure], frame: int, *, rays: np.ndarray, box: tuple[int, ...]) -> Hits:
     """Cast the `rays` (H, W, 6) inside `box` at the figures' meshes as they are at `frame`."""
     try:
         import open3d as o3d
@@ -127,7 +127,7 @@ def _sleeve(points: np.ndarray, start: np.ndarray, end: np.ndarray, share: float
     return along < share
 
 
-def colours(figures: Sequence[Figure], frame: int, hits: Hits) -> np.ndarray:
+def colours(figures: Sequence[Figure], frame: int, *, hits: Hits) -> np.ndarray:
     """(N, 3) float32 unshaded colours of the hit rays, in the order of `hits.part >= 0`."""
     part = hits.part[hits.part != MISS]
     points = hits.points
@@ -187,12 +187,12 @@ def render_frames(
     light = camera.R.T @ np.asarray(LIGHT_CAMERA)
     light /= np.linalg.norm(light)
     for frame in range(len(figures[0].joints)):
-        hits = cast(figures, frame, rays, _box(figures, frame, camera, s))
+        hits = cast(figures, frame, rays=rays, box=_box(figures, frame, camera, s))
         hit = hits.part != MISS
         lambert = AMBIENT + DIFFUSE * np.clip(hits.normals @ light, 0, 1)
         image = wall.copy()
         x0, y0, x1, y1 = hits.box
-        image[y0:y1, x0:x1][hit] = colours(figures, frame, hits) * lambert[:, None]
+        image[y0:y1, x0:x1][hit] = colours(figures, frame, hits=hits) * lambert[:, None]
         if s > 1:
             image = downscale_local_mean(image, (s, s, 1))
         yield np.clip(image * 255 + 0.5, 0, 255).astype(np.uint8)

@@ -135,7 +135,7 @@ def clip_from_targets(
 
 
 def synthetic_clip(
-    seconds: float = 3.0, fps: float = 30.0, seed: int = 0, clip_id: str = "synthetic__c000"
+    seconds: float = 3.0, *, fps: float = 30.0, seed: int = 0, clip_id: str = "synthetic__c000"
 ) -> Clip:
     """A clean clip: smooth motion of every joint inside the limits (random phases, 0.3–0.8 Hz)."""
     rng = np.random.default_rng(seed)
@@ -202,6 +202,6 @@ def write_dataset(
                 "sumsq": np.square(feats).sum(axis=0).tolist(),
             },
         )
-        store.write_take(out, record, placed)
+        store.write_take(out, record=record, clips=placed)
     refresh(out, c, videos_dir=out)
     return out

@@ -72,7 +72,7 @@ _CLOCK_RATE = (
 )
 
 
-def window(clip: Clip, t0: float, t1: float) -> Clip:
+def window(clip: Clip, t0: float, *, t1: float) -> Clip:
     """The part of a clip between `t0` and `t1` seconds (clip time): 100 Hz arrays with
     t0 <= times < t1, video-rate arrays with t0 <= timestamps < t1; the rest unchanged."""
     arrays = clip.to_arrays()
@@ -175,9 +175,9 @@ def _segment(rng: np.random.Generator, n: int, share: float) -> slice:
 def corrupt(
     clip: Clip,
     kind: str,
+    *,
     strength: float,
     seed: int = 0,
-    *,
     target: str = "pose",
 ) -> Clip:
     """A copy of `clip` with one corruption `kind` (see the module docstring) injected into the
@@ -267,9 +267,9 @@ def _mirror_angles(angles: np.ndarray) -> np.ndarray:
 
 def rederive(
     clip: Clip,
+    *,
     processing: ProcessingConfig | None = None,
     profile: pepper.RobotProfile | str | None = None,
-    *,
     from_pose: bool = True,
 ) -> Clip:
     """Recompute `raw_angles` from `pose3d.joints` (unless `from_pose` is False; masked where the

@@ -58,8 +58,8 @@ def write_dyad_dataset(
         take_id = f"pair_t{k:02d}"
         env = envelope(n, rng)
         audio = np.outer(env, gains) + rng.normal(0.0, 0.05, (n, n_features))
-        speaks = motion(env, 0.25, 0.1)
-        nods = motion(env, listen_tau_s, listen_lag_s)
+        speaks = motion(env, 0.25, lag_s=0.1)
+        nods = motion(env, listen_tau_s, lag_s=listen_lag_s)
         who = turns(n, turn_s=turn_s)
         clips: list[Clip] = []
         for person in (0, 1):

@@ -182,7 +182,7 @@ class RecordingAudioDevice:
         self.calls.add({"call": "flushAudioOutputs", "t": time.monotonic()})
 
 
-def serve(lifetime_s: float, pose: dict[str, float], audio_delay_s: float = 0.0) -> None:
+def serve(lifetime_s: float, *, pose: dict[str, float], audio_delay_s: float = 0.0) -> None:
     import qi
 
     qi.logging.setLevel(qi.logging.ERROR)
@@ -260,4 +260,4 @@ if __name__ == "__main__":
         "--audio-delay", type=float, default=0.0, help="seconds the audio output takes to start"
     )
     ns = parser.parse_args()
-    serve(ns.lifetime, json.loads(ns.pose), ns.audio_delay)
+    serve(ns.lifetime, pose=json.loads(ns.pose), audio_delay_s=ns.audio_delay)

@@ -52,7 +52,7 @@ def envelope(n: int, rng: np.random.Generator) -> np.ndarray:
     return np.clip(np.convolve(pulses, kernel, mode="same"), 0.0, 1.0)
 
 
-def motion(env: np.ndarray, tau_s: float, lag_s: float) -> np.ndarray:
+def motion(env: np.ndarray, tau_s: float, *, lag_s: float) -> np.ndarray:
     """(n,) the envelope through a first-order low-pass of time constant tau_s, lag_s late."""
     alpha = 1.0 - np.exp(-1.0 / (tau_s * RATE_HZ))
     m = np.empty_like(env)
@@ -103,7 +103,7 @@ def write_speech_motion_dataset(
             take_id = f"{subject}__take{k}"
             env = envelope(n, rng)
             audio = offset + scale * np.outer(env, gains) + rng.normal(0.0, 0.05, (n, n_features))
-            m = motion(env, tau_s, lag_s)
+            m = motion(env, tau_s, lag_s=lag_s)
             angles01 = np.full((n, len(pepper.JOINTS)), 0.5)
             for joint, (rest, gain) in _INSTANT.items():
                 angles01[:, pepper.INDEX[joint]] = rest + gain * env

@@ -25,9 +25,9 @@ PathLike = str | os.PathLike[str]
 
 def synthesize(
     model_dir: PathLike,
+    *,
     audio_path: PathLike,
     out_csv: PathLike,
-    *,
     znorm: str = "*",
     speech: SpeechConfig | None = None,
 ) -> np.ndarray:
@@ -51,18 +51,20 @@ def synthesize(
     track = read_audio(audio_path, sample_rate=audio_cfg.sample_rate)
     if track is None:
         raise InputError(f"{audio_path}: no audio track")
-    feats = features(track.signal, track.sample_rate, audio_cfg)
+    feats = features(track.signal, track.sample_rate, config=audio_cfg)
     if znorm == "self":
         mean, std = feats.mean(axis=0), feats.std(axis=0)
     else:
         mean, std = folder.znorm(znorm)
     times = np.arange(len(feats)) * audio_cfg.winstep_s + audio_cfg.winlen_s / 2
-    x = apply_znorm(feats, mean, std)
+    x = apply_znorm(feats, mean, std=std)
     if info.target == "listener":
         x = listener_inputs(audio=x, partner_speaking=_speaking(track, times, speech))
     # a model with a latent (the CVAE) samples z, drawn with the training seed: reproducible
     pred01 = OnnxModel(folder.file(MODEL_ONNX)).predict(x, z_seed=cfg.seed)
-    angles = postprocess(pred01, folder.profile, float(info.need(folder.path, "rate_hz")), cfg)
+    angles = postprocess(
+        pred01, folder.profile, rate_hz=float(info.need(folder.path, "rate_hz")), config=cfg
+    )
     if info.target == "listener":
         rest = pepper.clamp(pepper.neutral_pose().reshape(1, -1), folder.profile)
         angles = np.where(HEAD, angles, rest).astype(angles.dtype)

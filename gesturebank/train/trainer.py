@@ -83,9 +83,9 @@ def make_dataset(schedule: Schedule, segments: Sequence[Segment]) -> FrameDatase
 def train(
     model: torch.nn.Module,
     train_segments: Sequence[Segment],
+    *,
     val_segments: Sequence[Segment],
     config: TrainConfig,
-    *,
     progress: EpochProgress | None = None,
     description: str = "training",
     epochs: int | None = None,
@@ -124,7 +124,7 @@ def train(
 def _masked_mse_of(
     model: torch.nn.Module,
 ) -> Callable[[torch.Tensor, torch.Tensor, torch.Tensor], torch.Tensor]:
-    return lambda x, y, m: masked_mse(model(x), y, m)
+    return lambda x, y, m: masked_mse(model(x), y, mask=m)
 
 
 def _train_stage(

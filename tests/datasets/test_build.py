@@ -91,7 +91,7 @@ def test_audio_clock_is_the_common_span() -> None:
     assert i1 == 149
     np.testing.assert_allclose(t, 0.0125 + 0.01 * np.arange(i0, i1 + 1))
     with pytest.raises(InputError, match="do not overlap"):
-        audio_clock(pose_t + 10, 0.0, 150, 0.01, 0.025)
+        audio_clock(pose_t + 10, 0.0, n_frames=150, hop_s=0.01, win_s=0.025)
 
 
 def test_every_config_section_is_content_or_not() -> None:
@@ -108,7 +108,7 @@ def test_every_config_section_is_content_or_not() -> None:
 def test_threads_share_the_cores_between_workers() -> None:
     def threads(workers: int, cores: int, **build: object) -> tuple[int | None, int | None]:
         config = Config.model_validate({"build": build})
-        resolved = with_threads(config, workers, cores)
+        resolved = with_threads(config, workers=workers, cores=cores)
         assert content_digest(resolved) == content_digest(config)  # how, not what
         return resolved.build.decode_threads, resolved.build.inference_threads
 
@@ -166,13 +166,19 @@ def test_sigkill_mid_build_then_rerun_gives_the_same_dataset(
 def test_rerun_skips_built_takes_and_force_rebuilds(demo_dataset: Path, samples: Path) -> None:
     videos = samples / "talking"
     before = {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*/*.npz")}
-    summary = build_dataset(discover_takes(videos), videos, demo_dataset, Config())
+    summary = build_dataset(
+        discover_takes(videos), videos_dir=videos, out=demo_dataset, config=Config()
+    )
     assert summary.count("skipped") == 3
     assert {p: p.stat().st_mtime_ns for p in (demo_dataset / "takes").glob("*/*.npz")} == before
     changed = Config.model_validate({"processing": {"cutoff_hz": 6.0}})
-    summary = build_dataset(discover_takes(videos), videos, demo_dataset, changed)
+    summary = build_dataset(
+        discover_takes(videos), videos_dir=videos, out=demo_dataset, config=changed
+    )
     assert summary.count("built") == 3  # a changed config rebuilds
-    summary = build_dataset(discover_takes(videos), videos, demo_dataset, Config(), force=True)
+    summary = build_dataset(
+        discover_takes(videos), videos_dir=videos, out=demo_dataset, config=Config(), force=True
+    )
     assert summary.count("built") == 3
 
 
@@ -209,7 +215,7 @@ def test_ray_executor_gives_the_same_dataset(samples: Path, demo_dataset: Path, 
     pytest.importorskip("ray")
     videos = samples / "talking"
     config = Config.model_validate({"build": {"executor": "ray"}})
-    summary = build_dataset(discover_takes(videos), videos, tmp_path, config)
+    summary = build_dataset(discover_takes(videos), videos_dir=videos, out=tmp_path, config=config)
     assert summary.count("built") == 3
     assert_same_dataset(tmp_path, demo_dataset)
 

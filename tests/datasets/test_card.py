@@ -3,6 +3,7 @@ licence and consent of takes.toml in it, a bad takes.toml a one-line error namin
 
 from __future__ import annotations
 
+import io
 import re
 import shutil
 from pathlib import Path
@@ -113,7 +114,7 @@ def test_a_bad_takes_toml_stops_the_build_before_any_take(tmp_path: Path) -> Non
     videos.mkdir()
     (videos / "takes.toml").write_text('[alice]\nlicense = "CC0"\n')
     with pytest.raises(InputError, match=r"takes\.toml: alice\.license"):
-        build_dataset([], videos, tmp_path / "out", Config())
+        build_dataset([], videos_dir=videos, out=tmp_path / "out", config=Config())
     assert not (tmp_path / "out" / store.MANIFEST).exists()
 
 
@@ -178,3 +179,32 @@ def test_the_summary_table_fits_80_columns(demo_dataset: Path, tmp_path: Path) -
     table = r.stdout.split("lab__cam01_arctic:", 1)[0].splitlines()
     assert all(len(ln) <= 80 and "…" not in ln for ln in table), r.stdout
     assert "stretches" in r.stdout and "dropped" in r.stdout and "rejected" in r.stdout
+    # and each take's line (its rejections and drops with their reasons) was one long line the
+    # terminal wrapped: now a block within 80 columns, every reason whole
+    lines = [ln for ln in r.stdout.splitlines() if not ln.startswith("QC dashboard: ")]  # a path
+    assert all(len(ln.rstrip()) <= 80 for ln in lines), r.stdout
+    flowing = " ".join(ln.strip() for ln in lines)
+    from gesturebank.datasets import store
+
+    records = store.take_records(dataset)
+    reasons = {
+        r for t in records for c in t.clips if c.qc_status != "accepted" for r in c.qc_reasons
+    }
+    assert reasons  # the premise: a clip rejected or a stretch dropped, with its reasons
+    for take in records:
+        assert any(ln.startswith(f"{take.take_id}: ") for ln in lines), (take.take_id, r.stdout)
+    for reason in reasons:
+        assert reason in flowing, (reason, r.stdout)
+    # the build's own table has three take columns (`takes built`, `skipped`, `failed`): at 80
+    # columns its headers were cut (`stretch…`, `reject…`)
+    from rich.console import Console
+
+    from gesturebank.app.build import BuildSummary
+    from gesturebank.cli.build import print_summary
+
+    screen = Console(width=80, record=True, file=io.StringIO())
+    print_summary(screen, BuildSummary(dataset, takes=records))
+    built = screen.export_text()
+    assert all(len(ln.rstrip()) <= 80 and "…" not in ln for ln in built.splitlines()), built
+    for words in ("takes", "built", "skipped", "clips", "rejected", "stretches", "dropped"):
+        assert f" {words} " in built, (words, built)

@@ -40,9 +40,9 @@ def _build(
     config = Config.model_validate({"video": {"max_fps": 10}, "build": build})
     summary = build_dataset(
         discover_takes(videos),
-        videos,
-        out,
-        config,
+        videos_dir=videos,
+        out=out,
+        config=config,
         on_chunk=lambda *call: (chunks if chunks is not None else []).append(call),
         on_frames=lambda *call: (frames if frames is not None else []).append(call),
     )
@@ -123,7 +123,7 @@ def test_a_rerun_reads_the_chunks_back(lecture: Path, chunked: Path, tmp_path: P
             "lifter": {"name": "geometric"},
         }
     )
-    summary = build_dataset(discover_takes(lecture), lecture, out, config)
+    summary = build_dataset(discover_takes(lecture), videos_dir=lecture, out=out, config=config)
     assert summary.count("built") == 1 and not summary.failed
     after = {p: p.stat().st_mtime_ns for p in (out / store.CHUNKS_DIR).glob("*.npz")}
     assert after == before

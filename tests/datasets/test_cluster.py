@@ -242,7 +242,7 @@ def test_a_node_lost_mid_build(
         killed: list[int] = []
         killer = threading.Thread(target=_kill_node_mid_take, args=(cluster, node, out, killed))
         killer.start()
-        summary = build_dataset(discover_takes(videos), videos, out, config)
+        summary = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=config)
         killer.join()
         assert killed, "the node should die while it builds a take"
         outcomes = {r.take_id: r for r in summary.results}
@@ -258,7 +258,7 @@ def test_a_node_lost_mid_build(
             with np.load(npz, allow_pickle=False) as d:
                 assert d["angles"].shape[1] == 11
         if not retries:
-            again = build_dataset(discover_takes(videos), videos, out, config)
+            again = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=config)
             assert again.count("skipped") == 2 and again.count("built") == 1
         assert store.read_record(out, lost[0].take_id if lost else "lab__cam01_arctic")
         assert_same_dataset(out, demo_dataset)

@@ -54,7 +54,9 @@ def test_stored_2d_is_as_good_as_each_frame_alone(samples: Path, tmp_path: Path)
         cache=render_cache(samples),
     )
     video = truth.videos[0]
-    build_dataset(discover_takes(video.parent), video.parent, tmp_path / "out", config)
+    build_dataset(
+        discover_takes(video.parent), videos_dir=video.parent, out=tmp_path / "out", config=config
+    )
     dataset = open_dataset(tmp_path / "out")
     stored, frames = [], []
     for row in (r for r in dataset.rows() if r.clip.kind == "clip"):

@@ -88,17 +88,17 @@ def test_without_a_face_the_body_is_the_head() -> None:
 def test_camera_axes_go_into_the_lifters_frame_and_a_calibrated_world() -> None:
     rot = Rotation.from_euler("xyz", [10, -40, 5], degrees=True).as_matrix()[None]
     joints = np.zeros((1, 17, 3))
-    flipped = in_pose_frame(rot, _pose(joints, "image-ortho"), None)
+    flipped = in_pose_frame(rot, pose3d=_pose(joints, "image-ortho"), camera=None)
     assert flipped is not None
     np.testing.assert_allclose(flipped[0], np.diag([1.0, -1.0, -1.0]) @ rot[0])
-    np.testing.assert_allclose(in_pose_frame(rot, _pose(joints), None)[0], rot[0])
+    np.testing.assert_allclose(in_pose_frame(rot, pose3d=_pose(joints), camera=None)[0], rot[0])
     world_to_cam = Rotation.from_euler("y", 70, degrees=True).as_matrix()
     K = np.array([[800.0, 0, 640], [0, 800.0, 360], [0, 0, 1]])
     cam = Camera("c", (1280, 720), K, np.zeros(0), world_to_cam, np.zeros(3))
-    world = in_pose_frame(rot, _pose(joints, "world"), cam)
+    world = in_pose_frame(rot, pose3d=_pose(joints, "world"), camera=cam)
     assert world is not None
     np.testing.assert_allclose(world_to_cam @ world[0], rot[0], atol=1e-12)
-    assert in_pose_frame(rot, _pose(joints, "nobody-knows"), None) is None
+    assert in_pose_frame(rot, pose3d=_pose(joints, "nobody-knows"), camera=None) is None
     assert pytest.approx(np.linalg.det(world[0])) == 1.0
 
 
@@ -116,7 +116,11 @@ def test_a_fast_small_nod_survives_the_face_models_rate_and_the_processing() -> 
     rows = np.arange(0, len(ts), 2)
     axes = np.stack([Rotation.from_euler("Y", p).as_matrix() for p in pitch[rows]])[:, None]
     spread, _, _ = spread_heads(
-        rows, axes, np.zeros((len(rows), 1, 2)), np.zeros((len(rows), 1)), len(ts)
+        rows,
+        axes,
+        centre=np.zeros((len(rows), 1, 2)),
+        residual=np.zeros((len(rows), 1)),
+        n_frames=len(ts),
     )
     joints = np.stack([_joints(0.0, 0.0, 0.0)] * len(ts))
     raw = pepper_angles(joints)

@@ -120,12 +120,15 @@ def test_clip_audio_is_the_clip_stretch_of_its_source(demo_dataset: Path, tmp_pa
     config = data.info.config.audio
     for clip_id in (KEPT, OUTDOOR):
         row = resolve_clip(data, clip_id)
-        wav = write_clip_audio(data, row, tmp_path / "a.wav", sample_rate=config.sample_rate)
+        wav = write_clip_audio(data, row, out=tmp_path / "a.wav", sample_rate=config.sample_rate)
         assert wav is not None
         track = read_audio(wav, sample_rate=config.sample_rate)
         assert track is not None
         assert len(track.signal) / config.sample_rate == pytest.approx(row.seconds, abs=0.01)
-        ours, theirs = features(track.signal, config.sample_rate, config), data.load(clip_id).audio
+        ours, theirs = (
+            features(track.signal, config.sample_rate, config=config),
+            data.load(clip_id).audio,
+        )
         n = min(len(ours), len(theirs)) - 10
         error = {lag: float(np.abs(ours[:n] - theirs[lag : lag + n]).mean()) for lag in range(6)}
         assert min(error, key=error.__getitem__) == 1, error  # 12.5 ms ≈ one 10 ms frame

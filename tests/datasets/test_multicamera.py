@@ -56,7 +56,7 @@ def test_pose2sim_demo_builds_as_a_multi_camera_take(samples: Path, tmp_path: Pa
     out = tmp_path / "out"
     # the demo lasts 1.67 s: shorter clips are kept here so the triangulated take gives one
     config = Config.model_validate({"lifter": {"name": "multiview"}, "clips": {"min_s": 1.0}})
-    summary = build_dataset(discover_takes(videos), videos, out, config)
+    summary = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=config)
     assert summary.count("built") == 1
     assert [r.take_id for r in summary.failed] == ["clip"]  # one view cannot be triangulated
     assert "needs a multi-camera take" in summary.failed[0].reason

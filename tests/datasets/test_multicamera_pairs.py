@@ -88,7 +88,9 @@ def test_demo_rig_builds_into_accepted_clips(
     """Accepted clips, or clips rejected only for the rig's documented reasons (then xfail)."""
     root = rig(tmp_path / "videos", cameras, videos, samples)
     config = Config()
-    summary = build_dataset(discover_takes(root), root, tmp_path / "out", config)
+    summary = build_dataset(
+        discover_takes(root), videos_dir=root, out=tmp_path / "out", config=config
+    )
     assert not summary.failed, summary.failed[0].reason
     clips = [
         r

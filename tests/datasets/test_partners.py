@@ -144,7 +144,7 @@ def test_the_store_refuses_a_partner_that_breaks_the_rule(
     with pytest.raises(InputError, match=problem):
         check_partners([a, b], take_id="t")
     with pytest.raises(InputError, match=problem):
-        store.write_take(tmp_path, _record("t", [a, b]), [a, b])
+        store.write_take(tmp_path, record=_record("t", [a, b]), clips=[a, b])
     assert not store.take_dir(tmp_path, "t").exists()  # nothing written
 
 

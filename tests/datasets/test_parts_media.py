@@ -40,7 +40,7 @@ def _speech(samples: Path) -> np.ndarray:
 
 def _build(videos: Path, out: Path, **sections) -> None:
     config = Config.model_validate({"build": {"workers": 1}, **sections})
-    summary = build_dataset(discover_takes(videos), videos, out, config)
+    summary = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=config)
     assert not summary.failed, summary.failed
 
 
@@ -79,7 +79,9 @@ def test_a_head_only_take_keeps_its_head_and_only_head_models_use_it(
     def loaded(require: str | None) -> list:
         data = open_dataset(out, require=require)
         items = [
-            i for p in ("train", "val", "test") for i in split_items(data, "sd", p, subject="s1")
+            i
+            for p in ("train", "val", "test")
+            for i in split_items(data, variant="sd", part=p, subject="s1")
         ]
         return load_segments(data, items)
 

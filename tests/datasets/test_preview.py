@@ -32,8 +32,8 @@ RENDER = RenderConfig(width_px=320, height_px=240, frame_rate=12)  # small and f
 def _write(dataset: Path, clip_id: str, out: Path) -> Path:
     return preview_clip(
         dataset,
-        clip_id,
-        out,
+        clip_id=clip_id,
+        out=out,
         render=RENDER,
         playback=PlaybackConfig(),
         profile=RobotConfig().profile,

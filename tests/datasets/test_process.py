@@ -20,7 +20,7 @@ def _run(raw: np.ndarray, t: np.ndarray, reach: str = "clamp") -> np.ndarray:
     return process_angles(
         raw=raw,
         timestamps=t,
-        clock=clock(float(t[0]), float(t[-1]), 100.0),
+        clock=clock(float(t[0]), float(t[-1]), rate_hz=100.0),
         processing=ProcessingConfig(),
         retarget=RetargetConfig(reach=reach),
         profile=PROFILE,
@@ -46,8 +46,8 @@ def test_angles_inside_the_range_are_processed_bit_for_bit_as_before() -> None:
     t[0], t[-1] = 0.0, 3.0
     raw = pepper.neutral_pose() + 0.3 * np.sin(2 * np.pi * 0.7 * t[:, None] + np.arange(11))
     p = ProcessingConfig()
-    times = clock(0.0, 3.0, 100.0)
-    angles, _ = interpolate_at(raw, t, times, max_gap_s=p.max_gap_s)
+    times = clock(0.0, 3.0, rate_hz=100.0)
+    angles, _ = interpolate_at(raw, t, query=times, max_gap_s=p.max_gap_s)
     plain = pepper.clamp(
         butter_lowpass(angles, p.rate_hz, cutoff_hz=p.cutoff_hz, order=p.butter_order).astype(
             np.float32

@@ -53,7 +53,9 @@ def mocap_30s(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     speech = footage.looped_speech([samples / p for p in footage.SPEECH], seconds=30.0)
     wavfile.write(take / "talk.wav", footage.SPEECH_RATE, speech.astype(np.float32))
     out = root / "out"
-    summary = build_dataset(discover_takes(root / "videos"), root / "videos", out, Config())
+    summary = build_dataset(
+        discover_takes(root / "videos"), videos_dir=root / "videos", out=out, config=Config()
+    )
     assert not summary.failed, summary.failed
     shutil.rmtree(root / "videos")
     return out

@@ -32,7 +32,10 @@ def build(videos: dict[str, Path], out: Path, **config: object) -> Path:
         (folder / name).mkdir(parents=True)
         (folder / name / path.name).symlink_to(path)
     summary = build_dataset(
-        discover_takes(folder), folder, out / "ds", Config.model_validate(config)
+        discover_takes(folder),
+        videos_dir=folder,
+        out=out / "ds",
+        config=Config.model_validate(config),
     )
     assert not summary.failed, summary.failed
     return out / "ds"

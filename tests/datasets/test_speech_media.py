@@ -37,7 +37,7 @@ def _take_with_audio(samples: Path, root: Path, video: str, edit) -> Path:
 
 def _build(videos: Path, out: Path, **sections) -> list:
     config = Config.model_validate({"build": {"workers": 1}, **sections})
-    summary = build_dataset(discover_takes(videos), videos, out, config)
+    summary = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=config)
     assert not summary.failed, summary.failed
     return open_dataset(out).rows()
 

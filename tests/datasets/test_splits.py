@@ -98,10 +98,10 @@ def test_sd_cuts_each_subject_by_time() -> None:
 
 
 def test_write_splits(tmp_path: Path) -> None:
-    notes = write_splits(tmp_path, manifest(5), SplitsConfig(folds=10))
+    notes = write_splits(tmp_path, records=manifest(5), config=SplitsConfig(folds=10))
     assert notes == []
     assert len(list((tmp_path / "splits").glob("si_fold_*.json"))) == 5
-    notes = write_splits(tmp_path, manifest(2), SplitsConfig(folds=10))
+    notes = write_splits(tmp_path, records=manifest(2), config=SplitsConfig(folds=10))
     assert "at least 3 subjects" in notes[0]
     assert list((tmp_path / "splits").glob("si_fold_*.json")) == []  # no stale folds
     assert json.loads((tmp_path / "splits" / "sd.json").read_text())["variant"] == "sd"
@@ -112,12 +112,12 @@ def test_rejected_clips_enter_the_splits_only_when_asked(tmp_path: Path) -> None
     for r in m:
         if r["clip_id"] == "s00_t0__c000":
             r["qc_status"] = "rejected"
-    write_splits(tmp_path, m, SplitsConfig())
+    write_splits(tmp_path, records=m, config=SplitsConfig())
     sd = json.loads((tmp_path / "splits" / "sd.json").read_text())
     listed = {t for parts in sd["subjects"].values() for p in parts.values() for t, _, _ in p}
     assert "s00_t0__c000" not in listed and "s00_t0__c002" in listed
     assert not any("__s" in t for t in listed)  # dropped spans never
-    write_splits(tmp_path, m, SplitsConfig(include_rejected=True))
+    write_splits(tmp_path, records=m, config=SplitsConfig(include_rejected=True))
     sd = json.loads((tmp_path / "splits" / "sd.json").read_text())
     listed = {t for parts in sd["subjects"].values() for p in parts.values() for t, _, _ in p}
     assert "s00_t0__c000" in listed
@@ -188,12 +188,12 @@ def test_partner_chains_stay_in_one_part_and_unpaired_clips_still_split() -> Non
 
 
 def test_dyadic_json_is_written_only_when_clips_have_partners(tmp_path: Path) -> None:
-    write_splits(tmp_path, manifest(3))
+    write_splits(tmp_path, records=manifest(3))
     assert not (tmp_path / "splits" / "dyadic.json").exists()
     rows = seed_004_corpus(200)
-    write_splits(tmp_path, rows)
+    write_splits(tmp_path, records=rows)
     written = json.loads((tmp_path / "splits" / "dyadic.json").read_text())
     assert written["variant"] == "dyadic" and written["paired_clips"] == 400
     assert leaks(written, rows) == []
-    write_splits(tmp_path, manifest(3))  # rebuilt without partners: no stale dyadic split
+    write_splits(tmp_path, records=manifest(3))  # rebuilt without partners: no stale dyadic split
     assert not (tmp_path / "splits" / "dyadic.json").exists()

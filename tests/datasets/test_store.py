@@ -38,31 +38,31 @@ def record(take: str, clips: list[Clip], digest: str = "d1", **kw) -> store.Take
 
 def test_built_means_same_config_and_every_clip_present(tmp_path: Path) -> None:
     clips = [clip("a"), clip("a", 1, seed=1)]
-    store.write_take(tmp_path, record("a", clips), clips)
-    assert store.is_built(tmp_path, "a", "d1")
-    assert not store.is_built(tmp_path, "a", "d2")  # config changed → rebuild
-    assert not store.is_built(tmp_path, "b", "d1")
-    store.clip_npz(tmp_path, "a", "a__c001").unlink()
-    assert not store.is_built(tmp_path, "a", "d1")  # data lost → rebuild
+    store.write_take(tmp_path, record=record("a", clips), clips=clips)
+    assert store.is_built(tmp_path, take_id="a", config_digest="d1")
+    assert not store.is_built(tmp_path, take_id="a", config_digest="d2")  # config changed → rebuild
+    assert not store.is_built(tmp_path, take_id="b", config_digest="d1")
+    store.clip_npz(tmp_path, take_id="a", clip_id="a__c001").unlink()
+    assert not store.is_built(tmp_path, take_id="a", config_digest="d1")  # data lost → rebuild
 
 
 def test_rebuild_replaces_the_take_folder_and_failure_leaves_no_arrays(tmp_path: Path) -> None:
     clips = [clip("a"), clip("a", 1)]
-    store.write_take(tmp_path, record("a", clips), clips)
+    store.write_take(tmp_path, record=record("a", clips), clips=clips)
     fewer = [clip("a", seed=2)]
-    store.write_take(tmp_path, record("a", fewer), fewer)
+    store.write_take(tmp_path, record=record("a", fewer), clips=fewer)
     assert sorted(p.name for p in store.take_dir(tmp_path, "a").iterdir()) == ["a__c000.npz"]
     failed = store.TakeRecord("a", "s1", "a.mp4", "d1", failed="a.mp4: no person")
-    store.write_take(tmp_path, failed)
+    store.write_take(tmp_path, record=failed)
     assert list(store.take_dir(tmp_path, "a").iterdir()) == []  # no stale clips
-    assert not store.is_built(tmp_path, "a", "d1")  # failed takes are retried
+    assert not store.is_built(tmp_path, take_id="a", config_digest="d1")  # failed takes are retried
     assert store.read_record(tmp_path, "a").failed == "a.mp4: no person"
 
 
 def test_record_must_match_the_clips_written(tmp_path: Path) -> None:
     clips = [clip("a"), clip("a", 1)]
     with pytest.raises(ValueError, match="differ"):
-        store.write_take(tmp_path, record("a", clips), clips[:1])
+        store.write_take(tmp_path, record=record("a", clips), clips=clips[:1])
 
 
 def test_recorded_parts_must_be_the_masks(tmp_path: Path) -> None:
@@ -72,7 +72,7 @@ def test_recorded_parts_must_be_the_masks(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="recorded parts 'head', its mask has 'head\\+arms'"):
         good = record("a", [whole])
         said = replace(good.clips[0], parts="head")
-        store.write_take(tmp_path, replace(good, clips=(said,)), [whole])
+        store.write_take(tmp_path, record=replace(good, clips=(said,)), clips=[whole])
     arms = np.zeros(11, bool)
     arms[2:10] = True  # the eight arm joints
     head_only = replace(
@@ -83,22 +83,22 @@ def test_recorded_parts_must_be_the_masks(tmp_path: Path) -> None:
     )
     rec = record("a", [head_only])
     rec = replace(rec, clips=(replace(rec.clips[0], parts="head"),))
-    store.write_take(tmp_path, rec, [head_only])
+    store.write_take(tmp_path, record=rec, clips=[head_only])
     assert store.read_record(tmp_path, "a").clips[0].parts == "head"
 
 
 def test_corrupt_record_counts_as_not_built(tmp_path: Path) -> None:
     clips = [clip("a")]
-    store.write_take(tmp_path, record("a", clips), clips)
+    store.write_take(tmp_path, record=record("a", clips), clips=clips)
     store.take_json(tmp_path, "a").write_text("{truncated")
     assert store.read_record(tmp_path, "a") is None
-    assert not store.is_built(tmp_path, "a", "d1")
+    assert not store.is_built(tmp_path, take_id="a", config_digest="d1")
 
 
 def test_an_interrupted_write_leaves_the_old_take_and_only_temporaries(tmp_path: Path) -> None:
     clips = [clip("a")]
-    store.write_take(tmp_path, record("a", clips), clips)
-    before = store.clip_npz(tmp_path, "a", "a__c000").read_bytes()
+    store.write_take(tmp_path, record=record("a", clips), clips=clips)
+    before = store.clip_npz(tmp_path, take_id="a", clip_id="a__c000").read_bytes()
 
     class Boom(Clip):
         def to_arrays(self) -> dict[str, np.ndarray]:
@@ -106,8 +106,8 @@ def test_an_interrupted_write_leaves_the_old_take_and_only_temporaries(tmp_path:
 
     bad = Boom(**{f: getattr(clips[0], f) for f in clips[0].__dataclass_fields__})
     with pytest.raises(KeyboardInterrupt):
-        store.write_take(tmp_path, record("a", [bad], digest="d2"), [bad])
-    assert store.clip_npz(tmp_path, "a", "a__c000").read_bytes() == before
+        store.write_take(tmp_path, record=record("a", [bad], digest="d2"), clips=[bad])
+    assert store.clip_npz(tmp_path, take_id="a", clip_id="a__c000").read_bytes() == before
     assert store.read_record(tmp_path, "a").config_digest == "d1"
     assert not [p for p in (tmp_path / "takes").iterdir() if p.name.startswith(".")]
 
@@ -115,9 +115,9 @@ def test_an_interrupted_write_leaves_the_old_take_and_only_temporaries(tmp_path:
 def test_manifest_has_a_row_per_clip_and_per_span(tmp_path: Path) -> None:
     a = [clip("a"), clip("a", 1, seed=1)]
     span = store.ClipRecord("a__s000", "span", 4.0, 9.5, "rejected", ("main speaker absent",))
-    store.write_take(tmp_path, record("a", a, spans=[span], traits={"age": "30"}), a)
+    store.write_take(tmp_path, record=record("a", a, spans=[span], traits={"age": "30"}), clips=a)
     failed = store.TakeRecord("c", "s2", "c.mp4", "d1", failed="c.mp4: corrupt", seconds=7.0)
-    store.write_take(tmp_path, failed)
+    store.write_take(tmp_path, record=failed)
     table = store.write_manifest(tmp_path, store.take_records(tmp_path))
     rows = table.to_pylist()
     assert [(r["clip_id"], r["kind"], r["qc_status"]) for r in rows] == [
@@ -257,10 +257,13 @@ def test_files_and_folders_follow_the_umask(tmp_path: Path) -> None:
     old = os.umask(0o022)
     try:
         clips = [clip("a")]
-        store.write_take(tmp_path, record("a", clips), clips)
+        store.write_take(tmp_path, record=record("a", clips), clips=clips)
     finally:
         os.umask(old)
-    for path in (store.take_dir(tmp_path, "a"), store.clip_npz(tmp_path, "a", "a__c000")):
+    for path in (
+        store.take_dir(tmp_path, "a"),
+        store.clip_npz(tmp_path, take_id="a", clip_id="a__c000"),
+    ):
         mode = stat.S_IMODE(path.stat().st_mode)
         assert mode == (0o755 if path.is_dir() else 0o644), (path, oct(mode))
     assert stat.S_IMODE(store.take_json(tmp_path, "a").stat().st_mode) == 0o644

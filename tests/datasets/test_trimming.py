@@ -38,7 +38,7 @@ def test_short_wav_warns_and_rejects_what_is_kept(
     settings = {"clips": {"min_s": 1.0}, "build": {"workers": 1}}
     config = Config.model_validate(settings)
     with caplog.at_level(logging.WARNING, logger="gesturebank.app.take"):
-        summary = build_dataset(discover_takes(videos), videos, out, config)
+        summary = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=config)
     assert not summary.failed
     record = read_record(out, "s1__talk")
     assert record is not None

@@ -56,7 +56,9 @@ def test_a_rendered_take_through_the_build_stays_near_the_truth(
         cache=render_cache(samples),  # keyed by checksum: rendered once per machine
     )
     videos = truth.videos[0].parent
-    summary = build_dataset(discover_takes(videos), videos, tmp_path / "out", config)
+    summary = build_dataset(
+        discover_takes(videos), videos_dir=videos, out=tmp_path / "out", config=config
+    )
     assert not summary.failed, summary.failed
     dataset = datasets.open(tmp_path / "out")
     rows = dataset.clips()
@@ -79,7 +81,7 @@ def test_a_rendered_take_through_the_build_stays_near_the_truth(
     # depth signs: the clip's lifted 3D (camera axes) against the true joints of the same frames
     frames = np.rint((clip.timestamps + clip.start_s) * truth.fps).astype(int)
     lifted = camera_axes(clip.pose3d)
-    signs = sign_errors(lifted, truth.joints3d[frames].astype(np.float64), truth.cameras[0])
+    signs = sign_errors(lifted, truth.joints3d[frames].astype(np.float64), camera=truth.cameras[0])
     deep = sum(n for n, _ in signs.values())
     wrong_pct = 100.0 * sum(w for _, w in signs.values()) / max(deep, 1)
     print(f"arm MAE {arm_mae:.1f}°, hand {hand_cm:.1f} cm, wrong sign {wrong_pct:.2f}% of {deep}")

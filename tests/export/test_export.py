@@ -36,7 +36,9 @@ def dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("export")
     mocap_take(samples, root / "takes", name="talk")
     out = root / "dataset"
-    summary = build_dataset(discover_takes(root / "takes"), root / "takes", out, Config())
+    summary = build_dataset(
+        discover_takes(root / "takes"), videos_dir=root / "takes", out=out, config=Config()
+    )
     assert not summary.failed and datasets.open(out).clip_ids()
     return out
 

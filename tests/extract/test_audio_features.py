@@ -77,7 +77,7 @@ def test_default_features_equal_python_speech_features_defaults_on_real_speech(
 ) -> None:
     # The default config (only the feature kind chosen) gives the dissertation's features.
     x = _read_wav(samples / "speech" / f"{name}.wav")
-    got = features(x, SR, AudioConfig(features=kind))
+    got = features(x, SR, config=AudioConfig(features=kind))
     ref = _psf_default(x, kind)
     assert got.dtype == np.float32
     assert (
@@ -95,12 +95,12 @@ def test_hamming_features_equal_python_speech_features_on_real_speech(
     samples: Path, name: str, kind: str
 ) -> None:
     x = _read_wav(samples / "speech" / f"{name}.wav")
-    got = features(x, SR, AudioConfig(features=kind, window="hamming"))
+    got = features(x, SR, config=AudioConfig(features=kind, window="hamming"))
     ref = _psf_hamming(x, kind)
     assert got.shape == ref.shape
     assert np.max(np.abs(got - ref)) <= 1e-4
     # The window matters: the default (rectangular) features are far from these.
-    assert np.max(np.abs(features(x, SR, AudioConfig(features=kind)) - ref)) > 0.1
+    assert np.max(np.abs(features(x, SR, config=AudioConfig(features=kind)) - ref)) > 0.1
 
 
 @pytest.mark.media
@@ -109,27 +109,29 @@ def test_hamming_features_equal_python_speech_features_on_real_speech(
 def test_live_frame_equals_batch_row_on_real_speech(samples: Path, kind: str, window: str) -> None:
     x = _read_wav(samples / "speech" / "arctic_a0007.wav")
     config = AudioConfig(features=kind, window=window)
-    batch = features(x, SR, config)
+    batch = features(x, SR, config=config)
     for i in [0, 1, 37, 150, len(batch) - 4]:
         start = i * 160
         prev = float(x[start - 1]) if start else 0.0
-        row = frame_features(x[start : start + 400], SR, config, previous=prev)
+        row = frame_features(x[start : start + 400], SR, config=config, previous=prev)
         np.testing.assert_allclose(row, batch[i], atol=1e-5)
 
 
 def test_live_frame_equals_batch_row_on_noise() -> None:
     x = np.random.default_rng(0).normal(scale=0.1, size=SR).astype(np.float32)
     config = AudioConfig()
-    batch = features(x, SR, config)
-    row = frame_features(x[50 * 160 : 50 * 160 + 400], SR, config, previous=float(x[50 * 160 - 1]))
+    batch = features(x, SR, config=config)
+    row = frame_features(
+        x[50 * 160 : 50 * 160 + 400], SR, config=config, previous=float(x[50 * 160 - 1])
+    )
     np.testing.assert_allclose(row, batch[50], atol=1e-5)
     # Without the sample before the window, pre-emphasis differs at the first sample only.
-    assert not np.allclose(frame_features(x[8000:8400], SR, config), batch[50], atol=1e-5)
+    assert not np.allclose(frame_features(x[8000:8400], SR, config=config), batch[50], atol=1e-5)
 
 
 def test_live_frame_refuses_delta_features() -> None:
     with pytest.raises(InputError, match="future frames"):
-        frame_features(np.zeros(400), SR, AudioConfig(features="logfb52"))
+        frame_features(np.zeros(400), SR, config=AudioConfig(features="logfb52"))
 
 
 def test_frame_i_covers_samples_from_i_times_hop() -> None:
@@ -138,7 +140,7 @@ def test_frame_i_covers_samples_from_i_times_hop() -> None:
     s = 1000
     x = np.zeros(SR)
     x[s] = 0.5
-    fb = features(x, SR, AudioConfig())
+    fb = features(x, SR, config=AudioConfig())
     hit = np.flatnonzero(fb.max(axis=1) > np.log(np.finfo(np.float64).eps) + 1)
     expected = [i for i in range(len(fb)) if 160 * i <= s + 1 and s < 160 * i + 400]
     assert hit.tolist() == expected == [4, 5, 6]
@@ -148,7 +150,7 @@ def test_frame_count_and_dims() -> None:
     # 1 + ceil((S − 400) / 160) frames; F per kind.
     for n in (400, 401, 560, 561, SR):
         assert num_frames(n, AudioConfig()) == 1 + math.ceil((n - 400) / 160)
-        assert features(np.ones(n) * 0.1, SR, AudioConfig()).shape == (
+        assert features(np.ones(n) * 0.1, SR, config=AudioConfig()).shape == (
             num_frames(n, AudioConfig()),
             26,
         )
@@ -184,7 +186,7 @@ def test_znorm_round_trip() -> None:
     mean, std = fit_znorm(takes)
     allf = np.concatenate(takes)
     np.testing.assert_allclose(mean, allf.mean(axis=0))
-    z = apply_znorm(allf, mean, std)
+    z = apply_znorm(allf, mean, std=std)
     np.testing.assert_allclose(z[:, :3].mean(axis=0), 0.0, atol=1e-6)
     np.testing.assert_allclose(z[:, :3].std(axis=0), 1.0, atol=1e-5)
     assert np.all(z[:, 3] == 0.0)  # floored, not NaN
@@ -204,11 +206,11 @@ def test_znorm_round_trip() -> None:
 )
 def test_features_reject_bad_input(signal: np.ndarray, rate: float) -> None:
     with pytest.raises(InputError):
-        features(signal, rate, AudioConfig())
+        features(signal, rate, config=AudioConfig())
 
 
 def test_znorm_rejects_mismatched_shapes() -> None:
     with pytest.raises(InputError):
-        apply_znorm(np.zeros((5, 3)), np.zeros(4), np.ones(4))
+        apply_znorm(np.zeros((5, 3)), np.zeros(4), std=np.ones(4))
     with pytest.raises(InputError):
         fit_znorm([np.zeros((5, 3)), np.zeros((5, 4))])

@@ -95,7 +95,9 @@ def test_a_damaged_middle_keeps_the_stretches_that_decode(
     shutil.copy(samples / "speech" / "arctic_a0007.wav", take / "damaged.wav")
     config = Config(clips=ClipsConfig(min_s=0.5))  # cam01 lasts 1.7 s
     out = tmp_path / "out"
-    summary = build_dataset(discover_takes(tmp_path / "videos"), tmp_path / "videos", out, config)
+    summary = build_dataset(
+        discover_takes(tmp_path / "videos"), videos_dir=tmp_path / "videos", out=out, config=config
+    )
     assert not summary.failed, summary.failed[0].reason
     record = json.loads((out / "takes" / "lab__damaged.json").read_text())
     clips = [c for c in record["clips"] if c["kind"] == "clip"]

@@ -43,7 +43,7 @@ def test_decode_places_boxes_and_keypoints_relative_to_their_anchor() -> None:
     i = 1568 + 2 * (14 * 3 + 5)  # stride-16 layer, row 3, column 5
     raw[i] = [22.4, -11.2, 44.8, 67.2, 0, 0, 11.2, 22.4, 0, 0, 0, 0]
     logits[i] = 2.0
-    boxes, kps, scores = bp.decode_detections(raw, logits, anchors, min_score=0.5)
+    boxes, kps, scores = bp.decode_detections(raw, logits, anchors=anchors, min_score=0.5)
     assert len(scores) == 1 and scores[0] == pytest.approx(1 / (1 + np.exp(-2.0)))
     cx, cy = (5.5 / 14) + 0.1, (3.5 / 14) - 0.05
     np.testing.assert_allclose(boxes[0], [cx - 0.1, cy - 0.15, cx + 0.1, cy + 0.15], atol=1e-6)
@@ -55,7 +55,7 @@ def test_weighted_nms_averages_overlaps_by_score_and_keeps_the_others() -> None:
     boxes = np.array([[0, 0, 1, 1], [0.1, 0, 1.1, 1], [3, 3, 4, 4]], float)
     kps = np.stack([np.full((4, 2), v) for v in (0.0, 1.0, 5.0)])
     scores = np.array([0.9, 0.3, 0.6])
-    b, k, s = bp.weighted_nms(boxes, kps, scores, iou=0.3)
+    b, k, s = bp.weighted_nms(boxes, kps, scores=scores, iou=0.3)
     np.testing.assert_allclose(s, [0.9, 0.6])  # the strongest score of each group
     np.testing.assert_allclose(b[0], [0.025, 0, 1.025, 1])  # (0.9·0 + 0.3·0.1) / 1.2
     np.testing.assert_allclose(k[0], 0.25)
@@ -85,10 +85,10 @@ def test_heatmap_refinement_moves_points_to_the_blob() -> None:
 def test_detection_views_add_square_tiles_only_to_elongated_frames() -> None:
     assert len(bp.detection_views(1000, 1100)) == 1
     full, *tiles = bp.detection_views(1080, 1920)
-    np.testing.assert_allclose(bp.to_pixels(np.array([0.5, 0.5]), full, 224), [540, 960])
+    np.testing.assert_allclose(bp.to_pixels(np.array([0.5, 0.5]), full, size=224), [540, 960])
     assert len(tiles) == 2
-    tops = [bp.to_pixels(np.array([0.0, 0.0]), t, 224)[1] for t in tiles]
-    bottoms = [bp.to_pixels(np.array([1.0, 1.0]), t, 224)[1] for t in tiles]
+    tops = [bp.to_pixels(np.array([0.0, 0.0]), t, size=224)[1] for t in tiles]
+    bottoms = [bp.to_pixels(np.array([1.0, 1.0]), t, size=224)[1] for t in tiles]
     assert tops == pytest.approx([0, 840]) and bottoms == pytest.approx([1080, 1920])
 
 
@@ -97,7 +97,9 @@ def test_small_people_add_overlapping_squares_of_half_the_short_side() -> None:
     views = bp.detection_views(1080, 1920, small=True)
     small = views[len(coarse) :]
     assert len(small) == 3 * 5  # one more square than covering each side needs
-    corners = np.array([bp.to_pixels(np.array([[0.0, 0.0], [1.0, 1.0]]), v, 224) for v in small])
+    corners = np.array(
+        [bp.to_pixels(np.array([[0.0, 0.0], [1.0, 1.0]]), v, size=224) for v in small]
+    )
     np.testing.assert_allclose(corners[:, 1] - corners[:, 0], 540)  # squares of side 540
     assert corners[:, 0].min(axis=0) == pytest.approx([0, 0])
     assert corners[:, 1].max(axis=0) == pytest.approx([1080, 1920])

@@ -93,11 +93,11 @@ def test_cache_dir_default_and_env_override(monkeypatch: pytest.MonkeyPatch, tmp
 
 
 def test_key_depends_on_video_detector_and_settings() -> None:
-    base = cache_key("v1", "mediapipe", {"min_detection_confidence": 0.5})
-    assert base == cache_key("v1", "mediapipe", {"min_detection_confidence": 0.5})
-    assert base != cache_key("v2", "mediapipe", {"min_detection_confidence": 0.5})
-    assert base != cache_key("v1", "other", {"min_detection_confidence": 0.5})
-    assert base != cache_key("v1", "mediapipe", {"min_detection_confidence": 0.4})
+    base = cache_key("v1", "mediapipe", params={"min_detection_confidence": 0.5})
+    assert base == cache_key("v1", "mediapipe", params={"min_detection_confidence": 0.5})
+    assert base != cache_key("v2", "mediapipe", params={"min_detection_confidence": 0.5})
+    assert base != cache_key("v1", "other", params={"min_detection_confidence": 0.5})
+    assert base != cache_key("v1", "mediapipe", params={"min_detection_confidence": 0.4})
 
 
 def test_small_file_digest_is_full_sha256_of_content(tmp_path: Path) -> None:

@@ -93,7 +93,11 @@ def test_the_head_between_sampled_frames_turns_half_way_and_gaps_stay_unknown() 
     axes = np.stack([Rotation.from_euler("Z", y).as_matrix() for y in np.nan_to_num(yaws)])
     axes[2] = np.nan
     got, _, residual = head_pose.spread_heads(
-        rows, axes[:, None], np.zeros((3, 1, 2)), np.array([[0.01], [0.02], [np.nan]]), 6
+        rows,
+        axes[:, None],
+        centre=np.zeros((3, 1, 2)),
+        residual=np.array([[0.01], [0.02], [np.nan]]),
+        n_frames=6,
     )
     half = Rotation.from_matrix(got[1, 0]).as_euler("ZYX")
     assert half == pytest.approx([0.2, 0.0, 0.0], abs=0.01)

@@ -152,6 +152,8 @@ def test_dubbed_speech_over_several_people_facing_the_camera_makes_nobody_the_sp
 
 def test_spread_takes_the_nearest_sample() -> None:
     rows = np.array([0, 4, 8])
-    out = R.spread(rows, np.array([10, 20, 30]), 10, -1)
+    out = R.spread(rows, np.array([10, 20, 30]), n_frames=10, fill=-1)
     np.testing.assert_array_equal(out, [10, 10, 10, 20, 20, 20, 20, 30, 30, 30])
-    np.testing.assert_array_equal(R.spread(rows[:0], np.zeros(0), 3, -1), [-1, -1, -1])
+    np.testing.assert_array_equal(
+        R.spread(rows[:0], np.zeros(0), n_frames=3, fill=-1), [-1, -1, -1]
+    )

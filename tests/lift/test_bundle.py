@@ -49,7 +49,7 @@ def refine(px: np.ndarray, conf: np.ndarray, cams: CameraGroup, fixed: int = 0):
     return refine_cameras(
         px,
         conf,
-        cams,
+        cameras=cams,
         fixed=fixed,
         min_confidence=OPTIONS.bundle_min_confidence,
         max_frames=OPTIONS.bundle_frames,
@@ -167,7 +167,7 @@ def test_the_multiview_lifter_refines_on_request() -> None:
     rng = np.random.default_rng(11)
     points = rng.uniform([-0.4, -0.4, 0.6], [0.4, 0.4, 1.8], size=(12, 17, 3))
     times = np.arange(12) / 30.0
-    poses = [project_view(points, cam, times) for cam in truth]
+    poses = [project_view(points, cam, timestamps=times) for cam in truth]
     off = perturb_cameras(truth, rotation_deg=5.0, shift_m=0.1, seed=4)
     plain = MultiviewLifter(multiview=MultiviewConfig())
     lifted, report = plain.lift_with_report(TakeViews.of(poses, off))

@@ -75,7 +75,7 @@ def blazepose_like(joints: np.ndarray) -> np.ndarray:
     through the person (its axes turned off the camera's by the ray's angle)."""
     neck = (joints[:, 5] + joints[:, 6]) / 2
     ray = ray_rotations(FOCAL * neck[:, :2] / neck[:, 2:] + np.array(SIZE) / 2,
-                        np.array([FOCAL, FOCAL]), np.array(SIZE) / 2)  # fmt: skip
+                        np.array([FOCAL, FOCAL]), center=np.array(SIZE) / 2)  # fmt: skip
     return np.einsum("tji,tkj->tki", ray, joints - joints[:, 11:13].mean(axis=1, keepdims=True))
 
 

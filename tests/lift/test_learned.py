@@ -99,8 +99,8 @@ def test_perfect_2d_of_held_out_mocap_bounds_hand_error_and_flips(
     joints, times, axes = _mocap(samples, 31.0, 37.0)
     cam = _camera(joints, axes, azimuth)
     config = Config()
-    views = TakeViews.of(project_view(joints, cam, times), CameraGroup([cam]))
-    score = score_lift(LIFTERS.create("learned", config).lift(views), joints, cam,
+    views = TakeViews.of(project_view(joints, cam, timestamps=times), CameraGroup([cam]))
+    score = score_lift(LIFTERS.create("learned", config).lift(views), joints, camera=cam,
                        retarget=config.retarget)  # fmt: skip
     hand, flips = MEASURED[azimuth]
     assert score.hand_cm <= 1.5 * hand
@@ -113,10 +113,10 @@ def test_other_frame_rates_and_missing_frames(samples: Path) -> None:
     joints, times, axes = _mocap(samples, 31.0, 35.0)
     cam = _camera(joints, axes, 30.0)
     lifter = LearnedLifter()
-    view = project_view(joints, cam, times)
+    view = project_view(joints, cam, timestamps=times)
     base = lifter.lift(TakeViews.of(view, CameraGroup([cam]))).joints
     fine_t = np.arange(times[0], times[-1], 1 / 60)
-    fine = F.resample(view.keypoints, times, fine_t)
+    fine = F.resample(view.keypoints, times, at=fine_t)
     lifted60 = lifter.lift(TakeViews.of(Pose2D(fine, fine_t, view.skeleton, view.image_size),
                                         CameraGroup([cam]))).joints  # fmt: skip
     # the same instants (60 fps: every other frame) away from the end, where the net's window
@@ -149,7 +149,7 @@ def test_with_its_mirror_average_the_lift_of_the_mirrored_2d_is_the_mirrored_lif
     exchanged; without the average the net alone is not symmetric."""
     joints, times, axes = _mocap(samples, 31.0, 34.0)
     cam = _camera(joints, axes, 30.0)
-    view = project_view(joints, cam, times)
+    view = project_view(joints, cam, timestamps=times)
     cams = CameraGroup([cam])
     for average in (True, False):
         lifter = LearnedLifter(learned=LearnedConfig(mirror_average=average))

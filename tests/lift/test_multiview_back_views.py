@@ -78,7 +78,7 @@ def test_two_cameras_keep_the_hips_apart(demo) -> None:
     def hip_width_cv(width_dev: float | None) -> float:
         swapped = fix_swaps(views, max_error_px=12.0, max_width_dev=width_dev)
         v = views.relabel(swapped)
-        hips = [dlt(v.normalised[:, :, j], v.extrinsics, v.weights[:, :, j]) for j in
+        hips = [dlt(v.normalised[:, :, j], v.extrinsics, weights=v.weights[:, :, j]) for j in
                 (IDX["left_hip"], IDX["right_hip"])]  # fmt: skip
         width = np.linalg.norm(hips[0] - hips[1], axis=-1)
         return float(np.nanstd(width) / np.nanmean(width))

@@ -41,7 +41,7 @@ def test_one_reading_is_the_true_child_and_both_look_the_same(
     p = np.array(parent)
     child = p + length * np.array(direction) / np.linalg.norm(direction)
     pixel = FOCAL * child[:2] / child[2] + CENTER
-    near, far = ray_candidates(p, rays(pixel, FOCAL, CENTER), length)
+    near, far = ray_candidates(p, rays(pixel, FOCAL, center=CENTER), length=length)
     assert min(np.linalg.norm(near - child), np.linalg.norm(far - child)) < 1e-6
     for reading in (near, far):
         assert np.linalg.norm(reading - p) == pytest.approx(length, rel=1e-6)
@@ -63,14 +63,14 @@ def test_decoding_follows_a_bone_through_the_image_plane(
     parent = np.tile([0.2, 0.0, 3.0], (len(times), 1))
     child = parent + 0.25 * np.stack([np.cos(angle), np.zeros_like(angle), np.sin(angle)], 1)
     pixels = FOCAL * child[:, :2] / child[:, 2:] + CENTER
-    near, far = ray_candidates(parent, rays(pixels, FOCAL, CENTER), 0.25)
+    near, far = ray_candidates(parent, rays(pixels, FOCAL, center=CENTER), length=0.25)
     readings = np.stack([near, far], axis=1)[:, :, None]  # (T, 2, 1, 3)
     truth = np.argmin(np.linalg.norm(readings[:, :, 0] - child[:, None], axis=-1), axis=1)
     deep = np.abs(np.sin(angle)) > 0.3  # elsewhere the two readings nearly coincide
     unary = np.zeros((len(times), 2))
     first = int(np.argmax(deep))
     unary[first, 1 - truth[first]] = 100.0
-    path = decode_path(readings, unary, times, speed=1.5, accel=20.0)
+    path = decode_path(readings, unary, times=times, speed=1.5, accel=20.0)
     assert np.mean(path[deep] == truth[deep]) >= 0.95
 
 
@@ -92,7 +92,7 @@ def _camera(joints: np.ndarray, axes: np.ndarray, azimuth_deg: float):
 def test_a_mirrored_view_lifts_to_the_mirrored_motion(samples: Path) -> None:
     joints, times, axes = _mocap(samples, 31.0, 35.0)
     cam = _camera(joints, axes, 30.0)
-    view = project_view(joints, cam, times)
+    view = project_view(joints, cam, timestamps=times)
     lifter = LIFTERS.create("resolved", Config())
     config = Config().retarget
     lifted = pepper_angles(lifter.lift(TakeViews.of(view, CameraGroup([cam]))), config=config)
@@ -112,10 +112,10 @@ def test_perfect_2d_of_real_mocap_bounds_hand_error_and_flips(
     joints, times, axes = _mocap(samples, 31.0, 37.0)
     cam = _camera(joints, axes, azimuth)
     config = Config()
-    views = TakeViews.of(project_view(joints, cam, times), CameraGroup([cam]))
-    score = score_lift(LIFTERS.create("resolved", config).lift(views), joints, cam,
+    views = TakeViews.of(project_view(joints, cam, timestamps=times), CameraGroup([cam]))
+    score = score_lift(LIFTERS.create("resolved", config).lift(views), joints, camera=cam,
                        retarget=config.retarget)  # fmt: skip
-    fitted = score_lift(LIFTERS.create("fitted", config).lift(views), joints, cam,
+    fitted = score_lift(LIFTERS.create("fitted", config).lift(views), joints, camera=cam,
                         retarget=config.retarget)  # fmt: skip
     hand, flips = MEASURED[azimuth]
     assert score.hand_cm <= 1.5 * hand
@@ -129,7 +129,7 @@ def test_scoring_the_truth_itself_scores_zero(samples: Path) -> None:
     from gesturebank.poses import Pose3D
 
     truth_in_camera = Pose3D(cam.to_camera(joints), np.ones(joints.shape[:2]), times)
-    score = score_lift(truth_in_camera, joints, cam, retarget=Config().retarget)
+    score = score_lift(truth_in_camera, joints, camera=cam, retarget=Config().retarget)
     assert score.hand_cm < 1e-3 and score.wrong_sign_pct == 0.0
     assert np.nanmax(score.angle_error_deg) < 1e-2
     assert score.head_deg < 1e-2 and np.allclose(score.head_bias, 0.0, atol=1e-2)
@@ -141,12 +141,12 @@ def test_the_learned_nets_bones_as_evidence_resolve_the_60_degree_view(samples: 
     without, 2.5 cm and none with a weight of 16."""
     joints, times, axes = _mocap(samples, 31.0, 37.0)
     cam = _camera(joints, axes, 60.0)
-    views = TakeViews.of(project_view(joints, cam, times), CameraGroup([cam]))
+    views = TakeViews.of(project_view(joints, cam, timestamps=times), CameraGroup([cam]))
     scores = []
     for weight in (0.0, 16.0):
         config = Config.model_validate({"lifter": {"resolved": {"learned_weight": weight}}})
         lifted = LIFTERS.create("resolved", config).lift(views)
-        scores.append(score_lift(lifted, joints, cam, retarget=config.retarget))
+        scores.append(score_lift(lifted, joints, camera=cam, retarget=config.retarget))
     alone, guided = scores
     assert guided.hand_cm <= 1.5 * 2.5 < alone.hand_cm
     assert guided.wrong_sign_pct <= 2.0 < alone.wrong_sign_pct

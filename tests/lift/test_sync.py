@@ -83,7 +83,7 @@ def test_shifted_speech_samples_realign_exactly(samples: Path, shift: int) -> No
     x = speech.signal
     # `other` hears the same sound `shift` samples later (earlier if negative).
     other = np.concatenate([np.zeros(shift, np.float32), x]) if shift >= 0 else x[-shift:]
-    lag = signal_lag(x, other, SR, max_lag_s=0.5)
+    lag = signal_lag(x, other, rate=SR, max_lag_s=0.5)
     assert round(lag.seconds * SR) == shift
     assert lag.score > 0.99
 
@@ -99,7 +99,7 @@ def test_audio_start_offsets_are_accounted_for(samples: Path) -> None:
 
 def test_no_correlation_on_silence_scores_low() -> None:
     rng = np.random.default_rng(0)
-    lag = signal_lag(rng.normal(size=8000), rng.normal(size=8000), SR, max_lag_s=0.2)
+    lag = signal_lag(rng.normal(size=8000), rng.normal(size=8000), rate=SR, max_lag_s=0.2)
     assert lag.score < 0.2
     with pytest.raises(InputError, match="sample rates differ"):
         audio_offset(Audio(np.zeros(10), 16000, 0.0), Audio(np.zeros(10), 8000, 0.0))
@@ -179,7 +179,7 @@ def test_align_interpolates_on_the_reference_clock() -> None:
     kp[10, 3] = np.nan  # one missing observation
     pose = Pose2D(kp, ts, "coco17", (640, 480))
     times = np.arange(40) / 30.0
-    out = align([pose, pose], [0.0, 0.05], times)  # view 1's clock runs 50 ms ahead
+    out = align([pose, pose], [0.0, 0.05], times=times)  # view 1's clock runs 50 ms ahead
     np.testing.assert_allclose(out[0, :T, 0, 0], x, atol=1e-4)
     assert np.isnan(out[0, T:]).all()  # after the last frame
     # View 1 at reference time t shows its frame stamped t + 0.05 s: x + 0.05 s × speed.

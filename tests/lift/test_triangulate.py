@@ -48,7 +48,7 @@ def solve(
         "min_cameras": cfg.min_cameras,
         "max_combinations": cfg.max_combinations,
     }
-    return triangulate(pixels, confidence, cameras, **(defaults | options))  # type: ignore[arg-type]
+    return triangulate(pixels, confidence, cameras=cameras, **(defaults | options))  # type: ignore[arg-type]
 
 
 def look_at(center: np.ndarray, target: np.ndarray, name: str, f: float = 1400.0) -> Camera:
@@ -152,10 +152,10 @@ def test_many_cameras_search_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None
     real_dlt = tri_mod.dlt
 
     def counting_dlt(
-        normalised: np.ndarray, extrinsics: np.ndarray, weights: np.ndarray
+        normalised: np.ndarray, extrinsics: np.ndarray, *, weights: np.ndarray
     ) -> np.ndarray:
         solved.append(normalised.shape[1])
-        return real_dlt(normalised, extrinsics, weights)
+        return real_dlt(normalised, extrinsics, weights=weights)
 
     monkeypatch.setattr(tri_mod, "dlt", counting_dlt)
     cap = 20
@@ -217,7 +217,9 @@ def test_dlt_weights_scale_free(scene: tuple[CameraGroup, np.ndarray], scale: fl
     norm = cams.undistort_points(px, normalised=True)
     extr = np.stack([c.extrinsics for c in cams])
     w = np.random.default_rng(0).uniform(0.3, 1.0, px.shape[:-1])
-    np.testing.assert_allclose(dlt(norm, extr, w * scale), dlt(norm, extr, w), atol=1e-7)
+    np.testing.assert_allclose(
+        dlt(norm, extr, weights=w * scale), dlt(norm, extr, weights=w), atol=1e-7
+    )
 
 
 def test_bad_shapes() -> None:
@@ -311,13 +313,19 @@ def test_gross_outliers_are_solved_again_and_refinement_holds_the_bones() -> Non
     off = np.linalg.norm(tri.points[::5, lw] - X[::5, lw], axis=-1)
     assert np.median(off) > 0.05  # the DLT with exclusion is fooled
     points, _error, used, _mirrored, counts = make_consistent(
-        tri.points, tri.error, tri.used, views, max_error_px=12.0, max_bone_dev=0.2, max_jump=0.5
+        tri.points,
+        tri.error,
+        used=tri.used,
+        views=views,
+        max_error_px=12.0,
+        max_bone_dev=0.2,
+        max_jump=0.5,
     )
     assert counts.suspects >= T // 5
     assert np.nanmax(np.linalg.norm(points[:, lw] - X[:, lw], axis=-1)) < 0.03
     assert not used[:2, ::5, lw].any()  # the two lying cameras are left out
     refined, summary = refine(
-        points, np.arange(T) / 30.0, views, used,
+        points, np.arange(T) / 30.0, views=views, used=used,
         max_error_px=12.0, smooth_accel_mps2=30.0, bone_tolerance_m=0.01, chunk_frames=30,
     )  # fmt: skip
     print(f"\nrefinement: {summary}")

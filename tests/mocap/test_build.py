@@ -94,7 +94,10 @@ def test_a_bvh_without_audio_fails_with_its_reason(samples: Path, tmp_path: Path
     bvh = mocap_take(samples, tmp_path / "in", name="silent")
     bvh.with_suffix(".wav").unlink()
     summary = build_dataset(
-        discover_takes(tmp_path / "in"), tmp_path / "in", tmp_path / "out", Config()
+        discover_takes(tmp_path / "in"),
+        videos_dir=tmp_path / "in",
+        out=tmp_path / "out",
+        config=Config(),
     )
     (failed,) = summary.failed
     assert "no silent.wav beside it" in failed.reason

@@ -157,7 +157,9 @@ def test_refresh_rejudges_every_clip_and_keeps_rejected_ones(tmp_path) -> None:
     clips = {
         f"subj{i}_take": [synthetic_clip(seed=i, clip_id=f"subj{i}_take__c000")] for i in range(6)
     }
-    bad = rederive(corrupt(synthetic_clip(seed=0, clip_id="bad_take__c000"), "swap", 2, seed=1))
+    bad = rederive(
+        corrupt(synthetic_clip(seed=0, clip_id="bad_take__c000"), "swap", strength=2, seed=1)
+    )
     # judged whole (qc.stretch_rounds = 0): a clip cut around a failing stretch (issue 41) is
     # re-admitted by rebuilding, not by loosening (test_stretches_cut_when_rejudging)
     whole = Config.model_validate({"qc": {"stretch_rounds": 0}})

@@ -19,8 +19,8 @@ def measure(clip) -> ClipMetrics:
 @pytest.mark.parametrize("kind", KINDS)
 def test_seeded_and_pure(clip, kind) -> None:
     before = clip.to_arrays()
-    a = corrupt(clip, kind, 2 if kind == "swap" else 0.5, seed=3).to_arrays()
-    b = corrupt(clip, kind, 2 if kind == "swap" else 0.5, seed=3).to_arrays()
+    a = corrupt(clip, kind, strength=2 if kind == "swap" else 0.5, seed=3).to_arrays()
+    b = corrupt(clip, kind, strength=2 if kind == "swap" else 0.5, seed=3).to_arrays()
     for k, v in clip.to_arrays().items():
         np.testing.assert_array_equal(v, before[k])  # input untouched
         np.testing.assert_array_equal(a[k], b[k])
@@ -29,13 +29,13 @@ def test_seeded_and_pure(clip, kind) -> None:
 
 def test_unknown_kind(clip) -> None:
     with pytest.raises(ValueError, match="unknown corruption"):
-        corrupt(clip, "melt", 1.0)
+        corrupt(clip, "melt", strength=1.0)
 
 
 def test_each_kind_is_measured(clip) -> None:
     clean = measure(clip)
     m = {
-        kind: measure(rederive(corrupt(clip, kind, s, seed=1)))
+        kind: measure(rederive(corrupt(clip, kind, strength=s, seed=1)))
         for kind, s in (
             ("spikes", 2.0),
             ("jitter", 0.1),
@@ -56,7 +56,7 @@ def test_each_kind_is_measured(clip) -> None:
 
 
 def test_raw_angle_target(clip) -> None:
-    bad = corrupt(clip, "jitter", 0.05, seed=0, target="raw_angles")
+    bad = corrupt(clip, "jitter", strength=0.05, seed=0, target="raw_angles")
     np.testing.assert_array_equal(bad.pose3d.joints, clip.pose3d.joints)
     assert np.std(bad.raw_angles - clip.raw_angles) == pytest.approx(0.05, rel=0.1)
     again = rederive(bad, from_pose=False)
@@ -74,7 +74,7 @@ def test_mirror_twice_is_identity_and_mirrors_the_arms(clip) -> None:
 
 
 def test_window_slices_both_clocks(clip) -> None:
-    part = window(clip, 1.0, 2.0)
+    part = window(clip, 1.0, t1=2.0)
     assert part.times[0] >= 1.0 and part.times[-1] < 2.0
     assert part.timestamps[0] >= 1.0 and part.timestamps[-1] < 2.0
     assert len(part.pose3d) == len(part.timestamps) == len(part.raw_angles) == len(part.valid)

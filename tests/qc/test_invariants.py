@@ -136,7 +136,7 @@ def test_gesturebank_qc_applies_the_invariants_to_the_clips_a_folder_holds(tmp_p
 
     takes = {f"s{i}_take": [synthetic_clip(seed=i, clip_id=f"s{i}_take__c000")] for i in range(3)}
     out = write_dataset(tmp_path / "ds", takes)
-    path = store.clip_npz(out, "s1_take", "s1_take__c000")
+    path = store.clip_npz(out, take_id="s1_take", clip_id="s1_take__c000")
     with np.load(path) as d:
         arrays = {k: d[k] for k in d.files}
     broken = _jump(synthetic_clip(seed=1, clip_id="s1_take__c000"))

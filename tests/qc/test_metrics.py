@@ -58,7 +58,7 @@ def test_uniform_resampling_makes_frame_rates_comparable() -> None:
     # A cubic filmed at 60 fps, resampled to 30 Hz, has the 30 Hz value 18 c² / 30.
     t60 = np.arange(120) / 60.0
     theta = (0.5 * t60**3)[:, None]
-    j = M.jerkiness_per_joint(M.uniform(theta, t60, 30.0, max_gap_s=0.25), 30.0)[0]
+    j = M.jerkiness_per_joint(M.uniform(theta, t60, rate_hz=30.0, max_gap_s=0.25), 30.0)[0]
     assert j == pytest.approx(18 * 0.25 / 30.0, rel=1e-6)
 
 
@@ -132,19 +132,41 @@ def test_limit_frames() -> None:
     a = np.tile((prof.lower + prof.upper) / 2, (4, 1))
     a[1, 0] = prof.upper[0]
     a[2, 3] = prof.lower[3]
-    at = M.limit_frames(a, prof.lower, prof.upper)
+    at = M.limit_frames(a, prof.lower, upper=prof.upper)
     assert at.any(axis=1).tolist() == [False, True, True, False]
+
+
+def test_a_limb_held_still_past_the_limit_is_not_frozen() -> None:
+    """Issue 41: the robot held at a limit for 10 s while the person folds the elbow 0.4 rad
+    past it in half a second and then keeps it still (test.bvh 225-237 s) is frozen only while
+    the fold lasts; waving 0.3 rad past the limit for 4 s is frozen for those 4 s."""
+    rate = 100.0
+    t = np.arange(1200) / rate
+    held = np.zeros((len(t), 2), bool)
+    held[100:1100, 0] = True  # 1-11 s
+    held[100:500, 1] = True  # 1-5 s
+    fold = 1.6 + np.clip((t - 1.0) / 0.5, 0, 1) * 0.4 + 0.005 * np.sin(7 * t)
+    wave = 1.7 + 0.3 * np.sin(2 * np.pi * t)
+    person = np.stack([fold, wave], axis=1)
+    frozen = M.frozen_frames(held, person, rate_hz=rate, min_motion=0.2, window_s=1.0)
+    spans = M.frozen_spans_s(frozen, rate_hz=rate)
+    assert spans[0] < 1.0  # the fold itself, not the hold
+    assert spans[1] == pytest.approx(4.0, abs=0.02)
+    qc = QCConfig()
+    assert spans[0] < qc.max_frozen_at_limit_s < spans[1]
 
 
 def test_high_frequency_share() -> None:
     t = np.arange(600) / 30.0
     slow = np.sin(2 * np.pi * 1.0 * t)[:, None]
     fast = np.sin(2 * np.pi * 11.0 * t)[:, None]
-    assert M.high_freq_fraction(slow, 30.0, 7.0) < 0.01
-    assert M.high_freq_fraction(fast, 30.0, 7.0) > 0.99
+    assert M.high_freq_fraction(slow, rate_hz=30.0, above_hz=7.0) < 0.01
+    assert M.high_freq_fraction(fast, rate_hz=30.0, above_hz=7.0) > 0.99
     mixed = np.hstack([slow, fast])  # equal power in each column → half above 7 Hz
-    assert M.high_freq_fraction(mixed, 30.0, 7.0) == pytest.approx(0.5, abs=0.01)
-    assert np.isnan(M.high_freq_fraction(slow, 12.0, 7.0))  # the clock cannot show 7 Hz
+    assert M.high_freq_fraction(mixed, rate_hz=30.0, above_hz=7.0) == pytest.approx(0.5, abs=0.01)
+    assert np.isnan(
+        M.high_freq_fraction(slow, rate_hz=12.0, above_hz=7.0)
+    )  # the clock cannot show 7 Hz
 
 
 def test_a_step_across_pi_is_no_jitter() -> None:
@@ -153,8 +175,8 @@ def test_a_step_across_pi_is_no_jitter() -> None:
     unwrapped, the swing is a sine. Unknown samples stay unknown."""
     t = np.arange(300) / 30.0
     swing = np.angle(np.exp(1j * (np.pi - 0.25 + 0.3 * np.sin(2 * np.pi * 2.0 * t))))[:, None]
-    assert M.high_freq_fraction(swing, 30.0, 7.0) > 0.1
-    assert M.high_freq_fraction(unwrap_angles(swing), 30.0, 7.0) < 1e-6
+    assert M.high_freq_fraction(swing, rate_hz=30.0, above_hz=7.0) > 0.1
+    assert M.high_freq_fraction(unwrap_angles(swing), rate_hz=30.0, above_hz=7.0) < 1e-6
     swing[10] = np.nan
     unwrapped = unwrap_angles(swing)
     assert np.isnan(unwrapped[10, 0]) and np.nanmax(np.abs(np.diff(unwrapped[:, 0]))) < 0.2

@@ -16,6 +16,7 @@ from gesturebank.clip import Clip
 from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.listing import list_clips
+from gesturebank.datasets.partners import LISTENING, SPEAKING, pair_clips
 from gesturebank.datasets.refresh import refresh
 from gesturebank.qc import table
 from gesturebank.qc.checks import absolute_reasons, failures
@@ -26,6 +27,7 @@ from gesturebank.report import write_dashboard
 from gesturebank.robot import pepper
 from gesturebank.skeletons import COCO17
 from gesturebank.testing.clips import synthetic_clip, write_dataset
+from gesturebank.testing.dyads import with_person
 
 PROFILE = pepper.load_profile()
 MIN_S = 3.0
@@ -123,7 +125,7 @@ def test_a_whole_take_fault_still_rejects_the_clip_whole() -> None:
 
 def test_a_piece_keeps_the_clip_arrays_of_its_frames() -> None:
     clip = synthetic_clip(seconds=6.0, seed=2)
-    part = piece(clip, 30, 120, "x__c001")
+    part = piece(clip, 30, stop=120, clip_id="x__c001")
     assert part.start_s == pytest.approx(clip.start_s + 1.0, abs=0.011)
     i0 = int(np.searchsorted(clip.times, clip.timestamps[30] - 1e-9))
     np.testing.assert_array_equal(part.angles, clip.angles[i0 : i0 + len(part.times)])
@@ -185,20 +187,31 @@ def test_a_check_added_from_outside_is_judged_cut_and_listed() -> None:
 def test_stretches_cut_when_rejudging(tmp_path: Path) -> None:
     """`gesturebank qc OUT` cuts as the build does: a clip stored whole (judged with
     qc.stretch_rounds = 0) with a one-frame glitch becomes two accepted pieces and a dropped
-    stretch, which `clips --status rejected` lists."""
+    stretch, which `clips --status rejected` lists. A second person beside it was its partner:
+    it names one of the pieces after the cut (the build's pairing), and each piece names it, in
+    the records and the files."""
     clips = {
         f"s{i}_take": [synthetic_clip(seconds=4.0, seed=10 + i, clip_id=f"s{i}_take__c000")]
         for i in range(3)
     }
     glitch = replace(_with_spike(synthetic_clip(seconds=12.0, seed=3), 180), clip_id="g_take__c000")
+    other = synthetic_clip(seconds=12.0, seed=4, clip_id="g_take__c001")
+    speaker = with_person(glitch, person=0, role=np.full(len(glitch.times), SPEAKING, np.int8))
+    listener = with_person(other, person=1, role=np.full(len(other.times), LISTENING, np.int8))
     whole = Config.model_validate({"qc": {"stretch_rounds": 0}})
-    out = write_dataset(tmp_path, {**clips, "g_take": [glitch]}, config=whole)
+    takes = {**clips, "g_take": pair_clips([speaker, listener])}
+    out = write_dataset(tmp_path, takes, config=whole, in_turn=False)
     assert open_dataset(out).clip_ids("rejected") == ["g_take__c000"]
     refresh(out, Config())
     ds = open_dataset(out)
     assert "g_take__c000" not in ds.clip_ids(None)
-    pieces = [c for c in ds.clip_ids("accepted") if c.startswith("g_take")]
+    pieces = [c for c in ds.clip_ids("accepted") if c.startswith("g_take__c000")]
     assert pieces == ["g_take__c000p0", "g_take__c000p1"]
+    partners = {r.clip.clip_id: r.clip.partner_clip_id for r in ds.rows() if r.clip.kind == "clip"}
+    assert partners["g_take__c001"] in pieces
+    assert ds.load("g_take__c001").partner_clip_id == partners["g_take__c001"]
+    for kept in pieces:
+        assert partners[kept] == ds.load(kept).partner_clip_id == "g_take__c001"
     assert sum(ds.load(c).duration_s for c in pieces) > 11.0
     assert not (out / "takes" / "g_take" / "g_take__c000.npz").exists()
     rejected = list_clips(ds, status="rejected")

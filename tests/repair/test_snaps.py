@@ -94,8 +94,8 @@ def test_a_real_two_person_scene_keeps_no_jump_onto_the_other_person(samples: Pa
     assert len(people) == 2  # (a ghost track of 7 frames aside)
     for k in people:
         track = np.full(len(ids), k)
-        own = gather(ext.multi, ids, track)
-        others = others_of(ext.multi, ids, track)
+        own = gather(ext.multi, ids, track_id=track)
+        others = others_of(ext.multi, ids, track=track)
         assert own.skeleton == "blazepose33"
         jumps = _landing_jumps(own.keypoints[..., :2].astype(float), others, config.repair)
         fixed, snapped = unsnap(own, others, config=config.repair)

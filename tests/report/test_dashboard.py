@@ -372,7 +372,7 @@ def test_every_absolute_check_has_its_threshold_for_the_dashboard() -> None:
         past = limit * 1.5 + 1 if side == "max" else limit * 0.5
         assert len(absolute_reasons(ClipMetrics.from_dict({key: past}), qc)) == 1, key
         assert absolute_reasons(ClipMetrics.from_dict({key: limit}), qc) == [], key
-        assert fails(key, past, qc) and not fails(key, limit, qc), key
+        assert fails(key, past, config=qc) and not fails(key, limit, config=qc), key
     worst = {
         k: (getattr(qc, f) * 1.5 + 1 if s == "max" else 0.0) for k, (f, s) in THRESHOLDS.items()
     }

@@ -39,7 +39,7 @@ def listener_model(dyad_dataset: Path, tmp_path_factory: pytest.TempPathFactory)
         {"target": "listener", "lstm": {"max_epochs": 2, "seq_len": 100}}
     )
     out = tmp_path_factory.mktemp("listener") / "model"
-    train_command(dyad_dataset, "lstm", "dyadic", out_dir=out, config=cfg, quiet=True)
+    train_command(dyad_dataset, model="lstm", variant="dyadic", out_dir=out, config=cfg, quiet=True)
     return out
 
 
@@ -72,7 +72,9 @@ def test_live_listener_moves_only_the_head_within_the_limits(
 ) -> None:
     out = tmp_path / "live.jsonl"
     cfg = PlaybackConfig()
-    result = live_command(listener_model, "record", str(speech), out=out, role="listener")
+    result = live_command(
+        listener_model, backend="record", input=str(speech), out=out, role="listener"
+    )
     assert result.status == "completed" and result.skipped == 0
     live = [c for c in read_record(out) if c["phase"] == "live"]
     assert len(live) == result.n_sent > 100
@@ -93,13 +95,19 @@ def test_live_refuses_a_model_of_the_other_role(
 ) -> None:
     speaker = write_model_dir(tmp_path / "speaker")  # a speaker model (no target: speaker)
     with pytest.raises(InputError) as info:
-        live_command(speaker, "record", str(speech), out=tmp_path / "a.jsonl", role="listener")
+        live_command(
+            speaker, backend="record", input=str(speech), out=tmp_path / "a.jsonl", role="listener"
+        )
     message = str(info.value)
     assert "a speaker model cannot play --role listener" in message
     assert "--target listener" in message and "\n" not in message
     with pytest.raises(InputError, match="a listener model cannot play --role speaker"):
         live_command(
-            listener_model, "record", str(speech), out=tmp_path / "b.jsonl", role="speaker"
+            listener_model,
+            backend="record",
+            input=str(speech),
+            out=tmp_path / "b.jsonl",
+            role="speaker",
         )
     assert not (tmp_path / "a.jsonl").exists() and not (tmp_path / "b.jsonl").exists()
 
@@ -117,7 +125,12 @@ def test_live_listener_over_qi_moves_only_the_head(
     cfg = PlaybackConfig(start_s=0.3, return_s=0.3)
     with NaoqiServer(dict(zip(pepper.JOINTS, arms_up.tolist(), strict=True)), lifetime_s=60) as srv:
         result = live_command(
-            listener_model, "naoqi", str(speech), url=srv.url, config=cfg, role="listener"
+            listener_model,
+            backend="naoqi",
+            input=str(speech),
+            url=srv.url,
+            config=cfg,
+            role="listener",
         )
         sets = [c for c in srv.calls() if c["call"] == "setAngles"]
     order = [sets[0]["names"].index(j) for j in pepper.JOINTS]
@@ -150,9 +163,9 @@ def test_synthesize_with_a_listener_model_moves_only_the_head(
     the head only; the flag matters: another flag gives another head motion."""
     from gesturebank.train.synthesis import synthesize
 
-    heard = synthesize(listener_model, speech, tmp_path / "a.csv")
+    heard = synthesize(listener_model, audio_path=speech, out_csv=tmp_path / "a.csv")
     never = SpeechConfig(threshold=0.999, release_threshold=0.999)  # hears (almost) no speech
-    deaf = synthesize(listener_model, speech, tmp_path / "b.csv", speech=never)
+    deaf = synthesize(listener_model, audio_path=speech, out_csv=tmp_path / "b.csv", speech=never)
     robot = load_frame_model(listener_model).robot
     rest = pepper.clamp(pepper.neutral_pose().reshape(1, -1), robot)[0]
     for angles in (heard, deaf):

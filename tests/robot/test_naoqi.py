@@ -119,7 +119,7 @@ def test_killed_session_gives_clean_exit_of_a_process(server: NaoqiServer, tmp_p
         "from gesturebank.config import PlaybackConfig\n"
         "from gesturebank.cli.robot import replay_command\n"
         "try:\n"
-        f"    replay_command({str(csv)!r}, 'naoqi', url={server.url!r},\n"
+        f"    replay_command({str(csv)!r}, backend='naoqi', url={server.url!r},\n"
         "                   config=PlaybackConfig(start_s=0.3, return_s=0.3))\n"
         "except GesturebankError as exc:\n"
         "    print(exc, file=sys.stderr); sys.exit(1)\n"
@@ -144,7 +144,7 @@ def test_replay_command_naoqi(server: NaoqiServer, tmp_path: Path) -> None:
     n = 50
     times = np.arange(n) * 0.01
     csv = write_timeline(tmp_path / "a.csv", Timeline.of(times, np.tile(NEUTRAL, (n, 1))))
-    result = replay_command(csv, "naoqi", url=server.url, config=FAST)
+    result = replay_command(csv, backend="naoqi", url=server.url, config=FAST)
     assert not isinstance(result, Path) and result.status == "completed"
     assert sum(c["call"] == "setAngles" for c in server.calls()) >= n + 60
 
@@ -214,7 +214,7 @@ def test_replay_command_plays_the_audio_on_the_robot(server: NaoqiServer, tmp_pa
         tmp_path / "a.csv", Timeline.of(np.arange(n) * 0.01, np.tile(NEUTRAL, (n, 1)))
     )
     wav = _speech(tmp_path / "s.wav", 0.5)
-    result = replay_command(csv, "naoqi", url=server.url, audio=wav, config=FAST)
+    result = replay_command(csv, backend="naoqi", url=server.url, audio=wav, config=FAST)
     assert not isinstance(result, Path) and result.status == "completed"
     buffers = [c["frames"] for c in server.calls() if c["call"] == "sendRemoteBufferToOutput"]
     assert sum(buffers) == 24000

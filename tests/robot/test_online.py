@@ -33,7 +33,7 @@ def speech(samples: Path) -> Path:
 def speech_feats(speech: Path) -> np.ndarray:
     track = read_audio(speech, sample_rate=16000)
     assert track is not None
-    return features(track.signal, 16000, AudioConfig())
+    return features(track.signal, 16000, config=AudioConfig())
 
 
 @pytest.mark.parametrize("kind", ["lstm", "mlp"])
@@ -91,7 +91,7 @@ def test_pipeline_is_safe_and_follows_speech(
 def test_live_wav_in_real_time(tmp_path: Path, speech: Path, speech_feats: np.ndarray) -> None:
     folder = write_model_dir(tmp_path / "m", feats=speech_feats)
     out = tmp_path / "live.jsonl"
-    result = live_command(folder, "record", str(speech), out=out)
+    result = live_command(folder, backend="record", input=str(speech), out=out)
     track = read_audio(speech, sample_rate=16000)
     assert track is not None
     n_chunks = len(track.signal) // 160
@@ -110,7 +110,9 @@ def test_live_wav_in_real_time(tmp_path: Path, speech: Path, speech_feats: np.nd
 def test_missing_microphone_is_one_line(tmp_path: Path) -> None:
     folder = write_model_dir(tmp_path / "m")
     with pytest.raises(InputError) as info:
-        live_command(folder, "record", "mic", out=tmp_path / "x.jsonl", max_seconds=0.5)
+        live_command(
+            folder, backend="record", input="mic", out=tmp_path / "x.jsonl", max_seconds=0.5
+        )
     msg = str(info.value)
     assert msg.startswith("microphone:") and "\n" not in msg
     assert not (tmp_path / "x.jsonl").exists()  # failed before touching the robot
@@ -125,7 +127,9 @@ def test_missing_portaudio_names_the_package(
     monkeypatch.delitem(sys.modules, "sounddevice", raising=False)
     folder = write_model_dir(tmp_path / "m")
     with pytest.raises(InputError) as info:
-        live_command(folder, "record", "mic", out=tmp_path / "x.jsonl", max_seconds=0.5)
+        live_command(
+            folder, backend="record", input="mic", out=tmp_path / "x.jsonl", max_seconds=0.5
+        )
     msg = str(info.value)
     assert "PortAudio library not found" in msg and "apt-get install libportaudio2" in msg
     assert "\n" not in msg
@@ -141,7 +145,15 @@ def test_live_runs_a_model_trained_by_gesturebank(
 
     cfg = TrainConfig.model_validate({"mlp": {"max_epochs": 3}, "lstm": {"max_epochs": 2}})
     folder = tmp_path / kind
-    train_command(demo_dataset, kind, "sd", subject="lab", out_dir=folder, config=cfg, quiet=True)
+    train_command(
+        demo_dataset,
+        model=kind,
+        variant="sd",
+        subject="lab",
+        out_dir=folder,
+        config=cfg,
+        quiet=True,
+    )
     model = load_frame_model(folder, znorm="lab")
     synth = LiveSynth(model)
     track = read_audio(speech, sample_rate=16000)

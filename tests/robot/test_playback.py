@@ -154,7 +154,9 @@ def test_safety_filter_clamps_and_limits_speed() -> None:
 
 def test_replay_command_record(tmp_path: Path) -> None:
     csv = write_timeline(tmp_path / "a.csv", wild_timeline(30))
-    result = replay_command(csv, "record", out=tmp_path / "r.jsonl", config=FAST, clamp=True)
+    result = replay_command(
+        csv, backend="record", out=tmp_path / "r.jsonl", config=FAST, clamp=True
+    )
     assert not isinstance(result, Path) and result.n_frames == 30
     assert sum(c["phase"] == "timeline" for c in read_record(tmp_path / "r.jsonl")) == 30
 
@@ -166,7 +168,7 @@ OPTION_ERRORS = [("record", "--out"), ("sim", "--out"), ("naoqi", "--url"), ("na
 def test_replay_command_options(tmp_path: Path, backend: str, needle: str) -> None:
     csv = write_timeline(tmp_path / "a.csv", wild_timeline(5))
     with pytest.raises(Exception, match=needle):
-        replay_command(csv, backend, clamp=True)
+        replay_command(csv, backend=backend, clamp=True)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -183,7 +185,7 @@ def gesture(n: int = 200, rate_hz: float = 100.0) -> Timeline:
 
 def refused(path: Path, out: Path) -> str:
     with pytest.raises(InputError) as info:
-        replay_command(path, "record", out=out, config=FAST)
+        replay_command(path, backend="record", out=out, config=FAST)
     msg = str(info.value)
     assert str(path) in msg and "\n" not in msg
     assert not out.exists()  # refused before anything was written
@@ -196,7 +198,7 @@ def test_replay_refuses_degrees_unless_clamp(tmp_path: Path, scale: float) -> No
     csv = write_timeline(tmp_path / "deg.csv", Timeline.of(tl.times, tl.angles * scale))
     out = tmp_path / "r.jsonl"
     assert "looks like degrees?" in refused(csv, out)
-    result = replay_command(csv, "record", out=out, config=FAST, clamp=True)
+    result = replay_command(csv, backend="record", out=out, config=FAST, clamp=True)
     assert not isinstance(result, Path) and result.status == "completed"
     check_safe(np.array([c["angles"] for c in read_record(out)]), dt=0.01)
 
@@ -215,11 +217,13 @@ def test_replay_refuses_many_frames_beyond_the_limits(tmp_path: Path, caplog) ->
             assert "20% of the frames" in msg and "HeadPitch = 1 rad" in msg
             continue
         with caplog.at_level("WARNING", logger="gesturebank.robot.safety"):
-            replay_command(csv, "record", out=out, config=FAST)
+            replay_command(csv, backend="record", out=out, config=FAST)
         assert "2.0% of the frames beyond" in caplog.text
     # A sound timeline passes without a word.
     caplog.clear()
-    replay_command(write_timeline(tmp_path / "ok.csv", gesture()), "record", out=out, config=FAST)
+    replay_command(
+        write_timeline(tmp_path / "ok.csv", gesture()), backend="record", out=out, config=FAST
+    )
     assert "beyond" not in caplog.text
 
 
@@ -237,7 +241,7 @@ def test_replay_refuses_gaps_and_far_starts(tmp_path: Path) -> None:
     # The bounds are the config's: raised, the same files play.
     loose = FAST.model_copy(update={"max_gap_s": 6.0, "max_start_s": 2000.0})
     for csv in (gap_csv, late_csv):
-        result = replay_command(csv, "record", out=out, config=loose)
+        result = replay_command(csv, backend="record", out=out, config=loose)
         assert not isinstance(result, Path) and result.status == "completed"
 
 

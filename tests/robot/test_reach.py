@@ -18,7 +18,7 @@ ANGLES = arrays(np.float64, (40, 11), elements=st.floats(-6.0, 6.0))
 @settings(max_examples=50, deadline=None)
 @given(angles=ANGLES, margin=st.floats(0.05, 1.0))
 def test_soft_limits_are_inside_increasing_and_the_identity_away_from_the_limits(angles, margin):
-    soft = soft_limits(angles, PROFILE.lower, PROFILE.upper, margin=margin)
+    soft = soft_limits(angles, PROFILE.lower, upper=PROFILE.upper, margin=margin)
     assert np.all((soft > PROFILE.lower) | np.isclose(soft, PROFILE.lower, atol=1e-12))
     assert np.all((soft < PROFILE.upper) | np.isclose(soft, PROFILE.upper, atol=1e-12))
     m = np.minimum(margin, (PROFILE.upper - PROFILE.lower) / 4)

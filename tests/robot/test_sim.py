@@ -60,7 +60,7 @@ def test_sim_renders_5s_with_audio(tmp_path: Path, artifacts: Path) -> None:
     out = tmp_path / "sim.mp4"
     render = RenderConfig(frame_rate=25, width_px=320, height_px=240, ramps=False)
     wav = tone_wav(tmp_path / "a.wav", 5.0)
-    replay_command(csv, "sim", out=out, audio=wav, config=PlaybackConfig(), render=render)
+    replay_command(csv, backend="sim", out=out, audio=wav, config=PlaybackConfig(), render=render)
     frames, duration, fps, samples = decode(out)
     assert len(frames) == 125 and fps == 25
     assert duration == pytest.approx(5.0, abs=0.05)
@@ -78,7 +78,7 @@ def test_sim_shows_the_safety_moves_with_the_audio_delayed(tmp_path: Path) -> No
     render = RenderConfig(frame_rate=25, width_px=160, height_px=120)
     cfg = PlaybackConfig(start_s=1.0, return_s=1.0)
     wav = tone_wav(tmp_path / "a.wav", 5.0)
-    replay_command(csv, "sim", out=out, audio=wav, config=cfg, render=render)
+    replay_command(csv, backend="sim", out=out, audio=wav, config=cfg, render=render)
     frames, duration, _, samples = decode(out)
     assert duration >= 5.0 + 1.0 + 1.0 + cfg.lead_s - 0.05
     assert len(frames) == pytest.approx(duration * 25, abs=1)
@@ -97,7 +97,7 @@ def test_sim_side_by_side(tmp_path: Path) -> None:
         tmp_path / "truth.csv", five_seconds(POSE[[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]])
     )
     render = RenderConfig(width_px=200, height_px=150, ramps=False)
-    out = replay_command(a, "sim", out=tmp_path / "sbs.mp4", compare=[b], render=render)
+    out = replay_command(a, backend="sim", out=tmp_path / "sbs.mp4", compare=[b], render=render)
     assert isinstance(out, Path)
     frames, _, _, samples = decode(out)
     assert frames[0].shape == (150, 400, 3) and len(frames) == 125 and samples == 0
@@ -130,7 +130,7 @@ def test_sim_unwritable_output_is_one_line_naming_it(tmp_path: Path, where: str)
     cfg = PlaybackConfig(start_s=0.1, return_s=0.1)
     render = RenderConfig(width_px=160, height_px=120)
     with pytest.raises(InputError) as info:
-        replay_command(csv, "sim", out=out, config=cfg, render=render)
+        replay_command(csv, backend="sim", out=out, config=cfg, render=render)
     msg = str(info.value)
     assert msg.startswith(f"{out}: cannot write video") and "\n" not in msg
     assert [p.name for p in tmp_path.rglob(".*")] == []  # no temporary file left behind
@@ -163,7 +163,7 @@ def test_interrupted_sim_replay_writes_no_video(
     monkeypatch.setitem(BACKENDS._factories, "sim", lambda *, out, **_: InterruptedSim(out))
     csv = write_timeline(tmp_path / "a.csv", neutral(2.0))
     out = tmp_path / "out" / "v.mp4"
-    result = replay_command(csv, "sim", out=out, config=PlaybackConfig(start_s=0.1))
+    result = replay_command(csv, backend="sim", out=out, config=PlaybackConfig(start_s=0.1))
     assert not isinstance(result, Path) and result.status == "interrupted"
     assert not out.parent.exists() or not any(out.parent.iterdir())
 

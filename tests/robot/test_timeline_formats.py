@@ -96,7 +96,16 @@ def model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("model")
     data = write_speech_motion_dataset(root / "ds", subjects=3, takes_per_subject=1, seconds=4.0)
     one = TrainConfig.model_validate({"mlp": {"max_epochs": 1}})
-    train_command(data, "mlp", "si", 0, None, root / "mlp", one, quiet=True)
+    train_command(
+        data,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=root / "mlp",
+        config=one,
+        quiet=True,
+    )
     return root / "mlp"
 
 
@@ -119,7 +128,7 @@ def _synthesized(folder: Path, model: Path) -> tuple[Path, Timeline]:
     from gesturebank.train.synthesis import synthesize
 
     wav = _write_wav(folder / "speech.wav", 1.0)
-    angles = synthesize(model, wav, folder / "synth.csv")
+    angles = synthesize(model, audio_path=wav, out_csv=folder / "synth.csv")
     audio = json.loads((model / "model.json").read_text())["audio"]
     times = np.arange(len(angles)) * audio["winstep_s"] + audio["winlen_s"] / 2
     reach = json.loads((model / "model.json").read_text())["reach"]  # its dataset's mode
@@ -130,7 +139,7 @@ def _replayed(folder: Path, suffix: str, mode: str = "stream") -> tuple[Path, Ti
     truth = _truth()
     src = write_timeline(folder / "src.csv", truth)
     config = FAST.model_copy(update={"mode": mode})  # interpolate: one angleInterpolation call
-    replay_command(src, "record", out=folder / f"played{suffix}", config=config)
+    replay_command(src, backend="record", out=folder / f"played{suffix}", config=config)
     played = _played(truth)
     if mode == "interpolate":  # the robot holds frame 0 (the start move's end) when called
         played = Timeline.of(
@@ -144,7 +153,7 @@ def _live(folder: Path, model: Path, csv: bool) -> tuple[Path, Timeline]:
     (the angles: the times are when each chunk arrived)."""
     wav = _write_wav(folder / "speech.wav", 0.5)
     jsonl = folder / "live.jsonl"
-    live_command(model, "record", str(wav), out=jsonl, config=FAST)
+    live_command(model, backend="record", input=str(wav), out=jsonl, config=FAST)
     calls = [c for c in read_record(jsonl) if c["phase"] == "live"]
     reach = json.loads((model / "model.json").read_text())["reach"]  # its dataset's mode
     expected = Timeline.of(
@@ -153,7 +162,7 @@ def _live(folder: Path, model: Path, csv: bool) -> tuple[Path, Timeline]:
     if not csv:
         return jsonl, expected
     out = folder / "live.csv"
-    live_command(model, "record", str(wav), out=out, config=FAST, csv=True)
+    live_command(model, backend="record", input=str(wav), out=out, config=FAST, csv=True)
     return out, expected
 
 
@@ -224,7 +233,7 @@ def test_replay_plays_it(
     written: dict[str, tuple[Path, Timeline]], writer: str, tmp_path: Path
 ) -> None:
     path, want = written[writer]
-    replay_command(path, "record", out=tmp_path / "out.csv", config=FAST)
+    replay_command(path, backend="record", out=tmp_path / "out.csv", config=FAST)
     got = read_timeline(tmp_path / "out.csv")
     _same(got, _played(_held(want)), mask=False, angles_only=writer == "live-csv")
     assert got.known is None  # what a robot was sent is always known
@@ -249,4 +258,65 @@ def test_live_csv_is_the_record_backend_s(model: Path, tmp_path: Path) -> None:
 
     wav = _write_wav(tmp_path / "s.wav", 0.2)
     with pytest.raises(InputError, match="--csv writes the record backend's file"):
-        live_command(model, "sim", str(wav), out=tmp_path / "x.mp4", config=FAST, csv=True)
+        live_command(
+            model, backend="sim", input=str(wav), out=tmp_path / "x.mp4", config=FAST, csv=True
+        )
+
+
+def test_stimuli_shows_it(
+    written: dict[str, tuple[Path, Timeline]], model: Path, tmp_path: Path
+) -> None:
+    """Issue 44 item 10: every writer's file, given to `stimuli --timelines` as another
+    system's motion of one speech, is what that condition's video shows: the angles it records
+    beside the video (`motion/<id>.csv`) are the file's, held and made safe as replay plays
+    them, cut to the speech's duration."""
+    import shutil
+
+    from gesturebank.config import RenderConfig
+    from gesturebank.study.stimuli import KEY, stimuli_command
+
+    wav = _write_wav(tmp_path / "speech.wav", 1.2)
+    folders = []
+    for writer, (path, _) in written.items():
+        folder = tmp_path / "systems" / writer
+        folder.mkdir(parents=True)
+        shutil.copy(path, folder / f"speech{'.jsonl' if path.suffix == '.jsonl' else '.csv'}")
+        folders.append(folder)
+    out = tmp_path / "study"
+    small = RenderConfig(frame_rate=5, width_px=96, height_px=64)
+    stimuli_command(model_dirs=[model], out=out, audios=[wav], timelines=folders, render=small)
+    key = json.loads((out / KEY).read_text())["videos"]
+    shown = {v["condition"]: vid for vid, v in key.items()}
+    assert set(written) <= set(shown)
+    differ = {}
+    for writer, (_, want) in written.items():
+        assert key[shown[writer]]["timelines"] == str(tmp_path / "systems" / writer)
+        assert (out / "videos" / f"{shown[writer]}.mp4").is_file()
+        got = read_timeline(out / "motion" / f"{shown[writer]}.csv")
+        keep = max(1, int(np.searchsorted(want.times, 1.2, side="left")))
+        cut = Timeline.of(want.times[:keep], _held(want).angles[:keep])
+        try:
+            _same(got, _played(cut), mask=False, angles_only=writer == "live-csv")
+        except AssertionError as exc:
+            differ[writer] = str(exc).splitlines()[-1]
+    assert not differ, differ
+
+
+def test_stimuli_names_a_missing_or_foreign_timeline(
+    written: dict[str, tuple[Path, Timeline]], model: Path, tmp_path: Path
+) -> None:
+    from gesturebank.errors import InputError
+    from gesturebank.study.stimuli import stimuli_command
+
+    wav = _write_wav(tmp_path / "talk.wav", 0.2)
+    (tmp_path / "sys").mkdir()
+    with pytest.raises(InputError, match=r"sys/talk\.csv: no timeline for speech talk"):
+        stimuli_command(
+            model_dirs=[model], out=tmp_path / "a", audios=[wav], timelines=[tmp_path / "sys"]
+        )
+    text = written["write_timeline"][0].read_text().replace("pepper-1.7", "pepper-1.8", 1)
+    (tmp_path / "sys" / "talk.csv").write_text(text)
+    with pytest.raises(InputError, match=r"talk\.csv: angles for robot profile pepper-1\.8"):
+        stimuli_command(
+            model_dirs=[model], out=tmp_path / "b", audios=[wav], timelines=[tmp_path / "sys"]
+        )

@@ -23,7 +23,16 @@ SMALL = RenderConfig(frame_rate=10, width_px=160, height_px=120)
 def models(demo_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     root = tmp_path_factory.mktemp("models")
     for name in ("mlp", "lstm"):
-        train_command(demo_dataset, name, "sd", None, "lab", root / name, ONE_EPOCH, quiet=True)
+        train_command(
+            demo_dataset,
+            model=name,
+            variant="sd",
+            fold=None,
+            subject="lab",
+            out_dir=root / name,
+            config=ONE_EPOCH,
+            quiet=True,
+        )
     return [root / "mlp", root / "lstm"]
 
 

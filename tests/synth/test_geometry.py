@@ -60,7 +60,7 @@ def test_projected_truth_lands_on_its_part(
     for frame, joints in enumerate(stretch_joints):
         pixels = camera.project(joints)
         rays = rays_through(camera, pixels)[None]  # (1, 17, 6)
-        hits = cast([figure], frame, rays, (0, 0, 17, 1))
+        hits = cast([figure], frame, rays=rays, box=(0, 0, 17, 1))
         depth = np.linalg.norm(joints - camera.center, axis=-1)
         hit_at = iter(range(int((hits.part != MISS).sum())))
         for j, name in enumerate(COCO17.joints):

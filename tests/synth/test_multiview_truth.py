@@ -33,7 +33,7 @@ def test_true_2d_of_a_rendered_rig_lifts_to_the_truth(
     )
     cameras = CameraGroup.load(truth.folder / CALIBRATION)
     joints = truth.joints3d.astype(np.float64)
-    views = [project_view(joints, camera, truth.times) for camera in cameras]
+    views = [project_view(joints, camera, timestamps=truth.times) for camera in cameras]
     lifted = LIFTERS.create("multiview", config).lift(TakeViews.of(views, cameras))
     assert lifted.frame == "world" and len(lifted) == len(truth.times)
     np.testing.assert_allclose(lifted.joints, joints, atol=1e-3)  # metres
@@ -42,6 +42,6 @@ def test_true_2d_of_a_rendered_rig_lifts_to_the_truth(
         lifted.confidence,
         lifted.timestamps,
     )
-    score = score_lift(in_camera, joints, cameras[0], retarget=config.retarget)
+    score = score_lift(in_camera, joints, camera=cameras[0], retarget=config.retarget)
     assert score.hand_cm <= 1.0 and score.elbow_cm <= 1.0
     assert score.wrong_sign_pct == 0.0

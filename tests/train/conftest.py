@@ -48,7 +48,7 @@ def real_dataset(samples: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
         (videos / f"subject{i}").mkdir(parents=True)
         shutil.copy(clip, videos / f"subject{i}" / clip.name)
     out = videos.parent / "dataset"
-    summary = build_dataset(discover_takes(videos), videos, out, Config())
+    summary = build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=Config())
     assert not summary.failed, summary.failed
     # QC may reject these clips; the test is about training on real data, not its quality,
     # so the SI folds are rewritten to include rejected clips.

@@ -36,6 +36,6 @@ class GainModel(nn.Module):
         return torch.sigmoid(self.net(x))
 
     def schedule(self, config: TrainConfig) -> Schedule:
-        own = section(config, GainModel, "gain")
+        own = section(config, GainModel, name="gain")
         assert isinstance(own, GainSection)
         return Schedule("adam", 0.01, None, own.max_epochs, 1, 20, 10, None, 0.01)

@@ -62,30 +62,82 @@ def _write_wav(path: Path, seconds: float, sr: int = 16000) -> None:
 @pytest.fixture(scope="module")
 def mlp_model(synthetic_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("model") / "mlp"
-    train_command(synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=ONE_EPOCH,
+        quiet=True,
+    )
     return out
 
 
 def test_si_fold_defaults_to_0(synthetic_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "m"
-    train_command(synthetic_dataset, "mlp", "si", None, None, out, ONE_EPOCH, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=None,
+        subject=None,
+        out_dir=out,
+        config=ONE_EPOCH,
+        quiet=True,
+    )
     assert json.loads((out / "model.json").read_text())["fold"] == 0
 
 
 def test_missing_fold_says_why(synthetic_dataset: Path, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="no fold 7; the dataset has folds 0–3"):
-        train_command(synthetic_dataset, "mlp", "si", 7, None, tmp_path / "m", ONE_EPOCH)
+        train_command(
+            synthetic_dataset,
+            model="mlp",
+            variant="si",
+            fold=7,
+            subject=None,
+            out_dir=tmp_path / "m",
+            config=ONE_EPOCH,
+        )
     two = write_speech_motion_dataset(tmp_path / "two", subjects=2, seconds=4.0)
     with pytest.raises(InputError, match="at least 3 subjects, the dataset has 2 .*--variant sd"):
-        train_command(two, "mlp", "si", None, None, tmp_path / "m", ONE_EPOCH)
+        train_command(
+            two,
+            model="mlp",
+            variant="si",
+            fold=None,
+            subject=None,
+            out_dir=tmp_path / "m",
+            config=ONE_EPOCH,
+        )
 
 
 def test_training_replaces_the_whole_model_folder(synthetic_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "model"
-    train_command(synthetic_dataset, "lstm", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="lstm",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=ONE_EPOCH,
+        quiet=True,
+    )
     (out / "metrics.json").write_text("{}")  # as evaluate leaves it
     assert (out / "model_step.onnx").is_file()
-    train_command(synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=ONE_EPOCH,
+        quiet=True,
+    )
     names = {p.name for p in out.iterdir()}
     assert names == {"weights.pt", "model.json", "normalisers.json", "model.onnx", "loss.png"}
     assert [p.name for p in tmp_path.iterdir()] == ["model"]  # no temporary left beside it
@@ -96,7 +148,16 @@ def test_training_refuses_to_wipe_a_folder_that_is_not_a_model(
 ) -> None:
     (tmp_path / "notes.txt").write_text("mine")
     with pytest.raises(InputError, match="is not a model folder"):
-        train_command(synthetic_dataset, "mlp", "si", 0, None, tmp_path, ONE_EPOCH, quiet=True)
+        train_command(
+            synthetic_dataset,
+            model="mlp",
+            variant="si",
+            fold=0,
+            subject=None,
+            out_dir=tmp_path,
+            config=ONE_EPOCH,
+            quiet=True,
+        )
     assert (tmp_path / "notes.txt").read_text() == "mine"
 
 
@@ -108,15 +169,23 @@ def test_unwritable_outputs_are_input_errors_naming_the_path(
     with pytest.raises(
         InputError, match=re.escape(f"{blocker / 'm'}: cannot write the model folder")
     ):
-        train_command(synthetic_dataset, "mlp", "si", 0, None, blocker / "m", ONE_EPOCH)
+        train_command(
+            synthetic_dataset,
+            model="mlp",
+            variant="si",
+            fold=0,
+            subject=None,
+            out_dir=blocker / "m",
+            config=ONE_EPOCH,
+        )
     wav = tmp_path / "speech.wav"
     _write_wav(wav, 1.0)
     with pytest.raises(
         InputError, match=re.escape(f"{blocker / 'a.csv'}: cannot write the angle CSV")
     ):
-        synthesize(mlp_model, wav, blocker / "a.csv")
+        synthesize(mlp_model, audio_path=wav, out_csv=blocker / "a.csv")
     with pytest.raises(InputError, match=re.escape(f"{tmp_path}: cannot write the angle CSV")):
-        synthesize(mlp_model, wav, tmp_path)  # a folder is not a CSV
+        synthesize(mlp_model, audio_path=wav, out_csv=tmp_path)  # a folder is not a CSV
 
 
 def _limit_file_size() -> None:
@@ -178,7 +247,7 @@ def _evaluate(segments: list[Segment], rng: np.random.Generator) -> dict:
             config=config,
         )
         average(results)
-        table(results, "t")
+        table(results, title="t")
     return results
 
 
@@ -212,7 +281,7 @@ def test_n_a_reasons_are_named_once_and_columns_say_which_way_is_better() -> Non
     assert fgd == "³ no FGD: no feature autoencoder"
     console = Console(record=True, width=300)
     for columns in (TABLE_5_1, SEED_MEASURES, FIELD_MEASURES):
-        console.print(table(results, "t", columns, notes))
+        console.print(table(results, title="t", columns=columns, notes=notes))
     text = console.export_text()
     assert "Loss L ↓" in text and "LCCA_Θ ↑" in text and "Jerk (rad/s³) ≈" in text
     marks = re.findall(r"n/a(\S*)", text)
@@ -263,14 +332,32 @@ def test_train_warns_when_the_data_is_too_short_for_a_useful_model(tmp_path: Pat
     longer than the training split. `train` now says both before training."""
     short = write_speech_motion_dataset(tmp_path / "short", subjects=2, seconds=4.0)
     said: list[str] = []
-    train_command(short, "lstm", "sd", None, "s0", tmp_path / "m", ONE_EPOCH, quiet=True,
-                  on_warning=said.append)  # fmt: skip
+    train_command(
+        short,
+        model="lstm",
+        variant="sd",
+        fold=None,
+        subject="s0",
+        out_dir=tmp_path / "m",
+        config=ONE_EPOCH,
+        quiet=True,
+        on_warning=said.append,
+    )
     assert any("under train.min_train_s (60 s)" in w for w in said), said
     assert any("shorter than lstm's 3 s training window" in w for w in said), said
     said.clear()
     enough = ONE_EPOCH.model_copy(update={"min_train_s": 1.0})
-    train_command(short, "mlp", "sd", None, "s0", tmp_path / "m2", enough, quiet=True,
-                  on_warning=said.append)  # fmt: skip
+    train_command(
+        short,
+        model="mlp",
+        variant="sd",
+        fold=None,
+        subject="s0",
+        out_dir=tmp_path / "m2",
+        config=enough,
+        quiet=True,
+        on_warning=said.append,
+    )
     assert said == []  # frame-wise MLP: no window; 1 s asked for: no warning
 
 
@@ -292,7 +379,7 @@ def test_evaluate_says_plainly_when_a_model_is_worse_than_the_mean_pose() -> Non
     (line,) = worse_lines(worse)
     assert line.startswith("MLP is worse than the mean-pose baseline: RMSE 1000.00° against")
     console = Console(record=True, width=300)
-    console.print(table(worse, "t"))
+    console.print(table(worse, title="t"))
     rows = [ln for ln in console.export_text().splitlines() if "MLP" in ln]
     assert len(rows) == 2 and all("MLP ✗" in ln for ln in rows)  # the subject's and average
     better = _worse_results(0.0)
@@ -304,15 +391,39 @@ def test_train_picks_a_variant_the_dataset_supports_or_says_which(tmp_path: Path
     "a subject-dependent split needs a subject" named neither --subject nor the subjects."""
     one = write_speech_motion_dataset(tmp_path / "one", subjects=1, seconds=4.0)
     said: list[str] = []
-    train_command(one, "mlp", None, None, None, tmp_path / "m", ONE_EPOCH, quiet=True,
-                  on_warning=said.append)  # fmt: skip
+    train_command(one, model="mlp", variant=None, fold=None, subject=None, out_dir=tmp_path / "m",
+                  config=ONE_EPOCH, quiet=True, on_warning=said.append)  # fmt: skip
     info = json.loads((tmp_path / "m" / "model.json").read_text())
     assert (info["variant"], info["subject"]) == ("sd", "s0")
     assert any("its only subject 's0'" in w for w in said), said
     two = write_speech_motion_dataset(tmp_path / "two", subjects=2, seconds=4.0)
     with pytest.raises(InputError, match=r"2 subjects, too few for --variant si.*one of: s0, s1"):
-        train_command(two, "mlp", None, None, None, tmp_path / "m2", ONE_EPOCH)
+        train_command(
+            two,
+            model="mlp",
+            variant=None,
+            fold=None,
+            subject=None,
+            out_dir=tmp_path / "m2",
+            config=ONE_EPOCH,
+        )
     with pytest.raises(InputError, match=r"^--variant sd needs --subject, one of: s0, s1$"):
-        train_command(two, "mlp", "sd", None, None, tmp_path / "m2", ONE_EPOCH)
+        train_command(
+            two,
+            model="mlp",
+            variant="sd",
+            fold=None,
+            subject=None,
+            out_dir=tmp_path / "m2",
+            config=ONE_EPOCH,
+        )
     with pytest.raises(InputError, match=r"--subject 's00'.*one of: s0, s1; did you mean 's0'\?"):
-        train_command(two, "mlp", "sd", None, "s00", tmp_path / "m2", ONE_EPOCH)
+        train_command(
+            two,
+            model="mlp",
+            variant="sd",
+            fold=None,
+            subject="s00",
+            out_dir=tmp_path / "m2",
+            config=ONE_EPOCH,
+        )

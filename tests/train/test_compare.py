@@ -18,8 +18,27 @@ from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.train.eval.compare import COLUMNS
 from gesturebank.train.eval.evaluate import LEGEND, MEAN_POSE, NATURAL, SHIFTED, SHUFFLED
+from gesturebank.train.eval.tables import units
 
 BASELINES = [NATURAL, MEAN_POSE, SHUFFLED, SHIFTED]
+NARROW = {"COLUMNS": "80"}
+
+
+def at_80_columns(text: str, systems: dict[str, dict[str, float | None]]) -> None:
+    """Issue 44: at 80 columns compare's twelve columns were cut (`Loss…`, `RMS…`). Narrow: two
+    tables of short headers (units in a line of their own), every value whole, notes wrapped at
+    words."""
+    lines = [ln for ln in text.splitlines() if not ln.startswith("table written to ")]  # a path
+    assert all(len(ln.rstrip()) <= 80 and "…" not in ln for ln in lines), text
+    for c in COLUMNS:
+        assert f" {c.short}" in text, c.short
+    assert units(COLUMNS) in " ".join(ln.strip() for ln in lines), text
+    for system, row in systems.items():  # each system's every value, as printed, on its lines
+        shown = " ".join(ln for ln in lines if ln.strip().startswith(system))
+        for c in COLUMNS:
+            if (value := row.get(c.key)) is not None:
+                printed = c.fmt.format(value * c.scale)
+                assert printed in shown, (system, c.key, printed, text)
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +48,16 @@ def two_models(real_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     )
     root = tmp_path_factory.mktemp("models")
     for kind in ("mlp", "lstm"):
-        train_command(real_dataset, kind, "si", 0, None, root / kind, cfg, quiet=True)
+        train_command(
+            real_dataset,
+            model=kind,
+            variant="si",
+            fold=0,
+            subject=None,
+            out_dir=root / kind,
+            config=cfg,
+            quiet=True,
+        )
     return [root / "mlp", root / "lstm"]
 
 
@@ -59,9 +87,10 @@ def test_compare_prints_one_table_and_writes_csv_and_markdown(
     assert "H speed ↓" in text and "H vel" not in text  # one measure, one name
 
     result = CliRunner().invoke(
-        app, ["compare", *map(str, two_models), "--out", str(tmp_path / "t.md")]
+        app, ["compare", *map(str, two_models), "--out", str(tmp_path / "t.md")], env=NARROW
     )
     assert result.exit_code == 0, result.output
+    at_80_columns(result.output, report["systems"])
     md = (tmp_path / "t.md").read_text().splitlines()
     assert f"FGD autoencoder {version}" in md[0]  # the same autoencoder, reused
     assert md[2].startswith("| System | Loss L ↓ | RMSE (°) ↓")
@@ -76,6 +105,15 @@ def test_compare_refuses_models_of_other_splits_and_bad_outputs(
         compare_command(two_models, out=tmp_path / "t.txt")
     cfg = TrainConfig.model_validate({"mlp": {"max_epochs": 1}})
     other = tmp_path / "fold1"
-    train_command(real_dataset, "mlp", "si", 1, None, other, cfg, quiet=True)
+    train_command(
+        real_dataset,
+        model="mlp",
+        variant="si",
+        fold=1,
+        subject=None,
+        out_dir=other,
+        config=cfg,
+        quiet=True,
+    )
     with pytest.raises(InputError, match="trained on another split or dataset"):
         compare_command([two_models[0], other])

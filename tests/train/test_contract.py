@@ -42,7 +42,7 @@ def test_builtins_keep_the_contract_with_their_hooks() -> None:
     assert set(HOOKS) == set(MODELS.names())
     cfg = load_config().train
     for kind, hooks in HOOKS.items():
-        model = build_model(kind, 6, cfg)
+        model = build_model(kind, 6, config=cfg)
         assert isinstance(model, SpeechToMotion) and model.kind == kind
         found = {h for h in (FrameWise, Stateful, OwnLoss, OwnValidation, Staged, ExtraOnnxInputs)
                  if isinstance(model, h)}  # fmt: skip
@@ -67,7 +67,7 @@ def test_plugin_section_is_validated_by_its_model(gain_plugin: None, tmp_path: P
     path.write_text("[train.gain]\nunits = 3\n")
     cfg = load_config(path).train
     assert cfg.model_extra == {"gain": GainSection(units=3)}
-    model = build_model("gain", 5, cfg)
+    model = build_model("gain", 5, config=cfg)
     assert isinstance(model, GainModel) and isinstance(model, SpeechToMotion)
     assert architecture(model) == {"kind": "gain", "n_features": 5, "units": 3}
     assert model.schedule(cfg).max_epochs == 2  # the plug-in section's default

@@ -33,7 +33,9 @@ EQUAL_TO_NATURAL = {
 
 
 def _test_clips(dataset: Path) -> list[str]:
-    return sorted({c for c, _, _ in split_items(gds.open(dataset), "si", "test", fold=0)})
+    return sorted(
+        {c for c, _, _ in split_items(gds.open(dataset), variant="si", part="test", fold=0)}
+    )
 
 
 def _write_truth(dataset: Path, folder: Path, shift_s: float = 0.0) -> list[Path]:
@@ -68,7 +70,7 @@ def test_ground_truth_timelines_score_as_natural_motion_and_shifted_ones_worse(
     _write_truth(synthetic_dataset, tmp_path / "late", shift_s=shift)
     console = Console(record=True, width=250)
     report = evaluate_timelines_command(
-        [tmp_path / "truth", tmp_path / "late"], synthetic_dataset, console=console
+        [tmp_path / "truth", tmp_path / "late"], dataset=synthetic_dataset, console=console
     )
     rows = report["average"]
     truth, late, natural = rows["truth"], rows["late"], rows[NATURAL]
@@ -91,7 +93,16 @@ def test_timelines_score_beside_a_model(
         update={"mlp": fast_config.mlp.model_copy(update={"max_epochs": 2})}
     )
     model = tmp_path / "mlp"
-    train_command(synthetic_dataset, "mlp", "si", 0, None, model, cfg, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=model,
+        config=cfg,
+        quiet=True,
+    )
     _write_truth(synthetic_dataset, tmp_path / "other")
     report = evaluate_command(model, timelines=[tmp_path / "other"], console=Console(width=250))
     assert {"MLP-SI", "other", NATURAL} <= report["average"].keys()
@@ -129,7 +140,7 @@ def test_a_missing_clip_names_the_file(synthetic_dataset: Path, tmp_path: Path) 
     paths = _write_truth(synthetic_dataset, tmp_path / "sys")
     paths[-1].unlink()
     with pytest.raises(InputError) as exc:
-        evaluate_timelines_command([tmp_path / "sys"], synthetic_dataset)
+        evaluate_timelines_command([tmp_path / "sys"], dataset=synthetic_dataset)
     _one_line_error(exc, str(paths[-1]), "no timeline for clip")
 
 
@@ -138,7 +149,7 @@ def test_a_bad_header_names_the_file(synthetic_dataset: Path, tmp_path: Path) ->
     text = paths[0].read_text().replace("HeadYaw", "HeadYawn", 1)
     paths[0].write_text(text)
     with pytest.raises(InputError) as exc:
-        evaluate_timelines_command([tmp_path / "sys"], synthetic_dataset)
+        evaluate_timelines_command([tmp_path / "sys"], dataset=synthetic_dataset)
     _one_line_error(exc, str(paths[0]), "HeadYaw")
 
 
@@ -147,7 +158,7 @@ def test_another_robot_profile_names_the_file(synthetic_dataset: Path, tmp_path:
     want = gds.open(synthetic_dataset).info.robot_profile
     paths[0].write_text(paths[0].read_text().replace(f"profile: {want}", "profile: nao-6", 1))
     with pytest.raises(InputError) as exc:
-        evaluate_timelines_command([tmp_path / "sys"], synthetic_dataset)
+        evaluate_timelines_command([tmp_path / "sys"], dataset=synthetic_dataset)
     _one_line_error(exc, str(paths[0]), "nao-6", want)
 
 
@@ -186,6 +197,6 @@ def test_every_angle_dialect_reads_back_through_evaluate(
         deg_head = f"time_s,{','.join(j + '_deg' for j in JOINTS)}\n"
         (tmp_path / "deg_columns" / f"{clip_id}.csv").write_text(deg_head + rows)
     dirs = [tmp_path / d for d in ("exported", "unit_deg", "deg_columns")]
-    report = evaluate_timelines_command(dirs, synthetic_dataset, console=Console(width=250))
+    report = evaluate_timelines_command(dirs, dataset=synthetic_dataset, console=Console(width=250))
     for name in ("exported", "unit_deg", "deg_columns"):
         assert report["average"][name]["rmse_deg"] < 1e-3, (name, report["average"][name])

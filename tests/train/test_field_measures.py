@@ -87,7 +87,7 @@ def speech_onsets(samples: Path) -> np.ndarray:
     clip = sorted((samples / "talking").glob("*/*.mp4"))[0]
     track = read_audio(clip, sample_rate=audio.sample_rate)
     assert track is not None
-    feats = features(track.signal, track.sample_rate, audio)
+    feats = features(track.signal, track.sample_rate, config=audio)
     cfg = EvalConfig()
     onsets = B.onsets(
         B.energy_bands(feats, audio=audio),
@@ -154,7 +154,7 @@ def natural_chunks(synthetic_dataset: Path) -> tuple[np.ndarray, np.ndarray]:
     cfg = EvalConfig()
     train, test = (
         F.chunks(
-            known_runs(load_segments(ds, split_items(ds, "si", part, fold=0))),
+            known_runs(load_segments(ds, split_items(ds, variant="si", part=part, fold=0))),
             rate_hz=RATE,
             config=cfg,
         )
@@ -168,7 +168,7 @@ def test_fgd_is_zero_for_itself_grows_with_noise_and_is_versioned(
 ) -> None:
     train, test = natural_chunks
     cfg = EvalConfig(fgd_epochs=15)
-    model = F.feature_model(tmp_path, "si-fold00", train, config=cfg, seed=0, threads=1)
+    model = F.feature_model(tmp_path, key="si-fold00", natural=train, config=cfg, seed=0, threads=1)
     assert model.fgd(real=test, generated=test) <= 1e-6
     noisy = [
         model.fgd(real=test, generated=test + rng.normal(0, s, test.shape).astype(np.float32))
@@ -179,12 +179,14 @@ def test_fgd_is_zero_for_itself_grows_with_noise_and_is_versioned(
     assert info["version"] == model.version and info["chunks"] == len(train)
     weights = tmp_path / "fgd" / "si-fold00" / "weights.pt"
     stamp = weights.stat().st_mtime_ns
-    again = F.feature_model(tmp_path, "si-fold00", train, config=cfg, seed=0, threads=1)
+    again = F.feature_model(tmp_path, key="si-fold00", natural=train, config=cfg, seed=0, threads=1)
     assert again.version == model.version and weights.stat().st_mtime_ns == stamp  # reused
     assert again.fgd(real=test, generated=test + 0.1) == pytest.approx(
         model.fgd(real=test, generated=test + 0.1)
     )
-    other = F.feature_model(tmp_path, "si-fold00", train[1:], config=cfg, seed=0, threads=1)
+    other = F.feature_model(
+        tmp_path, key="si-fold00", natural=train[1:], config=cfg, seed=0, threads=1
+    )
     assert other.version != model.version  # other training data: another autoencoder
 
 
@@ -195,7 +197,14 @@ def test_fgd_is_zero_for_itself_grows_with_noise_and_is_versioned(
 def test_the_shuffled_clip_lends_another_clips_motion() -> None:
     def seg(clip: str, n: int, value: float, start: int = 0) -> Segment:
         angles = np.full((n, 11), value, np.float32)
-        return make_segment(clip, "s", start, np.zeros((n, 2)), np.full((n, 11), 0.5), angles)
+        return make_segment(
+            clip,
+            subject="s",
+            start=start,
+            audio=np.zeros((n, 2)),
+            angles01=np.full((n, 11), 0.5),
+            angles=angles,
+        )
 
     a, b, c = seg("a", 10, 1.0), seg("b", 6, 2.0), seg("c", 10, 3.0)
     out = shuffled_clip([a, b], [a, b], seed=0)

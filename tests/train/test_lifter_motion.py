@@ -39,7 +39,7 @@ def test_the_arms_cover_the_upper_bodys_range_at_gesture_speeds() -> None:
     ahead, up, speed, upper_ahead = [], [], [], []
     for j in _takes(60):
         hips = j[:, 11:13].mean(1)
-        fwd, _, upward = torso_frame(j[:, 5], j[:, 6], hips)
+        fwd, _, upward = torso_frame(j[:, 5], j[:, 6], mid_hip=hips)
         for s, e, w in ((5, 7, 9), (6, 8, 10)):
             rel = j[:, w] - j[:, s]
             upper = j[:, e] - j[:, s]

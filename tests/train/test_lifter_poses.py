@@ -89,7 +89,7 @@ def test_a_sampled_arm_keeps_its_lengths_and_the_anatomical_ranges(
     bend = np.degrees(np.arccos(np.clip(cos, -1, 1)))
     assert bend.max() <= ranges.bend_deg[1] + 1e-6
     forward, left, up = torso_frame(out[:, _I["left_shoulder"]], out[:, _I["right_shoulder"]],
-                                    out[:, TORSO[2:]].mean(axis=1))  # fmt: skip
+                                    mid_hip=out[:, TORSO[2:]].mean(axis=1))  # fmt: skip
     unit = upper / np.linalg.norm(upper, axis=-1, keepdims=True)
     raised = np.degrees(np.arccos(np.clip(-np.sum(unit * up, -1), -1, 1)))
     assert raised.max() <= ranges.raise_deg[1] + 1e-6

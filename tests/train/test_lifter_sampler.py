@@ -28,7 +28,7 @@ from gesturebank.lift.training.lifter_views import (
 def test_a_kept_camera_sees_the_shoulders_and_comes_no_nearer_than_the_minimum() -> None:
     rng = np.random.default_rng(3)
     takes = [gesture_take(rng, 60) for _ in range(48)]
-    uv, local, outside, seen = view_batch(takes, [UP] * len(takes), rng, CameraRanges())
+    uv, local, outside, seen = view_batch(takes, [UP] * len(takes), rng=rng, cams=CameraRanges())
     assert seen.mean() > 0.9
     for k in np.flatnonzero(seen):
         spine = np.median(np.linalg.norm(takes[k][:, 5:7].mean(1) - takes[k][:, 11:13].mean(1),
@@ -46,8 +46,10 @@ def test_a_kept_camera_sees_the_shoulders_and_comes_no_nearer_than_the_minimum()
 def test_detector_noise_drops_and_swaps_but_keeps_the_torso() -> None:
     rng = np.random.default_rng(5)
     takes = [gesture_take(rng, 176) for _ in range(16)]
-    uv, local, outside, _ = view_batch(takes, [UP] * len(takes), rng, CameraRanges())
-    noisy = np.stack([detector_noise(uv[k], local[k], outside[k], rng) for k in range(16)])
+    uv, local, outside, _ = view_batch(takes, [UP] * len(takes), rng=rng, cams=CameraRanges())
+    noisy = np.stack(
+        [detector_noise(uv[k], local[k], outside=outside[k], rng=rng) for k in range(16)]
+    )
     assert np.isfinite(noisy[..., [5, 6, 11, 12], :]).all()
     missing = np.isnan(noisy).any(-1).mean()
     assert 0.002 < missing < 0.2
@@ -59,7 +61,7 @@ def test_detector_noise_drops_and_swaps_but_keeps_the_torso() -> None:
 def test_training_inputs_stay_bounded(samples: Path) -> None:
     whole = motion_pose(read_bvh(samples / "bvhtools/testBvhFiles/test.bvh"))[0]
     grid = np.arange(51.0, whole.timestamps[-1], 1 / F.RATE_HZ)  # where the person walks about
-    take = F.resample(whole.joints.astype(np.float64), whole.timestamps, grid)
+    take = F.resample(whole.joints.astype(np.float64), whole.timestamps, at=grid)
     sampler = Sampler([take], frames=176)
     x, y = sampler.batch(np.random.default_rng(1), 96)
     # in torso sizes about the neck (and the neck's ray coordinates): a person in a 60° picture

@@ -31,7 +31,7 @@ def test_listener_segments_see_the_partners_flag_and_know_only_the_listening_hea
     dyad_dataset: Path,
 ) -> None:
     ds = gesturebank.datasets.open(dyad_dataset)
-    items = split_items(ds, "dyadic", "train")
+    items = split_items(ds, variant="dyadic", part="train")
     speaker_view = load_segments(ds, items)
     listener_view = load_segments(ds, items, target="listener")
     assert len(listener_view) == len(speaker_view) == len(items)  # everyone listens in turn
@@ -56,7 +56,9 @@ def test_a_listener_model_trains_records_its_target_and_is_scored_per_role(
     """Issue 32's acceptance: `train --model blstm --target listener` trains and evaluates."""
     cfg = TrainConfig.model_validate({**QUICK, "target": "listener"})
     out = tmp_path / "listener"
-    train_command(dyad_dataset, "blstm", "dyadic", out_dir=out, config=cfg, quiet=True)
+    train_command(
+        dyad_dataset, model="blstm", variant="dyadic", out_dir=out, config=cfg, quiet=True
+    )
     info = json.loads((out / "model.json").read_text())
     assert info["target"] == "listener" and info["variant"] == "dyadic"
     assert info["architecture"]["n_features"] == 27  # 26 features + the speaking flag
@@ -73,12 +75,16 @@ def test_a_speaker_model_is_scored_on_speaking_and_listening_frames(
 ) -> None:
     out = tmp_path / "speaker"
     train_command(
-        dyad_dataset, "mlp", "dyadic", out_dir=out, config=TrainConfig.model_validate(QUICK)
+        dyad_dataset,
+        model="mlp",
+        variant="dyadic",
+        out_dir=out,
+        config=TrainConfig.model_validate(QUICK),
     )
     assert json.loads((out / "model.json").read_text())["target"] == "speaker"
     roles = evaluate_command(out)["per_role"]
     test = gesturebank.datasets.open(dyad_dataset)
-    ids = split_items(test, "dyadic", "test")
+    ids = split_items(test, variant="dyadic", part="test")
     role = np.concatenate([test.load_arrays(c)["role"] for c, _, _ in ids])
     assert roles["speaking"]["frames"] == np.sum(role == SPEAKING)
     assert roles["listening"]["frames"] == np.sum(role == LISTENING)
@@ -90,9 +96,11 @@ def test_the_listener_target_needs_partners(tmp_path: Path) -> None:
     lone = write_dataset(tmp_path / "lone", {"s1_a": [synthetic_clip(clip_id="s1_a__c000")]})
     cfg = TrainConfig(target="listener")
     with pytest.raises(InputError, match='no listener example.*build.people = "all"'):
-        train_command(lone, "mlp", "sd", subject="s1", out_dir=tmp_path / "m", config=cfg)
+        train_command(
+            lone, model="mlp", variant="sd", subject="s1", out_dir=tmp_path / "m", config=cfg
+        )
     with pytest.raises(InputError, match="no dyadic split: no clip has a partner"):
-        train_command(lone, "mlp", "dyadic", out_dir=tmp_path / "m", config=cfg)
+        train_command(lone, model="mlp", variant="dyadic", out_dir=tmp_path / "m", config=cfg)
 
 
 def test_train_help_names_the_targets_and_the_dyadic_split() -> None:

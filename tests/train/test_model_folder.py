@@ -22,7 +22,16 @@ def test_train_evaluate_and_live_read_the_same_folder(
     synthetic_dataset: Path, tmp_path: Path
 ) -> None:
     out = tmp_path / "lstm"
-    train_command(synthetic_dataset, "lstm", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="lstm",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=ONE_EPOCH,
+        quiet=True,
+    )
     folder = model_folder.load(out)
     assert folder.graph == out / model_folder.STEP_ONNX  # live mode steps the LSTM
     # The limits stored with the model are the named profile's, to the bit: live mode (which

@@ -19,7 +19,7 @@ from gesturebank.train.torch_runtime import predict
 
 
 def test_default_mlp_is_table_4_5_for_logfb26() -> None:
-    model = build_model("mlp", 26, TrainConfig())
+    model = build_model("mlp", 26, config=TrainConfig())
     assert isinstance(model, MLP)
     assert n_parameters(model) == 747  # Table 4.5: 7 × 8 for LogFB-26
     assert n_parameters(MLP(13, layers=5, units=8)) == 499  # MFCC-13 row
@@ -70,17 +70,17 @@ def test_lstm_is_causal_and_carries_its_state() -> None:
 def test_architecture_round_trip_and_predict() -> None:
     cfg = TrainConfig.model_validate({"mlp": {"layers": 3, "units": 16}, "lstm": {"units": 6}})
     for kind in ("mlp", "lstm"):
-        model = build_model(kind, 10, cfg)
+        model = build_model(kind, 10, config=cfg)
         rebuilt = from_architecture(architecture(model))
         rebuilt.load_state_dict(model.state_dict())  # same shapes
         audio = np.random.default_rng(0).normal(size=(30, 10)).astype(np.float32)
         np.testing.assert_array_equal(predict(model, audio), predict(rebuilt, audio))
         assert predict(model, audio).shape == (30, 11)
-    assert architecture(build_model("mlp", 10, cfg)) == {
+    assert architecture(build_model("mlp", 10, config=cfg)) == {
         "kind": "mlp",
         "n_features": 10,
         "layers": 3,
         "units": 16,
     }
     with pytest.raises(InputError):
-        build_model("gru", 10, cfg)
+        build_model("gru", 10, config=cfg)

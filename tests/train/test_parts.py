@@ -46,9 +46,26 @@ def test_a_models_clips_need_the_parts_it_predicts() -> None:
 
 def test_train_require_is_recorded_in_model_json(synthetic_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "m"
-    train_command(synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=ONE_EPOCH,
+        quiet=True,
+    )
     assert json.loads((out / "model.json").read_text())["require"] is None
     train_command(
-        synthetic_dataset, "mlp", "si", 0, None, out, ONE_EPOCH, quiet=True, require="arms+head"
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=ONE_EPOCH,
+        quiet=True,
+        require="arms+head",
     )
     assert json.loads((out / "model.json").read_text())["require"] == "head+arms"

@@ -45,12 +45,12 @@ SMALL = TrainConfig.model_validate(
 def test_registry_lists_every_model() -> None:
     assert set(MODELS.names()) >= {"mlp", "lstm", *SEED_MODELS}
     with pytest.raises(InputError, match=r"unknown model 'gan' \(--model\); one of: aud2motion"):
-        build_model("gan", 26, SMALL)
+        build_model("gan", 26, config=SMALL)
 
 
 def test_default_layer_shapes_are_the_papers() -> None:
     cfg = TrainConfig()
-    pose = build_model("aud2pose", 26, cfg)
+    pose = build_model("aud2pose", 26, config=cfg)
     assert isinstance(pose, Aud2Pose)
     linears = [m for m in pose.fc.net if isinstance(m, torch.nn.Linear)]
     assert [(m.in_features, m.out_features) for m in linears] == [(26, 256), (256, 256), (256, 256)]
@@ -59,30 +59,30 @@ def test_default_layer_shapes_are_the_papers() -> None:
     assert pose.gru.bidirectional and pose.gru.hidden_size == 256
     assert pose.out.out_features == 22  # [g_t, Δg_t]
     assert pose.context == 30  # 61-frame windows
-    motion = build_model("aud2motion", 26, cfg)
+    motion = build_model("aud2motion", 26, config=cfg)
     assert isinstance(motion, Aud2Motion)
     assert not motion.gru.bidirectional and motion.gru.hidden_size == 256
     assert motion.out.out_features == 11  # no velocity output
-    cvae = build_model("cvae", 26, cfg)
+    cvae = build_model("cvae", 26, config=cfg)
     assert isinstance(cvae, CVAE) and cvae.latent == 3
     assert cvae.encoder.bidirectional and cvae.decoder.bidirectional
     assert cvae.encoder.input_size == 11 + 26 and cvae.decoder.input_size == 26 + 3
-    repr2pose = build_model("aud2repr2pose", 26, cfg)
+    repr2pose = build_model("aud2repr2pose", 26, config=cfg)
     assert isinstance(repr2pose, Aud2Repr2Pose)
     assert repr2pose.motion_encoder[0].in_features == 22  # 11 angles + velocities
     assert repr2pose.speech_encoder.gru.hidden_size == 256  # SpeechE = the Aud2Pose network
     assert repr2pose.speech_encoder.out.out_features == repr2pose.code == 8
-    dcc = build_model("dcccae", 26, cfg)
+    dcc = build_model("dcccae", 26, config=cfg)
     assert isinstance(dcc, DCCCAE)
     assert dcc.speech_encoder[0].in_features == 7 * 26  # ±3-frame segments
     assert dcc.motion_encoder[0].in_features == dcc.motion_decoder[-1].out_features == 7 * 11
     assert dcc.regressor[0].in_features == dcc.regressor[-1].out_features == dcc.sizes["code"]
-    span = build_model("blstm", 26, cfg)
+    span = build_model("blstm", 26, config=cfg)
     assert isinstance(span, SpanBLSTM) and span.lstm.bidirectional
     assert span.out.out_features == 5 * 11  # k frames per window
 
     x = torch.randn(2, 40, 26)
-    small = {k: build_model(k, 26, SMALL).eval() for k in SEED_MODELS}
+    small = {k: build_model(k, 26, config=SMALL).eval() for k in SEED_MODELS}
     with torch.no_grad():
         for kind, model in small.items():
             y = model(x)
@@ -136,7 +136,7 @@ def test_aud2motion_is_causal_and_steps_like_the_whole_sequence() -> None:
 @pytest.mark.parametrize("kind", ["aud2pose", "blstm", "cvae", "aud2repr2pose", "dcccae"])
 def test_the_others_use_future_audio(kind: str) -> None:
     torch.manual_seed(0)
-    model = build_model(kind, 6, SMALL).eval()
+    model = build_model(kind, 6, config=SMALL).eval()
     assert model.causal is False
     x = torch.randn(1, 40, 6)
     later = x.clone()
@@ -161,13 +161,13 @@ def test_kl_term_is_the_closed_form() -> None:
 
 def test_cvae_samples_differ_and_a_seed_repeats_them(tmp_path: Path) -> None:
     torch.manual_seed(0)
-    model = build_model("cvae", 6, SMALL).eval()
+    model = build_model("cvae", 6, config=SMALL).eval()
     x = torch.randn(1, 30, 6)
     with torch.no_grad():
         a, b = model(x, torch.randn(1, 3)), model(x, torch.randn(1, 3))
         assert float((a - b).abs().max()) > 1e-3
     torch.manual_seed(0)
-    again = build_model("cvae", 6, SMALL).eval()
+    again = build_model("cvae", 6, config=SMALL).eval()
     assert all(
         torch.equal(p, q) for p, q in zip(model.parameters(), again.parameters(), strict=True)
     )
@@ -183,7 +183,7 @@ def test_cvae_samples_differ_and_a_seed_repeats_them(tmp_path: Path) -> None:
 @pytest.mark.parametrize("kind", SEED_MODELS)
 def test_onnx_and_rebuilt_models_equal_torch(kind: str, tmp_path: Path) -> None:
     torch.manual_seed(1)
-    model = build_model(kind, 26, SMALL).eval()
+    model = build_model(kind, 26, config=SMALL).eval()
     rebuilt = from_architecture(architecture(model))
     rebuilt.load_state_dict(model.state_dict())
     audio = np.random.default_rng(2).normal(size=(120, 26)).astype(np.float32)

@@ -50,14 +50,23 @@ def test_every_seed_model_beats_the_mean_pose(
 ) -> None:
     baseline = mean_pose_val_loss(synthetic_dataset, 0)
     out = tmp_path / kind
-    result = train_command(synthetic_dataset, kind, "si", 0, None, out, TINY, quiet=True)
+    result = train_command(
+        synthetic_dataset,
+        model=kind,
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=TINY,
+        quiet=True,
+    )
     assert result.best_val_loss < 0.5 * baseline, (result.best_val_loss, baseline)
     folder = load(out)
     assert folder.info.architecture["kind"] == kind
     # offline synthesis's graph gives what the trained torch model gives
     model, _, _ = load_model(out)
     ds = gds.open(synthetic_dataset)
-    val = load_segments(ds, split_items(ds, "si", "val", fold=0))
+    val = load_segments(ds, split_items(ds, variant="si", part="val", fold=0))
     assert validation_loss(model, val) == pytest.approx(result.best_val_loss, rel=1e-6)
     onnx = OnnxModel(folder.file(MODEL_ONNX))
     np.testing.assert_allclose(onnx.predict(val[0].audio), predict(model, val[0].audio), atol=1e-5)
@@ -79,7 +88,16 @@ def test_seed_004_schedule_visits_three_rates_then_stops(
             "rmsprop": {"patience": 1},
         }
     )  # fmt: skip  (the paper's 1e-3 → 1e-5, a short patience to be quick)
-    r = train_command(synthetic_dataset, "cvae", "si", 1, None, tmp_path / "c", cfg, quiet=True)
+    r = train_command(
+        synthetic_dataset,
+        model="cvae",
+        variant="si",
+        fold=1,
+        subject=None,
+        out_dir=tmp_path / "c",
+        config=cfg,
+        quiet=True,
+    )
     rates = [h["lr"] for h in r.history]
     visited = [rate for i, rate in enumerate(rates) if i == 0 or rate != rates[i - 1]]
     assert visited == pytest.approx([1e-3, 1e-4, 1e-5])
@@ -92,8 +110,8 @@ def test_seed_004_schedule_visits_three_rates_then_stops(
 
 def test_dae_noise_is_a_twentieth_of_each_dimensions_std(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
-    train = load_segments(ds, split_items(ds, "si", "train", fold=0))
-    model = build_model("aud2repr2pose", 26, TINY)
+    train = load_segments(ds, split_items(ds, variant="si", part="train", fold=0))
+    model = build_model("aud2repr2pose", 26, config=TINY)
     assert isinstance(model, Aud2Repr2Pose)
     stages = model.stages(train)
     assert next(stages) == "motion DAE" and model.stage == "dae"
@@ -162,7 +180,16 @@ def test_every_seed_model_trains_on_real_media_and_compare_tables_them(
     cfg = TINY.model_copy(update={"cvae": TINY.cvae.model_copy(update={"max_epochs": 3})})
     dirs = []
     for kind in SEED_MODELS:
-        result = train_command(real_dataset, kind, "si", 0, None, tmp_path / kind, cfg, quiet=True)
+        result = train_command(
+            real_dataset,
+            model=kind,
+            variant="si",
+            fold=0,
+            subject=None,
+            out_dir=tmp_path / kind,
+            config=cfg,
+            quiet=True,
+        )
         assert result.epochs >= 1 and np.isfinite(result.best_val_loss), kind
         dirs.append(tmp_path / kind)
     console = Console(record=True, width=250)

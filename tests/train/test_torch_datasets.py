@@ -29,13 +29,15 @@ def _segment(n: int, *, unknown: slice | None = None, seed: int = 0, tid: str = 
     if unknown is not None:
         angles01[unknown] = np.nan
     audio = (np.arange(n)[:, None] + np.zeros((1, 3))).astype(np.float32)  # row i holds i
-    return make_segment(tid, "s", 0, audio, angles01, angles01 * 2)
+    return make_segment(
+        tid, subject="s", start=0, audio=audio, angles01=angles01, angles=angles01 * 2
+    )
 
 
 def test_si_items_are_whole_clips_of_disjoint_subjects(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
     subject = {r.clip.clip_id: r.take.subject for r in ds.clips(None)}
-    parts = {p: split_items(ds, "si", p, fold=1) for p in ("train", "val", "test")}
+    parts = {p: split_items(ds, variant="si", part=p, fold=1) for p in ("train", "val", "test")}
     subjects = {p: {subject[t] for t, _, _ in items} for p, items in parts.items()}
     assert len(subjects["train"]) == 2 and len(subjects["val"]) == 1 == len(subjects["test"])
     assert not (subjects["train"] & subjects["val"]) and not (subjects["val"] & subjects["test"])
@@ -44,19 +46,21 @@ def test_si_items_are_whole_clips_of_disjoint_subjects(synthetic_dataset: Path) 
 
 def test_sd_items_cut_one_subject_by_time(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
-    items = {p: split_items(ds, "sd", p, subject="s2") for p in ("train", "val", "test")}
+    items = {
+        p: split_items(ds, variant="sd", part=p, subject="s2") for p in ("train", "val", "test")
+    }
     assert all(t.startswith("s2__") for p in items.values() for t, _, _ in p)
     total = sum(b - a for p in items.values() for _, a, b in p)
     assert total == 2400 and sum(b - a for _, a, b in items["train"]) == 1680
     with pytest.raises(InputError):
-        split_items(ds, "sd", "train", subject="nobody")
+        split_items(ds, variant="sd", part="train", subject="nobody")
     with pytest.raises(InputError):
-        split_items(ds, "si", "train", fold=None)
+        split_items(ds, variant="si", part="train", fold=None)
 
 
 def test_audio_is_z_normalised_per_subject(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
-    items = split_items(ds, "si", "test", fold=0)  # all clips of one subject
+    items = split_items(ds, variant="si", part="test", fold=0)  # all clips of one subject
     segments = load_segments(ds, items)
     audio = np.concatenate([s.audio for s in segments])
     np.testing.assert_allclose(audio.mean(axis=0), 0, atol=1e-4)
@@ -67,7 +71,7 @@ def test_audio_is_z_normalised_per_subject(synthetic_dataset: Path) -> None:
 
 def test_unknown_pose_is_masked_not_invented(synthetic_dataset: Path) -> None:
     ds = gds.open(synthetic_dataset)
-    seg = load_segments(ds, split_items(ds, "si", "test", fold=0))[0]
+    seg = load_segments(ds, split_items(ds, variant="si", part="test", fold=0))[0]
     unknown = np.isnan(ds.load(seg.clip_id).angles01)
     assert unknown.any()
     np.testing.assert_array_equal(seg.mask, ~unknown)
@@ -119,7 +123,7 @@ def test_masked_mse_is_loss_l_over_known_entries() -> None:
     pred = np.random.default_rng(5).random((20, 11)).astype(np.float32)
     truth = np.where(seg.mask, seg.target, np.nan)
     loss = masked_mse(
-        torch.from_numpy(pred), torch.from_numpy(seg.target), torch.from_numpy(seg.mask)
+        torch.from_numpy(pred), torch.from_numpy(seg.target), mask=torch.from_numpy(seg.mask)
     )
     assert float(loss) == pytest.approx(M.loss_l(truth, pred), rel=1e-6)
 

@@ -44,8 +44,8 @@ def test_cca_of_a_constant_is_zero(rng: np.random.Generator) -> None:
 
 def test_local_cca_of_independent_noise_is_near_zero(rng: np.random.Generator) -> None:
     x, y = rng.normal(size=3000), rng.normal(size=3000)
-    assert M.local_cca(x, y, 300, stride=1) < 0.1  # |r| of 300 independent pairs ~ 0.05
-    assert M.local_cca(x, 2 * x + 1, 300, stride=1) == pytest.approx(1.0)
+    assert M.local_cca(x, y, window=300, stride=1) < 0.1  # |r| of 300 independent pairs ~ 0.05
+    assert M.local_cca(x, 2 * x + 1, window=300, stride=1) == pytest.approx(1.0)
 
 
 def test_local_cca_is_the_mean_of_window_ccas(rng: np.random.Generator) -> None:
@@ -53,38 +53,39 @@ def test_local_cca_is_the_mean_of_window_ccas(rng: np.random.Generator) -> None:
     y = x[:, :2] + rng.normal(size=(60, 2))
     n = 20
     direct = [M.cca(x[i : i + n], y[i : i + n]) for i in range(60 - n + 1)]  # Eq. 3.18
-    values = M.local_cca_values(x, y, n, stride=1, chunk=7)
+    values = M.local_cca_values(x, y, window=n, stride=1, chunk=7)
     assert len(values) == 60 - n + 1
     np.testing.assert_allclose(values, direct, atol=1e-9)
-    assert M.local_cca(x, y, n, stride=1) == pytest.approx(np.mean(direct), abs=1e-9)
-    assert M.local_cca_values(x, y, n, stride=5).shape == (9,)
+    assert M.local_cca(x, y, window=n, stride=1) == pytest.approx(np.mean(direct), abs=1e-9)
+    assert M.local_cca_values(x, y, window=n, stride=5).shape == (9,)
 
 
 def test_local_cca_of_a_short_sequence_uses_one_window(rng: np.random.Generator) -> None:
     x, y = rng.normal(size=(50, 2)), rng.normal(size=(50, 2))
-    assert M.local_cca(x, y, 300, stride=1) == pytest.approx(M.cca(x, y), abs=1e-9)
+    assert M.local_cca(x, y, window=300, stride=1) == pytest.approx(M.cca(x, y), abs=1e-9)
 
 
 def test_lcca_measures_against_the_truth(rng: np.random.Generator) -> None:
     audio = rng.normal(size=(400, 5))
     true = audio[:, :3] @ rng.normal(size=(3, 11)) + 0.1 * rng.normal(size=(400, 11))
-    assert M.lcca_theta(true, true, 100, stride=1) == pytest.approx(1.0)  # Eq. 3.19
-    assert M.delta_lcca(audio, true, true, 100, stride=1) == 0.0  # Eq. 3.20
+    assert M.lcca_theta(true, true, window=100, stride=1) == pytest.approx(1.0)  # Eq. 3.19
+    assert M.delta_lcca(audio, true, pred=true, window=100, stride=1) == 0.0  # Eq. 3.20
     noise = rng.normal(size=(400, 11))
     expected = abs(
-        M.local_cca(audio, true, 100, stride=1) - M.local_cca(audio, noise, 100, stride=1)
+        M.local_cca(audio, true, window=100, stride=1)
+        - M.local_cca(audio, noise, window=100, stride=1)
     )
-    assert M.delta_lcca(audio, true, noise, 100, stride=1) == pytest.approx(expected)
+    assert M.delta_lcca(audio, true, pred=noise, window=100, stride=1) == pytest.approx(expected)
 
 
 def test_fcca_of_the_ground_truth_equals_its_cca(rng: np.random.Generator) -> None:
     audio = rng.normal(size=(500, 6))
     true = audio[:, :2] @ rng.normal(size=(2, 11)) + rng.normal(size=(500, 11))
-    assert M.fcca(true, true, audio) == pytest.approx(M.cca(true, audio), abs=1e-9)
+    assert M.fcca(true, true, audio=audio) == pytest.approx(M.cca(true, audio), abs=1e-9)
     # An affine copy keeps the forced correlation; noise and a constant lose it.
-    assert M.fcca(true, 3 * true - 1, audio) == pytest.approx(M.cca(true, audio), abs=1e-9)
-    assert M.fcca(true, rng.normal(size=(500, 11)), audio) < 0.2
-    assert M.fcca(true, np.full((500, 11), 0.7), audio) == 0.0
+    assert M.fcca(true, 3 * true - 1, audio=audio) == pytest.approx(M.cca(true, audio), abs=1e-9)
+    assert M.fcca(true, rng.normal(size=(500, 11)), audio=audio) < 0.2
+    assert M.fcca(true, np.full((500, 11), 0.7), audio=audio) == 0.0
 
 
 def test_jerkiness_of_a_cubic(rng: np.random.Generator) -> None:
@@ -104,8 +105,8 @@ def test_mean_jerkiness_over_sequences() -> None:
     a = np.tile(t[:, None] ** 3, (1, 11))  # J = 11·36/(2f)
     b = np.zeros((100, 11))
     j_a = 11 * 36 / (2 * f)
-    assert M.delta_jerkiness(a, b, f) == pytest.approx(j_a)
-    j_mean, dj_mean = M.mean_jerkiness([a, a], [b, 2 * a], f)  # Eq. 3.22
+    assert M.delta_jerkiness(a, b, rate_hz=f) == pytest.approx(j_a)
+    j_mean, dj_mean = M.mean_jerkiness([a, a], [b, 2 * a], rate_hz=f)  # Eq. 3.22
     assert j_mean == pytest.approx((0 + 4 * j_a) / 2)
     assert dj_mean == pytest.approx((j_a + 3 * j_a) / 2)
 
@@ -143,7 +144,7 @@ def test_speed_histogram() -> None:
     theta = np.array([[0.0], [0.001], [0.003], [0.1]])  # speeds 0.1, 0.2, 9.7 rad/s at 100 Hz
     s = M.speeds(theta, 100.0)
     np.testing.assert_allclose(s[:, 0], [0.1, 0.2, 9.7])
-    h = M.speed_histogram(s, 0.15, 1.5)
+    h = M.speed_histogram(s, 0.15, top=1.5)
     assert h.shape == (10,) and h.sum() == pytest.approx(1.0)
     np.testing.assert_allclose(h[[0, 1, 9]], [1 / 3, 1 / 3, 1 / 3])  # 9.7 clipped to the top bin
-    assert M.speed_histogram([], 0.1, 1.0).sum() == 0.0
+    assert M.speed_histogram([], 0.1, top=1.0).sum() == 0.0

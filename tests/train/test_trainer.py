@@ -26,8 +26,8 @@ from gesturebank.train.torch_runtime import validation_loss
 def mean_pose_val_loss(dataset: Path, fold: int) -> float:
     """Loss L on the validation part of the static mean pose of the training part."""
     ds = gds.open(dataset)
-    train = load_segments(ds, split_items(ds, "si", "train", fold=fold))
-    val = load_segments(ds, split_items(ds, "si", "val", fold=fold))
+    train = load_segments(ds, split_items(ds, variant="si", part="train", fold=fold))
+    val = load_segments(ds, split_items(ds, variant="si", part="val", fold=fold))
     target = np.concatenate([s.target for s in train])
     mask = np.concatenate([s.mask for s in train])
     mean = (target * mask).sum(axis=0) / mask.sum(axis=0)
@@ -40,10 +40,24 @@ def test_mlp_and_lstm_learn_a_known_relation(
 ) -> None:
     baseline = mean_pose_val_loss(synthetic_dataset, 0)
     mlp = train_command(
-        synthetic_dataset, "mlp", "si", 0, None, tmp_path / "mlp", fast_config, quiet=True
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=tmp_path / "mlp",
+        config=fast_config,
+        quiet=True,
     )
     lstm = train_command(
-        synthetic_dataset, "lstm", "si", 0, None, tmp_path / "lstm", fast_config, quiet=True
+        synthetic_dataset,
+        model="lstm",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=tmp_path / "lstm",
+        config=fast_config,
+        quiet=True,
     )
     # The arms follow the envelope (frame-wise learnable): both models far below the mean pose.
     # The targets are low-passed zero-phase to be playable (as the builder's are), so a frame
@@ -58,19 +72,46 @@ def test_training_is_deterministic_and_restores_the_best_weights(
     synthetic_dataset: Path, tmp_path: Path
 ) -> None:
     cfg = TrainConfig.model_validate({"mlp": {"batch_size": 512, "max_epochs": 5}, "seed": 3})
-    a = train_command(synthetic_dataset, "mlp", "si", 1, None, tmp_path / "a", cfg, quiet=True)
-    b = train_command(synthetic_dataset, "mlp", "si", 1, None, tmp_path / "b", cfg, quiet=True)
+    a = train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=1,
+        subject=None,
+        out_dir=tmp_path / "a",
+        config=cfg,
+        quiet=True,
+    )
+    b = train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=1,
+        subject=None,
+        out_dir=tmp_path / "b",
+        config=cfg,
+        quiet=True,
+    )
     wa = torch.load(tmp_path / "a" / "weights.pt", weights_only=True)
     wb = torch.load(tmp_path / "b" / "weights.pt", weights_only=True)
     assert wa.keys() == wb.keys() and all(torch.equal(wa[k], wb[k]) for k in wa)
     assert a.history == b.history
     other = cfg.model_copy(update={"seed": 4})
-    c = train_command(synthetic_dataset, "mlp", "si", 1, None, tmp_path / "c", other, quiet=True)
+    c = train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=1,
+        subject=None,
+        out_dir=tmp_path / "c",
+        config=other,
+        quiet=True,
+    )
     assert c.history != a.history
     # The saved weights are the best epoch's: they reproduce its validation loss.
     model, info, _ = load_model(tmp_path / "a")
     ds = gds.open(synthetic_dataset)
-    val = load_segments(ds, split_items(ds, "si", "val", fold=1))
+    val = load_segments(ds, split_items(ds, variant="si", part="val", fold=1))
     assert validation_loss(model, val) == pytest.approx(a.best_val_loss, rel=1e-6)
     assert info.result.best_epoch == a.best_epoch
 
@@ -80,7 +121,16 @@ def test_early_stopping_after_patience(synthetic_dataset: Path, tmp_path: Path) 
     cfg = TrainConfig.model_validate(
         {"learning_rate": 1.0, "patience": 3, "mlp": {"batch_size": 64, "max_epochs": 500}}
     )
-    r = train_command(synthetic_dataset, "mlp", "si", 2, None, tmp_path / "m", cfg, quiet=True)
+    r = train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=2,
+        subject=None,
+        out_dir=tmp_path / "m",
+        config=cfg,
+        quiet=True,
+    )
     assert r.epochs < 500
     assert r.epochs - r.best_epoch == 3
     losses = [h["val_loss"] for h in r.history]
@@ -95,7 +145,16 @@ def test_subject_dependent_training_and_model_folder(
         update={"lstm": fast_config.lstm.model_copy(update={"max_epochs": 3})}
     )
     out = tmp_path / "sd"
-    train_command(synthetic_dataset, "lstm", "sd", None, "s1", out, cfg, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="lstm",
+        variant="sd",
+        fold=None,
+        subject="s1",
+        out_dir=out,
+        config=cfg,
+        quiet=True,
+    )
     names = {p.name for p in out.iterdir()}
     assert {
         "weights.pt",
@@ -116,7 +175,16 @@ def test_evaluate_scores_the_model_and_both_baselines(
     synthetic_dataset: Path, fast_config: TrainConfig, tmp_path: Path
 ) -> None:
     out = tmp_path / "mlp"
-    train_command(synthetic_dataset, "mlp", "si", 0, None, out, fast_config, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="mlp",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=out,
+        config=fast_config,
+        quiet=True,
+    )
     console = Console(record=True, width=200)
     report = evaluate_command(out, split="test", console=console)
     text = console.export_text()
@@ -168,10 +236,19 @@ def test_synthesize_writes_a_timestamped_csv(
         update={"lstm": fast_config.lstm.model_copy(update={"max_epochs": 2})}
     )
     model_dir = tmp_path / "lstm"
-    train_command(synthetic_dataset, "lstm", "si", 0, None, model_dir, cfg, quiet=True)
+    train_command(
+        synthetic_dataset,
+        model="lstm",
+        variant="si",
+        fold=0,
+        subject=None,
+        out_dir=model_dir,
+        config=cfg,
+        quiet=True,
+    )
     wav = tmp_path / "speech.wav"
     _write_wav(wav, 2.0)
-    angles = synthesize(model_dir, wav, tmp_path / "out" / "motion.csv")
+    angles = synthesize(model_dir, audio_path=wav, out_csv=tmp_path / "out" / "motion.csv")
     with open(tmp_path / "out" / "motion.csv", newline="") as f:
         comment = f.readline()  # the angle timeline's '#' line (robot.timeline)
         rows = list(csv.reader(f))
@@ -183,7 +260,7 @@ def test_synthesize_writes_a_timestamped_csv(
     assert times[0] == pytest.approx(0.0125)  # centre of the first window
     profile = pepper.load_profile()
     assert np.all(angles >= profile.lower - 1e-6) and np.all(angles <= profile.upper + 1e-6)
-    self_norm = synthesize(model_dir, wav, tmp_path / "self.csv", znorm="self")
+    self_norm = synthesize(model_dir, audio_path=wav, out_csv=tmp_path / "self.csv", znorm="self")
     assert self_norm.shape == angles.shape
 
 
@@ -193,7 +270,16 @@ def test_real_media_mlp_and_lstm_si_train_and_evaluate(real_dataset: Path, tmp_p
     )
     for kind in ("mlp", "lstm"):
         out = tmp_path / kind
-        result = train_command(real_dataset, kind, "si", 0, None, out, cfg, quiet=True)
+        result = train_command(
+            real_dataset,
+            model=kind,
+            variant="si",
+            fold=0,
+            subject=None,
+            out_dir=out,
+            config=cfg,
+            quiet=True,
+        )
         assert result.epochs >= 1 and np.isfinite(result.best_val_loss)
         console = Console(record=True, width=200)
         report = evaluate_command(out, console=console)

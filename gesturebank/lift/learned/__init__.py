@@ -106,7 +106,7 @@ class LearnedLifter:
         coco = pose2d.to_coco17()
         kp = coco.keypoints[:, : F.N_JOINTS].astype(np.float64)
         camera = views.single_camera(self.name)
-        focal, center, pixels = pinhole(kp[..., :2], coco.image_size, camera,
+        focal, center, pixels = pinhole(kp[..., :2], coco.image_size, camera=camera,
                                         fov_deg=self.fitted.fov_deg)  # fmt: skip
         uv = (pixels - center) / focal
         ok = F.torso_ok(uv)
@@ -132,14 +132,14 @@ class LearnedLifter:
         seen = np.flatnonzero(ok)
         grid = np.arange(times[seen[0]], times[seen[-1]] + 0.5 / F.RATE_HZ, 1 / F.RATE_HZ)
         filled = F.fill_gaps(np.where(ok[:, None, None], uv, np.nan))
-        resampled = F.resample(filled[seen], times[seen], grid)
+        resampled = F.resample(filled[seen], times[seen], at=grid)
         half = (int(meta["architecture"]["receptive"]) - 1) // 2
 
         def net(rays: np.ndarray) -> np.ndarray:
             x, neck, scale = F.features(rays)
             padded = np.pad(x, ((half, half), (0, 0)), mode="edge")
             out = session.run(["joints"], {"keypoints": padded.T[None]})[0][0].T
-            return F.camera_joints(out, neck, scale,
+            return F.camera_joints(out, neck, scale=scale,
                                    shoulder_width_m=self.geometric.shoulder_width_m)  # fmt: skip
 
         joints = net(resampled)
@@ -147,4 +147,4 @@ class LearnedLifter:
             flip = np.array([-1.0, 1.0, 1.0])
             mirrored = net(resampled[:, _MIRROR13] * flip[:2])[:, _MIRROR13] * flip
             joints = (joints + mirrored) / 2
-        return F.resample(joints, grid, times)
+        return F.resample(joints, grid, at=times)

@@ -76,7 +76,7 @@ def features(uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def camera_joints(
-    output: np.ndarray, neck: np.ndarray, scale: np.ndarray, *, shoulder_width_m: float
+    output: np.ndarray, neck: np.ndarray, *, scale: np.ndarray, shoulder_width_m: float
 ) -> np.ndarray:
     """(T, 13, 3) joints in the camera's frame, metres, of the network's output (T, N_OUTPUTS):
     the output's unit (a neck → mid-hip length) is `shoulder_width_m` / SHOULDERS_PER_SPINE,
@@ -88,7 +88,7 @@ def camera_joints(
     return neck3d[:, None] + rel * metres
 
 
-def resample(values: np.ndarray, times: np.ndarray, at: np.ndarray) -> np.ndarray:
+def resample(values: np.ndarray, times: np.ndarray, *, at: np.ndarray) -> np.ndarray:
     """values (T, ...) at `times`, linearly interpolated at `at` (held at the ends); NaN stays
     where either neighbour is NaN."""
     flat = values.reshape(len(values), -1)

@@ -66,8 +66,8 @@ def select_frames(usable: np.ndarray, *, max_frames: int) -> np.ndarray:
 def refine_cameras(
     pixels: np.ndarray,
     confidence: np.ndarray,
-    cameras: CameraGroup,
     *,
+    cameras: CameraGroup,
     fixed: int,
     min_confidence: float,
     max_frames: int,
@@ -108,8 +108,8 @@ def refine_cameras(
     weights = np.where(usable[:, frames].reshape(C, -1), conf[:, frames].reshape(C, -1), 0.0)
     extrinsics = np.stack([c.extrinsics for c in cameras])
     focals = np.stack([np.diag(c.K)[:2] for c in cameras])
-    points = dlt(obs_xy, extrinsics, weights)
-    errors = reprojection_errors(points, obs_xy, extrinsics, focals)
+    points = dlt(obs_xy, extrinsics, weights=weights)
+    errors = reprojection_errors(points, obs_xy, extrinsics=extrinsics, focals=focals)
     keep = np.isfinite(points).all(-1) & ~np.isinf(np.where(weights > 0, errors, 0)).any(0)
     points, obs_xy, weights = points[keep], obs_xy[:, keep], weights[:, keep]
     seen = weights > 0
@@ -211,7 +211,7 @@ def _median_error(
     extrinsics: np.ndarray,
     focals: np.ndarray,
 ) -> float:
-    errors = reprojection_errors(points, normalised, extrinsics, focals)[seen]
+    errors = reprojection_errors(points, normalised, extrinsics=extrinsics, focals=focals)[seen]
     errors = errors[np.isfinite(errors)]
     return float(np.median(errors)) if errors.size else float("nan")
 

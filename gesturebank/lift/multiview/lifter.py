@@ -153,13 +153,13 @@ class MultiviewLifter:
         # Sync on the detector's own keypoints: more of them make a steadier motion curve.
         offsets, methods = self._offsets(poses, views.audios)
         times = coco[cfg.reference_camera].timestamps
-        kp = align(coco, offsets, times)  # (C, T, 17, 3)
+        kp = align(coco, offsets, times=times)  # (C, T, 17, 3)
         bundle = None
         if cfg.refine_cameras:
             cams, bundle = refine_cameras(
                 kp[:, :, _BUNDLE_JOINTS, :2],
                 kp[:, :, _BUNDLE_JOINTS, 2],
-                cams,
+                cameras=cams,
                 fixed=cfg.reference_camera,
                 min_confidence=cfg.bundle_min_confidence,
                 max_frames=cfg.bundle_frames,
@@ -173,7 +173,7 @@ class MultiviewLifter:
         tri = triangulate(
             kp[..., :2],
             kp[..., 2],
-            cams,
+            cameras=cams,
             min_confidence=cfg.min_confidence,
             max_error_px=cfg.max_error_px,
             min_cameras=cfg.min_cameras,
@@ -186,8 +186,8 @@ class MultiviewLifter:
         joints, error, used, mirrored, cleaning = make_consistent(
             relabel(tri.points[None], crossed[None])[0],
             relabel(tri.error[None], crossed[None])[0],
-            relabel(tri.used, every),
-            obs,
+            used=relabel(tri.used, every),
+            views=obs,
             max_error_px=cfg.max_error_px,
             max_bone_dev=cfg.max_bone_dev,
             max_jump=cfg.max_jump,
@@ -195,7 +195,7 @@ class MultiviewLifter:
         cleaning = replace(cleaning, swapped=int(swapped.sum()) // 2)  # a pair: two joints
         kp, obs, labels = relabel(kp, mirrored), obs.relabel(mirrored), relabel(labels, mirrored)
         # the error of what the take keeps (joints solved again from a pair included)
-        error = reprojection(joints, obs, used)
+        error = reprojection(joints, obs, used=used)
         if cfg.reject_error_px is not None:
             bad = error > cfg.reject_error_px
             joints[bad], error[bad], used[:, bad] = np.nan, np.nan, False
@@ -204,14 +204,14 @@ class MultiviewLifter:
             joints, refinement = refine(
                 joints,
                 times,
-                obs,
-                used,
+                views=obs,
+                used=used,
                 max_error_px=cfg.max_error_px,
                 smooth_accel_mps2=cfg.smooth_accel_mps2,
                 bone_tolerance_m=cfg.bone_tolerance_m,
                 chunk_frames=cfg.refine_chunk_frames,
             )
-            error = reprojection(joints, obs, used)
+            error = reprojection(joints, obs, used=used)
         tri = Triangulation(points=joints, error=error, used=used)
         conf2d = np.where(used, np.nan_to_num(kp[..., 2]), 0.0).sum(0) / np.maximum(used.sum(0), 1)
         with np.errstate(invalid="ignore"):
@@ -267,7 +267,7 @@ def _drop_unseen_face(kp: np.ndarray, cams: CameraGroup, cfg: MultiviewConfig) -
     tri = triangulate(
         kp[:, :, TORSO, :2],
         kp[:, :, TORSO, 2],
-        cams,
+        cameras=cams,
         min_confidence=cfg.min_confidence,
         max_error_px=cfg.max_error_px,
         min_cameras=cfg.min_cameras,

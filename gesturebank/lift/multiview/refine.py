@@ -72,7 +72,7 @@ class Refinement:
     iterations: int
 
 
-def reprojection(points: np.ndarray, views: Views, used: np.ndarray) -> np.ndarray:
+def reprojection(points: np.ndarray, views: Views, *, used: np.ndarray) -> np.ndarray:
     """(T, J) mean pixel error of `points (T, J, 3)` over the cameras `used (C, T, J)`."""
     R, t = views.extrinsics[:, :, :3], views.extrinsics[:, :, 3]
     cam = np.einsum("cij,tkj->ctki", R, points) + t[:, None, None]
@@ -96,9 +96,9 @@ def _bone_cv(points: np.ndarray) -> float:
 def refine(
     points: np.ndarray,
     timestamps: np.ndarray,
+    *,
     views: Views,
     used: np.ndarray,
-    *,
     max_error_px: float,
     smooth_accel_mps2: float,
     bone_tolerance_m: float,
@@ -117,7 +117,7 @@ def refine(
         d = np.linalg.norm(pts[:, p] - pts[:, q], axis=-1)
         if np.isfinite(d).sum() >= 3:
             lengths[b] = np.nanmedian(d)
-    before = reprojection(pts, views, used)
+    before = reprojection(pts, views, used=used)
     out = pts.copy()
     iterations = 0
     step = max(chunk_frames - 2 * _OVERLAP, 1)
@@ -143,7 +143,7 @@ def refine(
         iterations += n_iter
         if start + step >= T:
             break
-    after = reprojection(out, views, used)
+    after = reprojection(out, views, used=used)
     summary = Refinement(
         error_before_px=float(np.nanmedian(before)) if np.isfinite(before).any() else np.nan,
         error_after_px=float(np.nanmedian(after)) if np.isfinite(after).any() else np.nan,

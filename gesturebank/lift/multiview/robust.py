@@ -132,8 +132,8 @@ def _pair_fit(views: Views, jl: int, jr: int) -> tuple[np.ndarray, np.ndarray]:
     points = []
     for j in (jl, jr):
         obs, w = views.normalised[:, :, j], views.weights[:, :, j]
-        p = dlt(obs, views.extrinsics, w)
-        err = reprojection_errors(p, obs, views.extrinsics, views.focals)
+        p = dlt(obs, views.extrinsics, weights=w)
+        err = reprojection_errors(p, obs, extrinsics=views.extrinsics, focals=views.focals)
         used = w > 0
         mean = np.where(used, np.nan_to_num(err, nan=0.0), 0.0).sum(0) / np.maximum(used.sum(0), 1)
         total += np.where(np.isfinite(p).all(-1) & (used.sum(0) >= 2), mean, np.inf)
@@ -307,12 +307,16 @@ def _candidates(
             o = np.full((C, t.size, 2), np.nan)
             w[c1], o[c1] = wts[l1, c1], obs[l1, c1]
             w[c2], o[c2] = wts[l2, c2], obs[l2, c2]
-            seed = dlt(o, views.extrinsics, w)
+            seed = dlt(o, views.extrinsics, weights=w)
             # Cameras that agree with the seed join it, with whichever label agrees better.
             e = np.stack(
-                [reprojection_errors(seed, obs[lab], views.extrinsics, views.focals) for lab in
-                 range(len(labels))]
-            )  # fmt: skip
+                [
+                    reprojection_errors(
+                        seed, obs[lab], extrinsics=views.extrinsics, focals=views.focals
+                    )
+                    for lab in range(len(labels))
+                ]
+            )
             e = np.where(wts > 0, np.nan_to_num(e, nan=np.inf), np.inf)
             choice = e.argmin(axis=0)  # (C, n)
             agree = np.take_along_axis(e, choice[None], 0)[0] <= max_error_px
@@ -320,8 +324,8 @@ def _candidates(
             choice[c1], choice[c2] = l1, l2
             o2 = np.take_along_axis(obs, choice[None, ..., None], 0)[0]
             w2 = np.where(agree, np.take_along_axis(wts, choice[None], 0)[0], 0.0)
-            p = dlt(o2, views.extrinsics, w2)
-            err = reprojection_errors(p, o2, views.extrinsics, views.focals)
+            p = dlt(o2, views.extrinsics, weights=w2)
+            err = reprojection_errors(p, o2, extrinsics=views.extrinsics, focals=views.focals)
             used = w2 > 0
             mean = np.where(used, np.nan_to_num(err, nan=np.inf), 0).sum(0) / np.maximum(
                 used.sum(0), 1
@@ -348,9 +352,9 @@ def _bone_dev(cand: np.ndarray, refs: np.ndarray, lengths: np.ndarray) -> np.nda
 def make_consistent(
     points: np.ndarray,
     error: np.ndarray,
+    *,
     used: np.ndarray,
     views: Views,
-    *,
     max_error_px: float,
     max_bone_dev: float,
     max_jump: float,
@@ -434,7 +438,7 @@ def facing(torso: np.ndarray, centers: np.ndarray) -> np.ndarray:
     across = (ls + lh) / 2 - (rs + rh) / 2
     to_cam = centers[:, None] - torso.mean(axis=1)[None]
     with np.errstate(invalid="ignore", divide="ignore"):
-        forward = frame_from(across, torso_vectors(ls, rs, lh, rh)[1])[0]
+        forward = frame_from(across, torso_vectors(ls, rs, left_hip=lh, right_hip=rh)[1])[0]
         return np.einsum("ti,cti->ct", forward, to_cam) / (
             np.linalg.norm(forward, axis=-1)[None] * np.linalg.norm(to_cam, axis=-1)
         )

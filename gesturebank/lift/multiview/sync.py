@@ -39,8 +39,8 @@ class Lag:
 def signal_lag(
     reference: np.ndarray,
     other: np.ndarray,
-    rate: float,
     *,
+    rate: float,
     max_lag_s: float | None = None,
     min_overlap: float = 0.5,
 ) -> Lag:
@@ -102,7 +102,9 @@ def audio_offset(
         raise InputError(
             f"audio_offset: sample rates differ ({reference.sample_rate} vs {other.sample_rate})"
         )
-    lag = signal_lag(reference.signal, other.signal, reference.sample_rate, max_lag_s=max_lag_s)
+    lag = signal_lag(
+        reference.signal, other.signal, rate=reference.sample_rate, max_lag_s=max_lag_s
+    )
     # Sample n of a track sits at video_start + start_offset + n / sr on its camera's clock.
     shift = (other_start_s + other.start_offset_s) - (reference_start_s + reference.start_offset_s)
     return Lag(seconds=lag.seconds + shift, score=lag.score)
@@ -151,7 +153,7 @@ def motion_offset(
     """
     t_ref, s_ref = motion_signal(reference, rate)
     t_oth, s_oth = motion_signal(other, rate)
-    lag = signal_lag(s_ref, s_oth, rate, max_lag_s=max_lag_s)
+    lag = signal_lag(s_ref, s_oth, rate=rate, max_lag_s=max_lag_s)
     # The curves start at their own first timestamps; the lag counts from those starts.
     return Lag(seconds=lag.seconds + t_oth[0] - t_ref[0], score=lag.score)
 
@@ -208,7 +210,7 @@ def estimate_offsets(
 
 
 def align(
-    poses: Sequence[Pose2D], offsets_s: Sequence[float] | np.ndarray, times: np.ndarray
+    poses: Sequence[Pose2D], offsets_s: Sequence[float] | np.ndarray, *, times: np.ndarray
 ) -> np.ndarray:
     """Keypoints of every view at the reference-clock `times` (T,): (C, T, K, 3).
 

@@ -48,7 +48,7 @@ class Triangulation:
         return self.used.sum(axis=0)
 
 
-def dlt(normalised: np.ndarray, extrinsics: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def dlt(normalised: np.ndarray, extrinsics: np.ndarray, *, weights: np.ndarray) -> np.ndarray:
     """Weighted linear triangulation of N points from C views.
 
     normalised: (C, N, 2) undistorted normalised image coordinates (NaN allowed where weight 0).
@@ -73,7 +73,7 @@ def dlt(normalised: np.ndarray, extrinsics: np.ndarray, weights: np.ndarray) -> 
 
 
 def reprojection_errors(
-    points: np.ndarray, normalised: np.ndarray, extrinsics: np.ndarray, focals: np.ndarray
+    points: np.ndarray, normalised: np.ndarray, *, extrinsics: np.ndarray, focals: np.ndarray
 ) -> np.ndarray:
     """(C, N) pixel distance between each view's observation and the reprojected point.
 
@@ -94,8 +94,8 @@ def _solve(
     normalised: np.ndarray, extrinsics: np.ndarray, focals: np.ndarray, weights: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """DLT on `weights > 0` views → points (N, 3), per-view errors (C, N), mean error (N,)."""
-    points = dlt(normalised, extrinsics, weights)
-    errs = reprojection_errors(points, normalised, extrinsics, focals)
+    points = dlt(normalised, extrinsics, weights=weights)
+    errs = reprojection_errors(points, normalised, extrinsics=extrinsics, focals=focals)
     used = weights > 0
     with np.errstate(invalid="ignore"):
         mean = np.where(used, errs, 0.0).sum(axis=0) / np.maximum(used.sum(axis=0), 1)
@@ -135,8 +135,8 @@ class _Search:
 def triangulate(
     pixels: np.ndarray,
     confidence: np.ndarray,
-    cameras: CameraGroup,
     *,
+    cameras: CameraGroup,
     min_confidence: float,
     max_error_px: float,
     min_cameras: int,

@@ -109,11 +109,13 @@ class Sampler:
         ys: list[np.ndarray] = []
         while len(xs) < size:  # a stretch no camera saw is replaced by another
             stretches, ups = zip(*(self.stretch(rng) for _ in range(size - len(xs))), strict=True)
-            uv, local, outside, seen = view_batch(list(stretches), list(ups), rng, self.cameras)
+            uv, local, outside, seen = view_batch(
+                list(stretches), list(ups), rng=rng, cams=self.cameras
+            )
             for k in np.flatnonzero(seen):
                 made = uv[k]
                 if rng.random() >= self.clean_share:
-                    made = detector_noise(made, local[k], outside[k], rng)
+                    made = detector_noise(made, local[k], outside=outside[k], rng=rng)
                 x = F.features(F.fill_gaps(made))[0].T
                 neck = local[k][:, [5, 6]].mean(1)
                 spine = np.median(np.linalg.norm(neck - local[k][:, [11, 12]].mean(1), axis=-1))
@@ -136,7 +138,7 @@ class Sampler:
         take = self.takes[rng.choice(len(self.takes), p=usable / usable.sum())]
         start = rng.uniform(0, len(take) - need)
         at = start + np.arange(self.frames) * speed
-        joints = F.resample(take, np.arange(len(take), dtype=float), at)
+        joints = F.resample(take, np.arange(len(take), dtype=float), at=at)
         if rng.random() < 0.5:  # mirrored across the person's sagittal plane, sides exchanged
             left = body_axes(joints)[1]
             joints = joints - 2 * (joints @ left)[..., None] * left

@@ -75,7 +75,7 @@ def sample_arm(
     s, e, w = (_I[f"{side}_{j}"] for j in ("shoulder", "elbow", "wrist"))
     mid_hip = out[:, [_I["left_hip"], _I["right_hip"]]].mean(axis=1)
     forward, left, up = torso_frame(out[:, _I["left_shoulder"]], out[:, _I["right_shoulder"]],
-                                    mid_hip)  # fmt: skip
+                                    mid_hip=mid_hip)  # fmt: skip
     outward = left if side == "left" else -left
     upper_len = float(np.nanmedian(np.linalg.norm(out[:, e] - out[:, s], axis=-1)))
     fore_len = float(np.nanmedian(np.linalg.norm(out[:, w] - out[:, e], axis=-1)))

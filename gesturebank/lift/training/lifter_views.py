@@ -90,7 +90,7 @@ def _axes(joints: np.ndarray, up: np.ndarray | None) -> np.ndarray:
 
 
 def view_batch(
-    joints: list[np.ndarray], ups: list[np.ndarray | None], rng: np.random.Generator,
+    joints: list[np.ndarray], ups: list[np.ndarray | None], *, rng: np.random.Generator,
     cams: CameraRanges,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """For world joints (T, 17, 3) per stretch and its world's up (None: the torso's): ray
@@ -170,7 +170,7 @@ def _runs(rng: np.random.Generator, frames: int, rate: float, longest: int) -> n
 
 
 def detector_noise(
-    uv: np.ndarray, local: np.ndarray, outside: np.ndarray, rng: np.random.Generator
+    uv: np.ndarray, local: np.ndarray, *, outside: np.ndarray, rng: np.random.Generator
 ) -> np.ndarray:
     """Ray coordinates uv (T, 13, 2) of one stretch as a detector gives them (module doc), NaN
     where a keypoint is missing; `local` (T, 13, 3) the camera-frame joints, `outside` (T, 13)."""

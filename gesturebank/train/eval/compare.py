@@ -52,8 +52,8 @@ def model_names(dirs: Sequence[Path]) -> list[str]:
     return [f"{d.parent.name}/{d.name}" if names.count(d.name) > 1 else d.name for d in dirs]
 
 
-def cells(system: str, row: dict[str, float | None], notes: Footnotes) -> list[str]:
-    return [cell(row.get(c.key), c, notes.mark(system, c.key)) for c in COLUMNS]
+def cells(system: str, row: dict[str, float | None], *, notes: Footnotes) -> list[str]:
+    return [cell(row.get(c.key), c, mark=notes.mark(system, c.key)) for c in COLUMNS]
 
 
 def to_csv(rows: dict[str, dict[str, float | None]], fgd_version: str | None) -> str:
@@ -70,7 +70,7 @@ def to_csv(rows: dict[str, dict[str, float | None]], fgd_version: str | None) ->
 
 
 def to_markdown(
-    rows: dict[str, dict[str, float | None]], title: str, notes: Footnotes | None = None
+    rows: dict[str, dict[str, float | None]], *, title: str, notes: Footnotes | None = None
 ) -> str:
     """A Markdown table with the printed precision, titled; the legend and n/a reasons below."""
     notes = notes or Footnotes({}, {}, [])
@@ -78,7 +78,8 @@ def to_markdown(
     lines = [f"**{title}**", "", "| " + " | ".join(head) + " |"]
     lines.append("|" + "|".join(["---"] + ["---:"] * len(COLUMNS)) + "|")
     lines += [
-        "| " + " | ".join([name, *cells(name, row, notes)]) + " |" for name, row in rows.items()
+        "| " + " | ".join([name, *cells(name, row, notes=notes)]) + " |"
+        for name, row in rows.items()
     ]
     for line in [LEGEND, *notes.lines]:  # paragraphs of their own
         lines += ["", line]

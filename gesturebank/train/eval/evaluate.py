@@ -105,7 +105,7 @@ FIELD_MEASURES: tuple[Column, ...] = (
 
 
 def postprocess(
-    pred01: np.ndarray, profile: pepper.RobotProfile, rate_hz: float, config: TrainConfig
+    pred01: np.ndarray, profile: pepper.RobotProfile, *, rate_hz: float, config: TrainConfig
 ) -> np.ndarray:
     """Model output `(N, 11)` in [0, 1] → angles `(N, 11)` rad: ν⁻¹, low-pass (§4.4.1), clamp."""
     angles = pepper.denormalise(pred01, profile)  # ν⁻¹ of Eq. 3.14
@@ -187,10 +187,10 @@ def shuffled_clip(
 def subject_metrics(
     segments: Sequence[Segment],
     predictions: Sequence[np.ndarray],
+    *,
     profile: pepper.RobotProfile,
     rate_hz: float,
     config: TrainConfig,
-    *,
     fgd: FeatureModel | None = None,
     onsets: Sequence[np.ndarray] | None = None,
 ) -> dict[str, Any]:
@@ -252,12 +252,12 @@ def subject_metrics(
             f"window (longest {longest:.2f} s)"
         )
     if t_runs:
-        j_mean, dj_mean = M.mean_jerkiness(t_runs, p_runs, rate_hz)  # Eq. 3.22
+        j_mean, dj_mean = M.mean_jerkiness(t_runs, p_runs, rate_hz=rate_hz)  # Eq. 3.22
         h_true, h_pred = (
             M.speed_histogram(
                 np.concatenate([M.speeds(x, rate_hz) for x in runs]),
                 config.speed_bin,
-                config.speed_max,
+                top=config.speed_max,
             )
             for runs in (t_runs, p_runs)
         )
@@ -303,7 +303,7 @@ def _genea_measures(
 
     e = config.eval
     h_true, h_pred = (
-        M.speed_histogram(norms(runs, 2), e.accel_bin, e.accel_max) for runs in (t_runs, p_runs)
+        M.speed_histogram(norms(runs, 2), e.accel_bin, top=e.accel_max) for runs in (t_runs, p_runs)
     )
     return {
         "avg_accel": float(np.mean(norms(p_runs, 2))),
@@ -360,7 +360,8 @@ def _cca_measures(
 
     def pooled(xs: list[np.ndarray], ys: list[np.ndarray]) -> float:
         values = [
-            M.local_cca_values(x, y, window, stride=stride) for x, y in zip(xs, ys, strict=True)
+            M.local_cca_values(x, y, window=window, stride=stride)
+            for x, y in zip(xs, ys, strict=True)
         ]
         return float(np.mean(np.concatenate(values)))  # Eq. 3.18, windows of all stretches
 
@@ -373,7 +374,7 @@ def _cca_measures(
         "delta_lcca": abs(lcca_at - lcca_ap),  # Eq. 3.20
         "cca": float(np.mean([M.cca(t, p) for t, p in zip(truth, pred, strict=True)])),
         "fcca": float(
-            np.mean([M.fcca(t, p, a) for t, p, a in zip(truth, pred, audio, strict=True)])
+            np.mean([M.fcca(t, p, audio=a) for t, p, a in zip(truth, pred, audio, strict=True)])
         ),
     }
 
@@ -402,7 +403,9 @@ def evaluate_segments(
 
     The shuffled clip's donors are `segments` and `donors` (e.g. the train part's).
     """
-    systems = {name: [postprocess(p, profile, rate_hz, config) for p in model_pred01]}
+    systems = {
+        name: [postprocess(p, profile, rate_hz=rate_hz, config=config) for p in model_pred01]
+    }
     systems |= baselines(
         segments,
         mean_pose01=mean_pose01,
@@ -411,7 +414,9 @@ def evaluate_segments(
         config=config,
         donors=donors,
     )
-    return score_systems(segments, systems, profile, rate_hz, config, fgd=fgd, onsets=onsets)
+    return score_systems(
+        segments, systems, profile=profile, rate_hz=rate_hz, config=config, fgd=fgd, onsets=onsets
+    )
 
 
 def baselines(
@@ -437,10 +442,10 @@ def baselines(
 def score_systems(
     segments: Sequence[Segment],
     systems: dict[str, list[np.ndarray]],
+    *,
     profile: pepper.RobotProfile,
     rate_hz: float,
     config: TrainConfig,
-    *,
     fgd: FeatureModel | None = None,
     onsets: Sequence[np.ndarray] | None = None,
 ) -> dict[str, dict[str, dict[str, Any]]]:
@@ -452,9 +457,9 @@ def score_systems(
             system: subject_metrics(
                 [segments[i] for i in idx],
                 [preds[i] for i in idx],
-                profile,
-                rate_hz,
-                config,
+                profile=profile,
+                rate_hz=rate_hz,
+                config=config,
                 fgd=fgd,
                 onsets=[onsets[i] for i in idx] if onsets else None,
             )

@@ -211,9 +211,9 @@ def train_feature_ae(
 
 def feature_model(
     dataset_path: Path,
+    *,
     key: str,
     natural: np.ndarray,
-    *,
     config: EvalConfig,
     seed: int,
     threads: int,

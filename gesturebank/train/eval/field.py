@@ -40,7 +40,7 @@ class SplitInputs:
     fgd_note: str | None  # why there is no FGD, when there is none
 
 
-def split_key(variant: str, fold: int | None, subject: str | None, target: str) -> str:
+def split_key(variant: str, *, fold: int | None, subject: str | None, target: str) -> str:
     """A split's folder name under the dataset's fgd/: si-fold00, sd-<subject>, dyadic; with
     "-listener" for the listener target (other motion: the listeners' heads)."""
     key = {"si": f"si-fold{fold or 0:02d}", "dyadic": "dyadic"}.get(variant, f"sd-{subject}")
@@ -73,7 +73,7 @@ def prepare(
     find the onsets. No FGD (with the reason) when train + val hold fewer than 2 chunks."""
     segments = load_segments(
         dataset,
-        split_items(dataset, variant, part, fold=fold, subject=subject),
+        split_items(dataset, variant=variant, part=part, fold=fold, subject=subject),
         target=config.target,
     )
     if not segments:
@@ -81,7 +81,7 @@ def prepare(
     learn_items = [
         item
         for p in ("train", "val")
-        for item in split_items(dataset, variant, p, fold=fold, subject=subject)
+        for item in split_items(dataset, variant=variant, part=p, fold=fold, subject=subject)
     ]
     learn = load_segments(dataset, learn_items, target=config.target)
     items = [_item(s) for s in segments]  # the listener target leaves some out
@@ -93,8 +93,8 @@ def prepare(
     if len(natural) >= 2:
         fgd = feature_model(
             dataset.path,
-            split_key(variant, fold, subject, config.target),
-            natural,
+            key=split_key(variant, fold=fold, subject=subject, target=config.target),
+            natural=natural,
             config=config.eval,
             seed=config.seed,
             threads=config.threads,

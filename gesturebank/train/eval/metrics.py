@@ -144,18 +144,18 @@ def _batched_cca(xw: F64, yw: F64) -> F64:
     return np.minimum(s[:, 0], 1.0)
 
 
-def local_cca(x: ArrayLike, y: ArrayLike, window: int, *, stride: int, chunk: int = 512) -> float:
+def local_cca(x: ArrayLike, y: ArrayLike, *, window: int, stride: int, chunk: int = 512) -> float:
     """Local CCA (Eq. 3.18): mean CCA over sliding windows of `window` frames.
 
     x `(d, p)`, y `(d, q)`; windows start every `stride` frames (`train.lcca_stride`; Eq. 3.18:
     1). A sequence shorter
     than the window is one window.
     """
-    return float(np.mean(local_cca_values(x, y, window, stride=stride, chunk=chunk)))
+    return float(np.mean(local_cca_values(x, y, window=window, stride=stride, chunk=chunk)))
 
 
 def local_cca_values(
-    x: ArrayLike, y: ArrayLike, window: int, *, stride: int, chunk: int = 512
+    x: ArrayLike, y: ArrayLike, *, window: int, stride: int, chunk: int = 512
 ) -> F64:
     """The per-window CCAs whose mean is `local_cca`, `(W,)`."""
     xx, yy = _2d(x), _2d(y)
@@ -173,22 +173,22 @@ def local_cca_values(
     return np.concatenate(out)  # the summands of Eq. 3.18
 
 
-def lcca_theta(true: ArrayLike, pred: ArrayLike, window: int, *, stride: int) -> float:
+def lcca_theta(true: ArrayLike, pred: ArrayLike, *, window: int, stride: int) -> float:
     """LCCA_Θ = LCCA(ᵗΘ, ᵖΘ) (Eq. 3.19)."""
-    return local_cca(true, pred, window, stride=stride)
+    return local_cca(true, pred, window=window, stride=stride)
 
 
 def delta_lcca(
-    audio: ArrayLike, true: ArrayLike, pred: ArrayLike, window: int, *, stride: int
+    audio: ArrayLike, true: ArrayLike, *, pred: ArrayLike, window: int, stride: int
 ) -> float:
     """ΔLCCA = |LCCA(Ω, ᵗΘ) − LCCA(Ω, ᵖΘ)| (Eq. 3.20)."""
     return abs(
-        local_cca(audio, true, window, stride=stride)
-        - local_cca(audio, pred, window, stride=stride)
+        local_cca(audio, true, window=window, stride=stride)
+        - local_cca(audio, pred, window=window, stride=stride)
     )
 
 
-def fcca(true: ArrayLike, pred: ArrayLike, audio: ArrayLike) -> float:
+def fcca(true: ArrayLike, pred: ArrayLike, *, audio: ArrayLike) -> float:
     """Forced CCA ρ_f (seed 002, Eq. 4.5–4.6).
 
     (a, b) = argmax corr(a′X, b′Y) on the ground-truth motion X `(n, 11)` and audio Y `(n, F)`
@@ -223,19 +223,19 @@ def jerkiness(theta: ArrayLike, rate_hz: float) -> float:
     return float(np.sum(d3**2) / (2 * rate_hz * (len(th) - 3)))  # Eq. 3.21
 
 
-def delta_jerkiness(true: ArrayLike, pred: ArrayLike, rate_hz: float) -> float:
+def delta_jerkiness(true: ArrayLike, pred: ArrayLike, *, rate_hz: float) -> float:
     """ΔJ = |J(ᵗΘ) − J(ᵖΘ)| (§3.4.4)."""
     return abs(jerkiness(true, rate_hz) - jerkiness(pred, rate_hz))
 
 
 def mean_jerkiness(
-    trues: Sequence[ArrayLike], preds: Sequence[ArrayLike], rate_hz: float
+    trues: Sequence[ArrayLike], preds: Sequence[ArrayLike], *, rate_hz: float
 ) -> tuple[float, float]:
     """(J̃, ΔJ̃) over n sequences (Eq. 3.22): J̃ of the predictions and the mean ΔJ."""
     if len(trues) != len(preds) or not trues:
         raise ValueError("need the same, non-zero number of true and predicted sequences")
     js = [jerkiness(p, rate_hz) for p in preds]
-    djs = [delta_jerkiness(t, p, rate_hz) for t, p in zip(trues, preds, strict=True)]
+    djs = [delta_jerkiness(t, p, rate_hz=rate_hz) for t, p in zip(trues, preds, strict=True)]
     return float(np.mean(js)), float(np.mean(djs))  # Eq. 3.22
 
 
@@ -267,7 +267,7 @@ def average_derivative(x: ArrayLike, *, rate_hz: float, order: int) -> float:
     return float(np.mean(derivative_norms(x, rate_hz=rate_hz, order=order)))
 
 
-def speed_histogram(speed: ArrayLike, bin_width: float, top: float) -> F64:
+def speed_histogram(speed: ArrayLike, bin_width: float, *, top: float) -> F64:
     """Relative frequencies of speed values in equal-width bins [0, w), [w, 2w) … up to `top`.
 
     Values at or above `top` go in the last bin. Returns `(ceil(top / w),)` summing to 1 (all

@@ -144,7 +144,7 @@ def _who(where: list[tuple[str, str]], results: dict[str, dict[str, dict[str, An
     )
 
 
-def cell(value: Any, column: Column, mark: str) -> str:
+def cell(value: Any, column: Column, *, mark: str) -> str:
     """A formatted measure, or 'n/a' with the marks of its reasons."""
     if value is None:
         return f"n/a{mark}"
@@ -153,10 +153,10 @@ def cell(value: Any, column: Column, mark: str) -> str:
 
 def table(
     results: dict[str, dict[str, dict[str, Any]]],
+    *,
     title: str,
     columns: Sequence[Column] = TABLE_5_1,
     notes: Footnotes | None = None,
-    *,
     narrow: bool = False,
 ) -> Table:
     """A rich table like Table 5.1: one row per subject and system, then the averages.
@@ -176,7 +176,7 @@ def table(
         t.add_column(c.short if narrow else c.title, justify="right", no_wrap=narrow)
 
     def cells(system: str, row: dict[str, Any], subject: str | None) -> list[str]:
-        return [cell(row.get(c.key), c, notes.mark(system, c.key, subject)) for c in columns]
+        return [cell(row.get(c.key), c, mark=notes.mark(system, c.key, subject)) for c in columns]
 
     def name(system: str) -> str:
         return f"{system} [red]{WORSE}[/red]" if system in worse else system

@@ -49,10 +49,10 @@ class Aud2Pose(nn.Module):
 
     def loss(self, x: torch.Tensor, y: torch.Tensor, m: torch.Tensor) -> torch.Tensor:
         raw = self.heads(x)
-        loss = masked_mse(torch.sigmoid(raw[..., :N_ANGLES]), y, m)
+        loss = masked_mse(torch.sigmoid(raw[..., :N_ANGLES]), y, mask=m)
         if self.velocity:  # Δg_t where both frames are known
             dm = m[:, 1:] & m[:, :-1]
-            loss = loss + masked_mse(raw[:, 1:, N_ANGLES:], y[:, 1:] - y[:, :-1], dm)
+            loss = loss + masked_mse(raw[:, 1:, N_ANGLES:], y[:, 1:] - y[:, :-1], mask=dm)
         return loss
 
     def schedule(self, config: TrainConfig) -> Schedule:

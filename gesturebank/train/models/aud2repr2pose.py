@@ -129,11 +129,11 @@ class Aud2Repr2Pose(nn.Module):
         m, known = motion_frames(y, mask)
         k = known[..., None].expand_as(m)
         if self.stage == "dae":
-            return masked_mse(self.denoise(self.corrupt(m)), m, k)
+            return masked_mse(self.denoise(self.corrupt(m)), m, mask=k)
         with torch.no_grad():
             code = self.motion_encoder(m)
         pred = self.speech_encoder(x)[:, 1:]
-        return masked_mse(pred, code, known[..., None].expand_as(code))
+        return masked_mse(pred, code, mask=known[..., None].expand_as(code))
 
     @torch.no_grad()
     def validation_loss(self, segments: Sequence[Segment]) -> float:

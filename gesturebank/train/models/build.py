@@ -36,7 +36,7 @@ def section_model(model: type[SpeechToMotion], name: str) -> type[BaseModel]:
     raise InputError(f"model {model.kind!r}: no config section [train.{name}]")
 
 
-def section(config: TrainConfig, model: type[SpeechToMotion], name: str) -> BaseModel:
+def section(config: TrainConfig, model: type[SpeechToMotion], *, name: str) -> BaseModel:
     """The values of `[train.NAME]` in `config` (a plug-in's defaults when it is absent)."""
     if name in TrainConfig.model_fields:
         value: BaseModel = getattr(config, name)
@@ -73,12 +73,12 @@ def model_class(kind: str) -> type[SpeechToMotion]:
     return cast(type[SpeechToMotion], cls)
 
 
-def build_model(kind: str, n_features: int, config: TrainConfig) -> nn.Module:
+def build_model(kind: str, n_features: int, *, config: TrainConfig) -> nn.Module:
     """A freshly initialised model named `kind` (a `MODELS` name) for `n_features` inputs."""
     cls = model_class(kind)
     arch: dict[str, Any] = {"kind": cls.kind, "n_features": n_features}
     for name, where in _parameters(cls):
-        arch[name] = getattr(section(config, cls, where), name)
+        arch[name] = getattr(section(config, cls, name=where), name)
     return _construct(cls, arch)
 
 

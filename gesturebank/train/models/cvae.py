@@ -69,7 +69,7 @@ class CVAE(nn.Module):
     def loss(self, x: torch.Tensor, y: torch.Tensor, m: torch.Tensor) -> torch.Tensor:
         mu, logvar = self.encode(x, y, m)
         z = mu + (0.5 * logvar).exp() * torch.randn_like(mu)  # reparameterisation
-        recon = masked_mse(self.decode(x, z), y, m)
+        recon = masked_mse(self.decode(x, z), y, mask=m)
         kl = kl_to_standard_normal(mu, logvar).sum() / m.sum().clamp_min(1.0)
         return recon + self.kl_weight * kl
 

@@ -34,7 +34,7 @@ from gesturebank.train.torch_runtime import validation_loss
 N_ANGLES = 11
 
 
-def cca_correlation(a: torch.Tensor, b: torch.Tensor, reg: float) -> torch.Tensor:
+def cca_correlation(a: torch.Tensor, b: torch.Tensor, *, reg: float) -> torch.Tensor:
     """Sum of the canonical correlations of `a (N, p)` and `b (N, q)` (differentiable): the
     singular values of Σaa^{-1/2} Σab Σbb^{-1/2}, with `reg`·I added to Σaa and Σbb."""
     a = a - a.mean(dim=0)
@@ -153,7 +153,7 @@ class DCCCAE(nn.Module):
         recon = ((self.speech_decoder(zs) - xs) ** 2).mean() + (
             (self.motion_decoder(zm) - ys) ** 2
         ).mean()
-        return recon - self.cca_weight * cca_correlation(zs, zm, self.cca_reg) / zs.shape[1]
+        return recon - self.cca_weight * cca_correlation(zs, zm, reg=self.cca_reg) / zs.shape[1]
 
     def loss(self, x: torch.Tensor, y: torch.Tensor, m: torch.Tensor) -> torch.Tensor:
         if self.stage == "autoencoders":
@@ -162,10 +162,10 @@ class DCCCAE(nn.Module):
             w = 2 * self.context + 1
             target = windows(y, self.context).reshape(*y.shape[:2], w, N_ANGLES)
             mask = windows(m.float(), self.context).reshape(*y.shape[:2], w, N_ANGLES) > 0
-            return masked_mse(self.motion_segments(x), target, mask)
+            return masked_mse(self.motion_segments(x), target, mask=mask)
         with torch.no_grad():  # post-filter: stages 1–2's output → the true motion
             rough = span_mean(self.motion_segments(x)).clamp(0.0, 1.0)
-        return masked_mse(self.post(rough), y, m)
+        return masked_mse(self.post(rough), y, mask=m)
 
     @torch.no_grad()
     def validation_loss(self, segments: Sequence[Segment]) -> float:

@@ -87,18 +87,21 @@ class BlazePoseDetector:
         boxes, kps, scores = decode_detections(
             out["Identity"],
             out["Identity_1"],
-            self._anchors,
+            anchors=self._anchors,
             min_score=self.config.min_detection_confidence,
         )
-        boxes, kps, scores = weighted_nms(boxes, kps, scores)
-        corners = to_pixels(boxes.reshape(-1, 2, 2), to_image, DETECTOR_SIZE).reshape(-1, 4)
+        boxes, kps, scores = weighted_nms(boxes, kps, scores=scores)
+        corners = to_pixels(boxes.reshape(-1, 2, 2), to_image, size=DETECTOR_SIZE).reshape(-1, 4)
         return PersonBoxes(
-            corners, to_pixels(kps, to_image, DETECTOR_SIZE), scores, np.zeros(len(scores), bool)
+            corners,
+            to_pixels(kps, to_image, size=DETECTOR_SIZE),
+            scores,
+            np.zeros(len(scores), bool),
         )
 
     def landmarks(self, image: np.ndarray, roi: Roi, hide: Iterable[Disc] = ()) -> Landmarks:
         """One landmark pass on `roi` of an RGB uint8 image, the discs `hide` painted over."""
-        return decode_landmarks(self._landmarks(landmark_input(image, roi, hide)), roi)
+        return decode_landmarks(self._landmarks(landmark_input(image, roi, hide=hide)), roi)
 
     # -- video
 

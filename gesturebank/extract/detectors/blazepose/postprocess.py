@@ -71,8 +71,8 @@ class PersonBoxes:
 def decode_detections(
     raw: np.ndarray,
     logits: np.ndarray,
-    anchors: np.ndarray,
     *,
+    anchors: np.ndarray,
     min_score: float,
     size: int = DETECTOR_SIZE,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -103,7 +103,7 @@ def box_iou(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
 
 
 def weighted_nms(
-    boxes: np.ndarray, keypoints: np.ndarray, scores: np.ndarray, *, iou: float = NMS_IOU
+    boxes: np.ndarray, keypoints: np.ndarray, *, scores: np.ndarray, iou: float = NMS_IOU
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weighted non-maximum suppression (NonMaxSuppression algorithm WEIGHTED): the strongest
     remaining candidate and all overlapping it by more than `iou` become one detection, their
@@ -124,7 +124,7 @@ def weighted_nms(
     return np.array(out_b), np.array(out_k), np.array(out_s)
 
 
-def to_pixels(points: np.ndarray, to_image: np.ndarray, size: int) -> np.ndarray:
+def to_pixels(points: np.ndarray, to_image: np.ndarray, *, size: int) -> np.ndarray:
     """(..., 2) points normalised to a `size` tensor → image pixels through `to_image` (2, 3);
     for the letterbox this is DetectionLetterboxRemoval followed by the image size."""
     p = np.asarray(points) * size
@@ -187,7 +187,7 @@ def decode_landmarks(outputs: dict[str, np.ndarray], roi: Roi) -> Landmarks:
     raw = outputs["Identity"].reshape(N_POINTS, 5)
     xy = raw[:, :2] / LANDMARK_SIZE  # crop-normalised (input_image_width/height 256)
     xy = refine_from_heatmap(xy, outputs["Identity_3"])
-    px = to_pixels(xy, roi.crop_transform(), LANDMARK_SIZE)
+    px = to_pixels(xy, roi.crop_transform(), size=LANDMARK_SIZE)
     points = np.column_stack([px, sigmoid(raw[:, 3]), sigmoid(raw[:, 4])])
     c, s = np.cos(roi.angle), np.sin(roi.angle)
     world = outputs["Identity_4"].reshape(N_POINTS, 3)[:N_LANDMARKS].astype(np.float64)

@@ -23,7 +23,7 @@ HIDE_GREY = (127.5, 127.5, 127.5)
 Disc = tuple[tuple[float, float], float]  # centre (x, y) px, radius px
 
 
-def square_transform(x0: float, y0: float, side: float, size: int = DETECTOR_SIZE) -> np.ndarray:
+def square_transform(x0: float, y0: float, *, side: float, size: int = DETECTOR_SIZE) -> np.ndarray:
     """(2, 3) affine map of `size` tensor pixels onto the image square at (x0, y0) of `side` px."""
     s = side / size
     return np.array([[s, 0.0, x0], [0.0, s, y0]])
@@ -46,19 +46,19 @@ def detection_views(width: int, height: int, *, small: bool = False) -> list[np.
     only phantoms (a 202×360 video: 22 short tracks of 20-57 px poses on the floor).
     """
     long, short = max(width, height), min(width, height)
-    views = [square_transform((width - long) / 2, (height - long) / 2, long)]
+    views = [square_transform((width - long) / 2, (height - long) / 2, side=long)]
     if long >= TILE_ASPECT * short:
         for start in np.linspace(0, long - short, int(np.ceil(long / short))):
             x0, y0 = (start, 0.0) if width > height else (0.0, start)
-            views.append(square_transform(x0, y0, short))
+            views.append(square_transform(x0, y0, side=short))
     if small and short / 2 >= DETECTOR_SIZE:
         side = short / 2
         xs, ys = (np.linspace(0, n - side, int(np.ceil(n / side)) + 1) for n in (width, height))
-        views += [square_transform(x0, y0, side) for y0 in ys for x0 in xs]
+        views += [square_transform(x0, y0, side=side) for y0 in ys for x0 in xs]
     return views
 
 
-def warp(image: np.ndarray, to_image: np.ndarray, size: int, border: int) -> np.ndarray:
+def warp(image: np.ndarray, to_image: np.ndarray, *, size: int, border: int) -> np.ndarray:
     """(size, size, 3) float32 sampled (bilinear) from `image` through `to_image` (2, 3)."""
     return cv2.warpAffine(
         image,
@@ -72,7 +72,9 @@ def warp(image: np.ndarray, to_image: np.ndarray, size: int, border: int) -> np.
 
 def detector_input(image: np.ndarray, to_image: np.ndarray) -> np.ndarray:
     """(1, 224, 224, 3) RGB in [−1, 1] of an RGB uint8 image seen through `to_image`."""
-    return (warp(image, to_image, DETECTOR_SIZE, cv2.BORDER_CONSTANT) / 127.5 - 1.0)[None]
+    return (warp(image, to_image, size=DETECTOR_SIZE, border=cv2.BORDER_CONSTANT) / 127.5 - 1.0)[
+        None
+    ]
 
 
 @dataclass(frozen=True)
@@ -104,12 +106,12 @@ def roi_from_points(centre: np.ndarray, scale_point: np.ndarray) -> Roi:
     return Roi(float(centre[0]), float(centre[1]), side, float(angle))
 
 
-def landmark_input(image: np.ndarray, roi: Roi, hide: Iterable[Disc] = ()) -> np.ndarray:
+def landmark_input(image: np.ndarray, roi: Roi, *, hide: Iterable[Disc] = ()) -> np.ndarray:
     """(1, 256, 256, 3) RGB in [0, 1]: the rotated ROI, replicated border (ImageToTensor's
     default BORDER_REPLICATE in pose_landmark_by_roi_cpu), with the discs `hide` (image px)
     painted mid-grey."""
     to_image = roi.crop_transform()
-    crop = warp(image, to_image, LANDMARK_SIZE, cv2.BORDER_REPLICATE)
+    crop = warp(image, to_image, size=LANDMARK_SIZE, border=cv2.BORDER_REPLICATE)
     scale = LANDMARK_SIZE / roi.side
     for (x, y), radius in hide:
         u, v = np.linalg.solve(to_image[:, :2], np.array([x, y]) - to_image[:, 2])

@@ -7,18 +7,33 @@ tracks fall on one person, the one that moved is run again with that person hidd
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from gesturebank.extract.detectors.blazepose.postprocess import N_LANDMARKS, Landmarks
+from gesturebank.extract.detectors.blazepose.postprocess import (
+    N_LANDMARKS,
+    Landmarks,
+    PersonBoxes,
+)
 from gesturebank.extract.detectors.blazepose.preprocess import Disc, Roi, roi_from_points
 from gesturebank.filters import OneEuro
 from gesturebank.skeletons import BLAZEPOSE33
 
 if TYPE_CHECKING:
-    from gesturebank.extract.detectors.blazepose.detector import BlazePoseDetector
+    from gesturebank.config import BlazePoseConfig
+
+
+class PoseModels(Protocol):
+    """What the tracker runs (`BlazePoseDetector`): its settings and its two model passes."""
+
+    config: BlazePoseConfig
+
+    def find_people(self, image: np.ndarray) -> PersonBoxes: ...
+
+    def landmarks(self, image: np.ndarray, roi: Roi, hide: Iterable[Disc] = ()) -> Landmarks: ...
 
 
 WAIST_UP = slice(0, 25)  # nose to hips: what a waist-up shot shows
@@ -167,7 +182,7 @@ def _smoothed(track: _Track, lm: Landmarks, t: float) -> tuple[np.ndarray, np.nd
 class Tracker:
     """Frame-by-frame state of `detect_people`: the live tracks and the detector's clock."""
 
-    def __init__(self, detector: BlazePoseDetector) -> None:
+    def __init__(self, detector: PoseModels) -> None:
         self.det = detector
         self.cfg = detector.config
         self.tracks: list[_Track] = []
