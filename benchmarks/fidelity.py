@@ -66,7 +66,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.app.extract import extract_take
-from gesturebank.camera_files import Camera, CameraGroup
+from gesturebank.camera_files import Camera, CameraGroup, load_cameras
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.extract.detectors import DETECTORS
@@ -405,7 +405,7 @@ def rig_table(config: Config, seconds: float, counts: tuple[int, ...], *, detect
         synth = SynthConfig(azimuths_deg=azimuths, start_s=DETECTED_START_S, length_s=seconds,
                             width_px=size[0], height_px=size[1])  # fmt: skip
         truth = render_truth(config, synth)
-        cams = CameraGroup.load(truth.folder / CALIBRATION)
+        cams = load_cameras(truth.folder / CALIBRATION)
         joints = truth.joints3d.astype(np.float64)
         sources = {"true": [project_view(joints, cam, timestamps=truth.times) for cam in cams]}
         if detected:
@@ -454,7 +454,7 @@ def calibration_table(config: Config, seconds: float, counts: tuple[int, ...], *
         synth = SynthConfig(azimuths_deg=azimuths, start_s=DETECTED_START_S, length_s=seconds,
                             width_px=size[0], height_px=size[1])  # fmt: skip
         truth = render_truth(config, synth)
-        cams = CameraGroup.load(truth.folder / CALIBRATION)
+        cams = load_cameras(truth.folder / CALIBRATION)
         joints = truth.joints3d.astype(np.float64)
         sources = {"true": [project_view(joints, cam, timestamps=truth.times) for cam in cams]}
         if detected:
@@ -539,7 +539,7 @@ def main() -> None:
     config = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps
     if args.quick:
         config.video.end_s = QUICK_S
-    cams = CameraGroup.load(find_calibration(root))
+    cams = load_cameras(find_calibration(root))
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
     poses = [extract_take(v, config, with_audio=False).tracked.pose for v in videos]
     ref_pose, report = MultiviewLifter.from_config(config).lift_with_report(

@@ -1,8 +1,9 @@
 """Calibration files: camera groups read from and written to Pose2Sim/anipose TOML and Qualisys.
 
-The cameras themselves (`Camera`, the pinhole model, and the in-memory `CameraGroup`) live in
-`gesturebank.geometry`; they are re-exported here, where they were first defined. This module's
-`CameraGroup` is geometry's with the file I/O.
+The cameras themselves (`Camera`, the pinhole model, and `CameraGroup`) live in
+`gesturebank.geometry`; they are re-exported here, where they were first defined. This module
+reads a group from a file (`load_cameras`, `read_toml`, `read_qca`) and writes one
+(`save_cameras`, `cameras_toml`).
 
 The TOML layout is the one Pose2Sim and anipose write: one table per camera with `name`,
 `size = [w, h]`, `matrix` (3x3), `distortions`, `rotation` (Rodrigues vector, world → camera),
@@ -21,11 +22,18 @@ from typing import Any
 import numpy as np
 import tomli_w
 
-from gesturebank import geometry
 from gesturebank.errors import CalibrationError
-from gesturebank.geometry import Camera
+from gesturebank.geometry import Camera, CameraGroup
 
-__all__ = ["Camera", "CameraGroup"]
+__all__ = [
+    "Camera",
+    "CameraGroup",
+    "cameras_toml",
+    "load_cameras",
+    "read_qca",
+    "read_toml",
+    "save_cameras",
+]
 
 log = logging.getLogger(__name__)
 
@@ -37,68 +45,64 @@ _QCA_SUBPIXEL = 64.0
 _QCA_TO_OPENCV = np.diag([1.0, -1.0, -1.0])
 
 
-class CameraGroup(geometry.CameraGroup):
-    """The ordered cameras of one take (`geometry.CameraGroup`), read from or written to a
-    calibration file."""
+def cameras_toml(group: CameraGroup) -> str:
+    """The group as a Pose2Sim/anipose calibration TOML."""
+    tables: dict[str, Any] = {}
+    for cam in group.cameras:
+        tables[cam.name] = cam.to_dict()
+    tables["metadata"] = {"adjusted": False, "error": 0.0}
+    return tomli_w.dumps(tables)
 
-    # ----------------------------------------------------------------- I/O
 
-    def to_toml(self) -> str:
-        tables: dict[str, Any] = {}
-        for cam in self.cameras:
-            tables[cam.name] = cam.to_dict()
-        tables["metadata"] = {"adjusted": False, "error": 0.0}
-        return tomli_w.dumps(tables)
+def save_cameras(group: CameraGroup, path: PathLike) -> None:
+    """Write the group as a Pose2Sim/anipose calibration TOML."""
+    Path(path).write_text(cameras_toml(group), encoding="utf-8")
 
-    def save(self, path: PathLike) -> None:
-        """Write the group as a Pose2Sim/anipose calibration TOML."""
-        Path(path).write_text(self.to_toml(), encoding="utf-8")
 
-    @classmethod
-    def from_toml(cls, path: PathLike) -> CameraGroup:
-        """Read a Pose2Sim/anipose calibration TOML (tables with a `matrix` are cameras)."""
-        name = os.fspath(path)
-        try:
-            data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise CalibrationError(f"{name}: calibration file not found") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise CalibrationError(f"{name}: cannot read calibration file ({exc})") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise CalibrationError(f"{name}: not valid TOML ({exc})") from None
-        cams = [
-            Camera.from_dict(table, key=key, source=name)
-            for key, table in data.items()
-            if isinstance(table, dict) and key != "metadata"
-        ]
-        if not cams:
-            raise CalibrationError(f"{name}: no camera tables (with size/matrix/rotation)")
-        return cls(cams)
+def read_toml(path: PathLike) -> CameraGroup:
+    """Read a Pose2Sim/anipose calibration TOML (tables with a `matrix` are cameras)."""
+    name = os.fspath(path)
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CalibrationError(f"{name}: calibration file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CalibrationError(f"{name}: cannot read calibration file ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise CalibrationError(f"{name}: not valid TOML ({exc})") from None
+    cams = [
+        Camera.from_dict(table, key=key, source=name)
+        for key, table in data.items()
+        if isinstance(table, dict) and key != "metadata"
+    ]
+    if not cams:
+        raise CalibrationError(f"{name}: no camera tables (with size/matrix/rotation)")
+    return CameraGroup(cams)
 
-    @classmethod
-    def from_qca(cls, path: PathLike) -> CameraGroup:
-        """Read a Qualisys `.qca.txt` XML calibration (positions in mm → metres)."""
-        name = os.fspath(path)
-        try:
-            root = ET.parse(name).getroot()
-        except FileNotFoundError:
-            raise CalibrationError(f"{name}: calibration file not found") from None
-        except (OSError, ET.ParseError) as exc:
-            raise CalibrationError(f"{name}: not a readable Qualisys XML file ({exc})") from None
-        cams = [_qca_camera(node, name) for node in root.iter("camera")]
-        if not cams:
-            raise CalibrationError(f"{name}: no <camera> elements")
-        return cls(cams)
 
-    @classmethod
-    def load(cls, path: PathLike) -> CameraGroup:
-        """A calibration file by its name: `*.toml` or Qualisys `*.qca.txt`."""
-        lower = os.fspath(path).lower()
-        if lower.endswith(".toml"):
-            return cls.from_toml(path)
-        if lower.endswith((".qca.txt", ".qca")):
-            return cls.from_qca(path)
-        raise CalibrationError(f"{os.fspath(path)}: unknown calibration format (.toml, .qca.txt)")
+def read_qca(path: PathLike) -> CameraGroup:
+    """Read a Qualisys `.qca.txt` XML calibration (positions in mm → metres)."""
+    name = os.fspath(path)
+    try:
+        root = ET.parse(name).getroot()
+    except FileNotFoundError:
+        raise CalibrationError(f"{name}: calibration file not found") from None
+    except (OSError, ET.ParseError) as exc:
+        raise CalibrationError(f"{name}: not a readable Qualisys XML file ({exc})") from None
+    cams = [_qca_camera(node, name) for node in root.iter("camera")]
+    if not cams:
+        raise CalibrationError(f"{name}: no <camera> elements")
+    return CameraGroup(cams)
+
+
+def load_cameras(path: PathLike) -> CameraGroup:
+    """A calibration file by its name: `*.toml` or Qualisys `*.qca.txt`."""
+    lower = os.fspath(path).lower()
+    if lower.endswith(".toml"):
+        return read_toml(path)
+    if lower.endswith((".qca.txt", ".qca")):
+        return read_qca(path)
+    raise CalibrationError(f"{os.fspath(path)}: unknown calibration format (.toml, .qca.txt)")
 
 
 def _qca_camera(node: ET.Element, source: str) -> Camera:

@@ -370,10 +370,7 @@ def test_an_oversized_module_is_found(tmp_path: Path) -> None:
 # Stage modules that still do, each with the issue that moves their printing up.
 
 TERMINAL_FLOORS = ("gesturebank.app", "gesturebank.cli")
-KNOWN_RICH: dict[str, int] = {
-    "gesturebank.datasets.listing": 42,
-    "gesturebank.train.eval.tables": 42,  # evaluate's tables (#44 moved them out of evaluate)
-}
+KNOWN_RICH: dict[str, int] = {}
 
 
 def rich_users(root: Path) -> set[str]:
@@ -418,4 +415,75 @@ def test_a_rich_import_outside_the_terminal_floors_is_found(tmp_path: Path) -> N
     assert users == {"pkg.cli.show", "pkg.stage.work"}
     assert [u for u in sorted(users) if not _in_terminal_floor(u, ("pkg.cli",))] == [
         "pkg.stage.work"
+    ]
+
+
+# --------------------------------------------------------------------------------------------------
+# The whole Config: only the application floor (`app`), the command line (`cli`) and the config
+# package itself hold it; a stage takes its own sections. Modules that still import it, each with
+# the reason (a new one fails; so does an entry here that no longer imports it).
+
+WHOLE_CONFIG_FLOORS = ("gesturebank.app", "gesturebank.cli", "gesturebank.config")
+_LIFTER = "a lifter's from_config(config) (the plug-in protocol: a lifter reads its section)"
+_FIXTURE = "test fixtures that build a whole dataset (testing/)"
+KNOWN_WHOLE_CONFIG: dict[str, str] = {
+    "gesturebank.datasets.records": "DatasetInfo.config: dataset.json stores the config (format)",
+    "gesturebank.datasets.refresh": "writes dataset.json (DatasetInfo) and reads its config back",
+    "gesturebank.datasets.digest": "content_digest: the digest of the content sections",
+    "gesturebank.lift.blazepose_world": _LIFTER,
+    "gesturebank.lift.fitted": _LIFTER,
+    "gesturebank.lift.geometric": _LIFTER,
+    "gesturebank.lift.learned": _LIFTER,
+    "gesturebank.lift.multiview.lifter": _LIFTER,
+    "gesturebank.lift.resolved": _LIFTER,
+    "gesturebank.testing.clips": _FIXTURE,
+    "gesturebank.testing.dyads": _FIXTURE,
+    "gesturebank.testing.speech_motion": _FIXTURE,
+}
+
+
+def whole_config_users(root: Path, package: str = "gesturebank") -> set[str]:
+    """Modules under the package folder `root` that import the top-level `Config` from
+    `package.config` (anywhere, TYPE_CHECKING included; relative imports resolved)."""
+    users = set()
+    for name, path in module_files(root).items():
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        base_package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.ImportFrom):
+                continue
+            module = node.module or ""
+            if node.level:
+                parts = base_package.split(".")
+                anchor = parts[: len(parts) - (node.level - 1)]
+                module = ".".join([*anchor, *([module] if module else [])])
+            if module == f"{package}.config" and any(a.name == "Config" for a in node.names):
+                users.add(name)
+    return users
+
+
+def test_only_app_and_cli_take_the_whole_config() -> None:
+    stages = {m for m in whole_config_users(ROOT) if not _in_terminal_floor(m, WHOLE_CONFIG_FLOORS)}
+    new = sorted(stages - set(KNOWN_WHOLE_CONFIG))
+    assert not new, f"stage modules importing the whole Config (take its sections): {new}"
+    gone = sorted(set(KNOWN_WHOLE_CONFIG) - stages)
+    assert not gone, f"fixed, remove from KNOWN_WHOLE_CONFIG: {gone}"
+
+
+def test_a_whole_config_import_outside_app_is_found(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    for folder in ("app", "config", "stage"):
+        (pkg / folder).mkdir(parents=True)
+        (pkg / folder / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("")
+    (pkg / "config" / "__init__.py").write_text("class Config: ...\nclass QCConfig: ...\n")
+    (pkg / "app" / "run.py").write_text("from pkg.config import Config\n")
+    (pkg / "stage" / "typed.py").write_text(
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..config import Config\n"
+    )
+    (pkg / "stage" / "own.py").write_text("from pkg.config import QCConfig\n")
+    users = whole_config_users(pkg, package="pkg")
+    assert users == {"pkg.app.run", "pkg.stage.typed"}
+    assert [u for u in sorted(users) if not _in_terminal_floor(u, ("pkg.app",))] == [
+        "pkg.stage.typed"
     ]

@@ -117,7 +117,7 @@ def build_take(
             *(take.audio or take.video, 100 * (1 - trimmed), 100 * trimmed),
             100 * config.qc.max_trimmed_fraction,
         )
-    measured = measure_digest(config)
+    measured = measure_digest(qc=config.qc, profile=config.robot.profile)
     clips: list[Clip] = []
     rows: list[ClipRecord] = []
     n_spans = 0
@@ -151,7 +151,8 @@ def build_take(
             # the whole take, so each of its clips carries it
             kept, judged = judged_records(
                 whole,
-                config=config,
+                qc=config.qc,
+                min_s=config.clips.min_s,
                 profile=profile,
                 measured=measured,
                 trimmed=trimmed,

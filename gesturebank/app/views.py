@@ -222,13 +222,13 @@ def multi_view(take: Take, *, config: Config, chunks: DetectionCache | None) -> 
     the reference clock by the camera offsets the lifter used."""
     from gesturebank.app.extract import extract_take
     from gesturebank.audio.io import read_audio
-    from gesturebank.camera_files import CameraGroup
+    from gesturebank.camera_files import load_cameras
     from gesturebank.lift import LIFTERS, TakeViews
     from gesturebank.lift.multiview.lifter import MultiviewLifter, match_cameras
 
     assert take.calibration is not None
     # any subset of the calibrated cameras, by name (a broken camera left out)
-    cameras, videos = match_cameras(CameraGroup.load(take.calibration), take.videos)
+    cameras, videos = match_cameras(load_cameras(take.calibration), take.videos)
     exts = [extract_take(v, config, chunks=chunks) for v in videos]
     repaired = [repair_pose2d(e.tracked.pose, config=config.repair) for e in exts]
     poses = [pose for pose, _ in repaired]

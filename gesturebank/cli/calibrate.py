@@ -40,7 +40,7 @@ def calibrate(
     section (--set board.KEY=VALUE; the flags win), by default Pose2Sim's 4 x 7 inner-corner,
     6 cm checkerboard.
     """
-    from gesturebank.camera_files import CameraGroup
+    from gesturebank.camera_files import cameras_toml, load_cameras
     from gesturebank.fileio import output_errors, write_bytes_atomic
     from gesturebank.lift.multiview.calibrate import calibrate_group
 
@@ -50,10 +50,10 @@ def calibrate(
     with user_errors():
         config = resolve_config(config_file=config_file, sets=sets, flags={"board": board})
         group, reports = calibrate_group(
-            photos=photos, placement=CameraGroup.load(placement), board=config.board
+            photos=photos, placement=load_cameras(placement), board=config.board
         )
         with output_errors(out_file, "the calibration"):
-            write_bytes_atomic(out_file, group.to_toml().encode())
+            write_bytes_atomic(out_file, cameras_toml(group).encode())
     for name, r in reports.items():
         out.print(
             f"{name}: board in {len(r.per_image)} of "

@@ -40,7 +40,7 @@ def preview(
     legend beside it: "< video frame N", "< clip frame N"), the source frame and the clip frame
     shown, readable back by `datasets.preview.read_frame_code`.
     """
-    from gesturebank.datasets.preview import preview_command
+    from gesturebank.app.preview import preview_command
 
     with user_errors():
         keep_existing([out_path], force=force)
@@ -70,7 +70,8 @@ def clips(
     A clip id (or a take id, when the take has one clip) is what `replay OUT_DIR --clip` takes.
     """
     from gesturebank import datasets
-    from gesturebank.datasets.listing import clips_view, list_clips, rows_csv
+    from gesturebank.app.clip_list import clips_view
+    from gesturebank.datasets.listing import list_clips, rows_csv
 
     with user_errors():
         rows = list_clips(datasets.open(out_dir), status=status, subject=subject, take=take)

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 
+from gesturebank.app.eval_table import table
 from gesturebank.app.train_progress import EpochBar
 from gesturebank.config import TrainConfig
 from gesturebank.datasets import open as open_dataset
@@ -41,7 +42,6 @@ from gesturebank.train.eval.tables import (
     NARROW_COLUMNS,
     WORSE_LEGEND,
     footnotes,
-    table,
     units,
     worse_lines,
     worse_than_mean_pose,

@@ -6,15 +6,14 @@ from __future__ import annotations
 import hashlib
 import json
 
-from gesturebank.config import Config
+from gesturebank.config import Config, QCConfig
 from gesturebank.qc.metrics import measure_settings
 
 
-def measure_digest(config: Config) -> str:
-    """What the stored metrics were measured with (qc.metrics.measure_settings)."""
-    text = json.dumps(
-        {"qc": measure_settings(config.qc), "robot": config.robot.profile}, sort_keys=True
-    )
+def measure_digest(*, qc: QCConfig, profile: str) -> str:
+    """What the stored metrics were measured with: qc.metrics.measure_settings of `qc`, and the
+    robot profile's name."""
+    text = json.dumps({"qc": measure_settings(qc), "robot": profile}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from gesturebank.clip import Clip
-from gesturebank.config import Config
+from gesturebank.config import QCConfig
 from gesturebank.datasets.records import ClipRecord
 from gesturebank.fileio import atomic_open
 from gesturebank.qc.clip_metrics import ClipMetrics
@@ -24,7 +24,8 @@ from gesturebank.robot.pepper import RobotProfile
 def judged_records(
     clip: Clip,
     *,
-    config: Config,
+    qc: QCConfig,
+    min_s: float,
     profile: RobotProfile,
     measured: str,
     trimmed: float | None,
@@ -32,17 +33,16 @@ def judged_records(
     span_ids: Iterator[str],
     keep_id: bool = False,
 ) -> tuple[list[Clip], list[ClipRecord]]:
-    """The clips `clip` leaves after judging (named from `clip_ids`; one not cut keeps its id
-    with `keep_id`) and the records of
+    """The clips `clip` leaves after judging by `qc` (named from `clip_ids`; one not cut keeps
+    its id with `keep_id`; a piece of at least `min_s` seconds is a clip) and the records of
     those and of the stretches cut out (kind "span", rejected, named from `span_ids`).
     trimmed: the take's trimmed_fraction, a metric of every clip of it (None: not measured)."""
 
     measure: Callable[[Clip], ClipMetrics] = lambda c: replace(  # noqa: E731
-        clip_metrics(c, profile=profile, qc=config.qc), trimmed_fraction=trimmed
+        clip_metrics(c, profile=profile, qc=qc), trimmed_fraction=trimmed
     )
     clips: list[Clip] = []
     rows: list[ClipRecord] = []
-    qc, min_s = config.qc, config.clips.min_s
     for j in judge(clip, measure=measure, config=qc, profile=profile, min_s=min_s):
         if j.clip is None or j.metrics is None:
             span = ClipRecord(

@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from gesturebank.clip import Clip
-from gesturebank.config import Config, PlaybackConfig, RenderConfig, VideoConfig
+from gesturebank.config import PlaybackConfig, RenderConfig, VideoConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open
 from gesturebank.robot import pepper
@@ -356,21 +356,3 @@ def preview_take(
         )
         for clip_id in take_clips(dataset, take_id)
     ]
-
-
-def preview_command(
-    dataset: PathLike, *, clip: str | None, take: str | None, out: PathLike, config: Config
-) -> list[Path]:
-    """`gesturebank preview DATASET (--clip ID | --take ID) --out PATH`: the videos written."""
-    render, playback, profile = config.render, config.playback, config.robot.profile
-    if clip is not None and take is None:
-        return [
-            preview_clip(
-                dataset, clip_id=clip, out=out, render=render, playback=playback, profile=profile
-            )
-        ]
-    if take is not None and clip is None:
-        return preview_take(
-            dataset, take_id=take, out_dir=out, render=render, playback=playback, profile=profile
-        )
-    raise InputError("preview: give --clip ID or --take ID (one of them)")

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from gesturebank import __version__
-from gesturebank.config import Config
+from gesturebank.config import Config, QCConfig
 from gesturebank.datasets import store
 from gesturebank.datasets.card import read_takes_toml, write_card
 from gesturebank.datasets.digest import content_digest, measure_digest
@@ -37,37 +37,39 @@ log = logging.getLogger(__name__)
 
 
 def _remeasure(
-    out: Path, record: store.TakeRecord, config: Config, *, recheck: bool = False
+    out: Path, record: store.TakeRecord, *, qc: QCConfig, profile: str, recheck: bool = False
 ) -> store.TakeRecord:
     """The record with every clip measured with the current settings (`recheck`: every clip
     measured again from its arrays, so the invariants of `qc.invariants` are applied to what
     the folder holds now)."""
-    digest = measure_digest(config)
+    digest = measure_digest(qc=qc, profile=profile)
     if not recheck and all(c.measured == digest for c in record.data_clips):
         return record
-    profile = pepper.load_profile(config.robot.profile)
+    robot = pepper.load_profile(profile)
     clips = []
     for c in record.clips:
         if c.kind == "clip" and (recheck or c.measured != digest):
             clip = store.read_clip(store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id))
             # metrics of the whole take (trimmed_fraction) are not in the clip: kept as measured
-            metrics = {**c.metrics, **clip_metrics(clip, profile=profile, qc=config.qc).to_dict()}
+            metrics = {**c.metrics, **clip_metrics(clip, profile=robot, qc=qc).to_dict()}
             c = replace(c, metrics=metrics, measured=digest)
         clips.append(c)
     return store.with_clips(record, clips)
 
 
-def _cut(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecord:
+def _cut(
+    out: Path, record: store.TakeRecord, *, qc: QCConfig, min_s: float, profile: str
+) -> store.TakeRecord:
     """The record with every clip that fails stretch checks only cut around the failing
     stretches (`datasets.judging`, as the build does): its pieces written beside it, its file
     removed, a span for each stretch cut out. Loosening the thresholds later does not join the
     pieces again; rebuilding the take does."""
-    profile = pepper.load_profile(config.robot.profile)
+    robot = pepper.load_profile(profile)
     rows: list[store.ClipRecord] = []
     changed = False
     for c in record.clips:
-        failed = [] if c.kind != "clip" else failures(ClipMetrics.from_dict(c.metrics), config.qc)
-        if not failed or any(f.scope == "take" for f in failed) or config.qc.stretch_rounds <= 0:
+        failed = [] if c.kind != "clip" else failures(ClipMetrics.from_dict(c.metrics), qc)
+        if not failed or any(f.scope == "take" for f in failed) or qc.stretch_rounds <= 0:
             rows.append(c)
             continue
         path = store.clip_npz(out, take_id=record.take_id, clip_id=c.clip_id)
@@ -75,8 +77,9 @@ def _cut(out: Path, record: store.TakeRecord, config: Config) -> store.TakeRecor
         trimmed = c.metrics.get("trimmed_fraction")
         kept, judged = judged_records(
             clip,
-            config=config,
-            profile=profile,
+            qc=qc,
+            min_s=min_s,
+            profile=robot,
             measured=c.measured,
             trimmed=None if trimmed is None else float(trimmed),
             clip_ids=(f"{c.clip_id}p{k}" for k in itertools.count()),
@@ -121,10 +124,10 @@ def _repaired_partners(out: Path, record: store.TakeRecord) -> store.TakeRecord:
     return store.with_clips(record, rows)
 
 
-def _judge(records: list[store.TakeRecord], config: Config) -> list[store.TakeRecord]:
+def _judge(records: list[store.TakeRecord], qc: QCConfig) -> list[store.TakeRecord]:
     """Records with every clip's verdict from the absolute and dataset-relative checks."""
     metrics = {c.clip_id: ClipMetrics.from_dict(c.metrics) for r in records for c in r.data_clips}
-    result = verdicts(metrics, config.qc)
+    result = verdicts(metrics, qc)
     judged = []
     for r in records:
         clips = [
@@ -209,8 +212,18 @@ def refresh(
             videos_dir = out
     terms = read_takes_toml(videos_dir)  # before anything is rewritten: a bad file stops it here
     before = store.take_records(out, take_ids)
-    measured = [_cut(out, _remeasure(out, r, config, recheck=recheck), config) for r in before]
-    records = _judge(measured, config)
+    qc, name = config.qc, config.robot.profile
+    measured = [
+        _cut(
+            out,
+            _remeasure(out, r, qc=qc, profile=name, recheck=recheck),
+            qc=qc,
+            min_s=config.clips.min_s,
+            profile=name,
+        )
+        for r in before
+    ]
+    records = _judge(measured, qc)
     for old, new in zip(before, records, strict=True):
         if _text(new) != _text(old):  # as text: NaN metrics compare equal
             store.write_record(out, new)

@@ -2,7 +2,7 @@
 
 A render folder (`gesturebank render BVH OUT`):
 
-    OUT/calibration.toml   the cameras (Pose2Sim/anipose layout, `CameraGroup.load` reads it)
+    OUT/calibration.toml   the cameras (Pose2Sim/anipose layout; `load_cameras` reads it)
     OUT/videos/cam01.mp4 … one video per camera, speech muxed (a multi-camera take when ≥ 2)
     OUT/speech.wav         the same speech, 16 kHz mono (a multi-camera take's audio)
     OUT/truth.npz          the arrays below
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gesturebank.camera_files import CameraGroup
+from gesturebank.camera_files import CameraGroup, cameras_toml, load_cameras
 from gesturebank.errors import InputError
 from gesturebank.fileio import atomic_open
 from gesturebank.skeletons import COCO17
@@ -76,7 +76,7 @@ class Truth:
     def save(self) -> Path:
         """Write truth.npz and calibration.toml into `folder` (each atomically)."""
         with atomic_open(self.folder / CALIBRATION) as f:
-            f.write(self.cameras.to_toml().encode())
+            f.write(cameras_toml(self.cameras).encode())
         with atomic_open(self.folder / TRUTH) as f:
             np.savez(
                 f,
@@ -106,7 +106,7 @@ class Truth:
             raise InputError(f"{path}: no truth here (not a `gesturebank render` folder)") from None
         except (OSError, ValueError) as exc:
             raise InputError(f"{path}: cannot read ({exc})") from None
-        cameras = CameraGroup.load(root / CALIBRATION)
+        cameras = load_cameras(root / CALIBRATION)
         names = [str(n) for n in arrays["cameras"]]
         if names != cameras.names:
             raise InputError(f"{path}: cameras {names} differ from {root / CALIBRATION}")

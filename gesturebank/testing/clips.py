@@ -167,7 +167,7 @@ def write_dataset(
     c = config or Config()
     out = Path(out)
     profile = pepper.load_profile(c.robot.profile)
-    measured = measure_digest(c)
+    measured = measure_digest(qc=c.qc, profile=c.robot.profile)
     for take_id, clips in takes.items():
         rows = []
         start = 0.0

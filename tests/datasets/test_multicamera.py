@@ -8,7 +8,7 @@ import pyarrow.parquet as pq
 
 from gesturebank.app.build import build_dataset
 from gesturebank.app.extract import extract_take
-from gesturebank.camera_files import CameraGroup
+from gesturebank.camera_files import load_cameras
 from gesturebank.config import Config
 from gesturebank.datasets.store import Dataset
 from gesturebank.datasets.takes import discover_takes, find_calibration
@@ -66,7 +66,7 @@ def test_pose2sim_demo_builds_as_a_multi_camera_take(samples: Path, tmp_path: Pa
     assert row["duration_s"] > 1.5  # 100 frames at 60 fps, on the audio clock
     clip = Dataset(out).load(row["clip_id"])
     # the stored 3D pose is the multi-view lifter's result on the same (repaired) detections
-    cams = CameraGroup.load(find_calibration(demo))
+    cams = load_cameras(find_calibration(demo))
     ordered = match_videos(cams, sorted((demo / "videos").glob("*.mp4")))
     poses = [
         repair_pose2d(extract_take(v, config, with_audio=False).tracked.pose, config=config.repair)[

@@ -139,7 +139,7 @@ def test_calibrate_command_writes_the_toml_multiview_reads(samples: Path, tmp_pa
     import subprocess
     import sys
 
-    from gesturebank.camera_files import CameraGroup
+    from gesturebank.camera_files import read_qca, read_toml
 
     photos = tmp_path / "intrinsics"
     for cam in ("cam01", "cam03"):  # two of the four cameras keep the test short
@@ -150,8 +150,8 @@ def test_calibrate_command_writes_the_toml_multiview_reads(samples: Path, tmp_pa
     cmd += ["--placement", str(qca), "--out", str(out)]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
     assert r.returncode == 0, r.stderr
-    group = CameraGroup.from_toml(out)
-    placed = CameraGroup.from_qca(qca)
+    group = read_toml(out)
+    placed = read_qca(qca)
     assert group.names == ["cam01", "cam03"]
     for cam in group:
         ref = placed.subset([cam.name])[0]

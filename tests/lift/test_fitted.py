@@ -13,7 +13,7 @@ from scipy.optimize._numdiff import approx_derivative
 from scipy.spatial.transform import Rotation
 
 from gesturebank.app.extract import extract_take
-from gesturebank.camera_files import Camera, CameraGroup
+from gesturebank.camera_files import Camera, CameraGroup, load_cameras
 from gesturebank.config import Config, FittedConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.lift import LIFTERS, TakeViews
@@ -206,7 +206,7 @@ def test_beats_blazepose_world_on_a_real_demo_camera(samples: Path) -> None:
     """Pepper angles from cam03 alone against the 4-camera reference (benchmarks/fidelity.py
     has every camera)."""
     root = samples / "pose2sim" / "Demo_SinglePerson"
-    cams = CameraGroup.load(find_calibration(root))
+    cams = load_cameras(find_calibration(root))
     full_rate = Config.model_validate({"video": {"max_fps": None}})  # as the demo tests: cached
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
     poses = [extract_take(v, full_rate, with_audio=False).tracked.pose for v in videos]

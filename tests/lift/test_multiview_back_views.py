@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gesturebank.app.extract import extract_take
-from gesturebank.camera_files import CameraGroup
+from gesturebank.camera_files import CameraGroup, load_cameras
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.lift import TakeViews
@@ -28,7 +28,7 @@ IDX = COCO17.index
 @pytest.fixture(scope="module")
 def demo(samples: Path) -> tuple[list[Pose2D], CameraGroup]:
     root = samples / DEMO
-    cams = CameraGroup.load(find_calibration(root))
+    cams = load_cameras(find_calibration(root))
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
     full_rate = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps
     return [extract_take(v, full_rate, with_audio=False).tracked.pose for v in videos], cams

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gesturebank.app.extract import extract_take
-from gesturebank.camera_files import CameraGroup
+from gesturebank.camera_files import CameraGroup, load_cameras, save_cameras
 from gesturebank.config import Config, MultiviewConfig
 from gesturebank.datasets.takes import find_calibration
 from gesturebank.errors import CalibrationError, InputError
@@ -31,7 +31,7 @@ UPPER_IDX = [COCO17.index[j] for j in UPPER]
 def demo(samples: Path) -> tuple[list[Pose2D], CameraGroup]:
     """Detections (cached on disk after the first run) and the cameras, in camera order."""
     root = samples / DEMO
-    cams = CameraGroup.load(find_calibration(root))
+    cams = load_cameras(find_calibration(root))
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
     full_rate = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps
     return [extract_take(v, full_rate, with_audio=False).tracked.pose for v in videos], cams
@@ -145,17 +145,17 @@ def test_toml_calibration_gives_the_same_pose(
 ) -> None:
     poses, cams = demo
     path = tmp_path / "calibration.toml"
-    cams.save(path)
+    save_cameras(cams, path)
     assert find_calibration(tmp_path) == path
     a = MultiviewLifter().lift(TakeViews.of(poses, cams)).joints
-    b = MultiviewLifter().lift(TakeViews.of(poses, CameraGroup.load(path))).joints
+    b = MultiviewLifter().lift(TakeViews.of(poses, load_cameras(path))).joints
     np.testing.assert_allclose(a, b, atol=1e-5)
 
 
 def test_take_folder_helpers(samples: Path, tmp_path: Path) -> None:
     root = samples / DEMO
     assert find_calibration(root).name == "Calib.qca.txt"
-    cams = CameraGroup.load(find_calibration(root))
+    cams = load_cameras(find_calibration(root))
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4"), reverse=True))
     assert [v.stem for v in videos] == ["cam01", "cam02", "cam03", "cam04"]
     with pytest.raises(CalibrationError, match="no calibration.toml"):

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gesturebank.camera_files import CameraGroup
+from gesturebank.camera_files import load_cameras
 from gesturebank.config import Config, SynthConfig
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.scoring import project_view, score_lift
@@ -31,7 +31,7 @@ def test_true_2d_of_a_rendered_rig_lifts_to_the_truth(
     truth = cached_render(
         [Performer(test_bvh)], config=synth, mocap=config.mocap, speech=speech, cache=tmp_path
     )
-    cameras = CameraGroup.load(truth.folder / CALIBRATION)
+    cameras = load_cameras(truth.folder / CALIBRATION)
     joints = truth.joints3d.astype(np.float64)
     views = [project_view(joints, camera, timestamps=truth.times) for camera in cameras]
     lifted = LIFTERS.create("multiview", config).lift(TakeViews.of(views, cameras))

@@ -9,7 +9,7 @@ import av
 import numpy as np
 import pytest
 
-from gesturebank.camera_files import CameraGroup
+from gesturebank.camera_files import load_cameras
 from gesturebank.config import MocapConfig, SynthConfig
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.mocap.bvh import read_bvh
@@ -54,7 +54,7 @@ def test_truth_is_the_bvh_motion_at_the_video_times(rig: Truth, test_bvh: Path) 
 
 
 def test_calibration_round_trips_and_projects_the_truth(rig: Truth) -> None:
-    cameras = CameraGroup.load(rig.folder / "calibration.toml")
+    cameras = load_cameras(rig.folder / "calibration.toml")
     assert cameras.names == ["cam01", "cam02"]
     for c, camera in enumerate(cameras):
         assert camera.size == (320, 180)

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
+from gesturebank.app.eval_table import table
 from gesturebank.cli.training import train_command
 from gesturebank.config import TrainConfig
 from gesturebank.datasets.torch import Segment
@@ -39,11 +40,7 @@ from gesturebank.train.eval.evaluate import (
     average,
     evaluate_segments,
 )
-from gesturebank.train.eval.tables import (
-    footnotes,
-    not_computable,
-    table,
-)
+from gesturebank.train.eval.tables import footnotes, not_computable
 from gesturebank.train.synthesis import synthesize
 
 ONE_EPOCH = TrainConfig.model_validate({"mlp": {"max_epochs": 1}, "lstm": {"max_epochs": 1}})
