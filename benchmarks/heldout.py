@@ -1,16 +1,19 @@
 """The whole build on held-out renders, reported as a measuring instrument's error (issue 39).
 
 Renders of test2.bvh (never trained or tuned on): its calm first 20 s and its most vigorous 20 s,
-a level camera and one 0.5 m above the chest looking down, both looks (T-shirt, long sleeves),
-1280×720. Each goes through `build-dataset` with its defaults (clips split into parts of at most
-5 s, the bootstrap's units), and every stored clip, accepted or not, is scored against the truth
+a level camera in front and one 0.5 m above the chest looking down, both looks (T-shirt, long
+sleeves), and the calm motion from level cameras 30° and 60° round (T-shirt), 1280×720. Each
+goes through `build-dataset` with its defaults (clips split into parts of at most 5 s, the
+bootstrap's units), and every stored clip, accepted or not, is scored against the truth
 through the build's processing. Per render: the accepted seconds, arm MAE, Pepper hand error,
 wrong depth signs, head direction, and the stored 2D against BlazePose run on each frame alone
 (worst-joint 90th percentile, % of the torso; frames with left and right exchanged). Pooled, per
 Pepper joint: bias, 95 % limits of agreement, ICC(2,1) and MAE, each with a 95 % bootstrap
 interval over clips (`lift.agreement`).
 
-    .venv/bin/python benchmarks/heldout.py [--quick]
+    .venv/bin/python benchmarks/heldout.py [--quick] [--onnx FILE]
+
+--onnx: the `learned` lifter's net (default: the packaged one), to compare nets in one run.
 
 --quick: the fast stretch's first 3.5 s, level and elevated, one look, 640×360 (seconds with the
 renders and detections cached).
@@ -47,8 +50,12 @@ from gesturebank.synth.truth import Truth
 # a level camera and one ELEVATED_M above the chest looking down, both looks, the whole build.
 HELDOUT, HELDOUT_S = "test2", 20.0
 ELEVATED_M = 0.5
-CAMERAS = {"level": 0.0, "elevated": float(np.rad2deg(np.arcsin(ELEVATED_M / 3.0)))}  # at 3 m
+ELEVATION_DEG = float(np.rad2deg(np.arcsin(ELEVATED_M / 3.0)))  # the renders' camera is 3 m away
+# camera name → (azimuth from the front, elevation, degrees), and the motions and looks it films
+CAMERAS = {"level": (0.0, 0.0), "elevated": (0.0, ELEVATION_DEG), "level 30°": (30.0, 0.0),
+           "level 60°": (60.0, 0.0)}  # fmt: skip
 LOOKS = ("tshirt", "sleeves")
+TURNED = {"level 30°", "level 60°"}  # the acceptance's calm views; one look, to keep the run short
 QUICK_HELDOUT_S, QUICK_HELDOUT = 3.5, (640, 360)  # a clip lasts at least 3 s (clips.min_s)
 CLIP_S = 5.0  # held-out builds split clips into parts this long at most: the bootstrap units
 DRAWS, QUICK_DRAWS = 1000, 100  # bootstrap draws over clips
@@ -124,10 +131,13 @@ def heldout_tables(config: Config, *, quick: bool) -> tuple[Table, Table]:
     pooled: list[dict[str, np.ndarray]] = []
     with tempfile.TemporaryDirectory(prefix="fidelity-heldout-") as tmp:
         for kind, start in motions.items():
-            for camera, elevation in CAMERAS.items():
-                for look in looks:
-                    synth = SynthConfig(start_s=start, length_s=length, elevation_deg=elevation,
-                                        look=look, width_px=size[0], height_px=size[1])  # fmt: skip
+            for camera, (azimuth, elevation) in CAMERAS.items():
+                if camera in TURNED and kind != "calm":
+                    continue
+                for look in looks[:1] if camera in TURNED else looks:
+                    synth = SynthConfig(azimuths_deg=[azimuth], start_s=start, length_s=length,
+                                        elevation_deg=elevation, look=look,
+                                        width_px=size[0], height_px=size[1])  # fmt: skip
                     truth = render_truth(config, synth, HELDOUT)
                     clips = build_and_pair(truth, config, Path(tmp) / f"{kind}-{camera}-{look}")
                     pooled += clips
@@ -185,9 +195,15 @@ def agreement_table(clips: list[dict[str, np.ndarray]], *, draws: int) -> Table:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one short render pair (seconds)")
+    parser.add_argument("--onnx", type=Path, help="the learned lifter's net (default: packaged)")
     args = parser.parse_args()
+    config = Config()
+    if args.onnx is not None:
+        learned = config.lifter.learned.model_copy(update={"onnx_file": str(args.onnx.resolve())})
+        lifter = config.lifter.model_copy(update={"learned": learned})
+        config = config.model_copy(update={"lifter": lifter})
     console = Console(width=max(Console().width, 160))  # 11 columns: keep them readable
-    for table in heldout_tables(Config(), quick=args.quick):
+    for table in heldout_tables(config, quick=args.quick):
         console.print(table)
 
 

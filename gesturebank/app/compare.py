@@ -17,6 +17,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.app import NARROW_COLUMNS
 from gesturebank.config import TrainConfig
 from gesturebank.errors import InputError
 from gesturebank.fileio import output_errors, write_bytes_atomic
@@ -39,7 +40,7 @@ from gesturebank.train.eval.evaluate import (
 )
 from gesturebank.train.eval.fgd import label as fgd_label
 from gesturebank.train.eval.field import prepare_trained
-from gesturebank.train.eval.tables import NARROW_COLUMNS, Footnotes, cell, footnotes, units
+from gesturebank.train.eval.tables import Footnotes, cell, footnotes, units
 from gesturebank.train.torch_runtime import predict as torch_predict
 from gesturebank.train.torch_runtime import torch_settings
 

@@ -28,6 +28,7 @@ from rich.progress import (
 from rich.table import Column
 from rich.text import Text
 
+from gesturebank.app import NARROW_COLUMNS
 from gesturebank.app.take_job import TakeResult
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import GesturebankError
@@ -36,7 +37,6 @@ log = logging.getLogger(__name__)
 
 COLOUR = {"built": "green", "skipped": "cyan", "failed": "red"}
 PLAIN_EVERY_S = 10.0  # a take's plain progress line (not a terminal) at most this often
-NARROW_COLUMNS = 100  # a terminal narrower than this gets the compact lines (80 columns fit)
 
 
 def take_video(take: Take) -> tuple[int, float]:

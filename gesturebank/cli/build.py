@@ -13,6 +13,7 @@ from rich.padding import Padding
 from rich.table import Table
 from rich.text import Text
 
+from gesturebank.app import NARROW_COLUMNS
 from gesturebank.cli.options import (
     ConfigOption,
     QuietOption,
@@ -25,7 +26,6 @@ from gesturebank.cli.terminal import (
     EXIT_FAILED,
     EXIT_OK,
     EXIT_USAGE,
-    NARROW_COLUMNS,
     missing_extras,
     user_errors,
 )

@@ -14,8 +14,9 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from gesturebank.app import NARROW_COLUMNS
 from gesturebank.cli.options import ConfigOption, ForceOption, SetOption, resolve_config
-from gesturebank.cli.terminal import NARROW_COLUMNS, out, user_errors
+from gesturebank.cli.terminal import out, user_errors
 from gesturebank.errors import InputError
 from gesturebank.fileio import keep_existing
 

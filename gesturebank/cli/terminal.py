@@ -11,7 +11,6 @@ from rich.console import Console
 from gesturebank.errors import GesturebankError, RobotError
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
-NARROW_COLUMNS = 100  # a terminal narrower than this gets tables without vertical rules
 out = Console()
 # The modules of the optional extras (pyproject.toml), for a one-line error when one is missing.
 EXTRA_OF = {

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 
+from gesturebank.app import NARROW_COLUMNS
 from gesturebank.app.eval_table import table
 from gesturebank.app.train_progress import EpochBar
 from gesturebank.config import TrainConfig
@@ -39,7 +40,6 @@ from gesturebank.train.eval.evaluate import (
 from gesturebank.train.eval.field import SplitInputs
 from gesturebank.train.eval.roles import per_role
 from gesturebank.train.eval.tables import (
-    NARROW_COLUMNS,
     WORSE_LEGEND,
     footnotes,
     units,

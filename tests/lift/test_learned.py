@@ -23,7 +23,11 @@ from gesturebank.mocap.pose import body_axes, motion_pose
 from gesturebank.poses import Pose2D
 
 torch = pytest.importorskip("torch")
-from gesturebank.lift.training.lifter_net import Architecture, TemporalLifterNet  # noqa: E402
+from gesturebank.lift.training.lifter_net import (  # noqa: E402
+    Architecture,
+    TemporalLifterNet,
+    from_onnx,
+)
 
 
 def _onnx_dims(value: onnx.ValueInfoProto) -> list[int | str]:
@@ -51,6 +55,21 @@ def test_the_committed_model_is_the_training_scripts_network() -> None:
     expected = [(list(m.weight.shape), list(m.dilation)) for m in net.modules()
                 if isinstance(m, torch.nn.Conv1d)]  # fmt: skip
     assert convs == expected
+
+
+def test_the_packaged_net_read_back_for_fine_tuning_computes_what_the_file_does() -> None:
+    """A warm start (benchmarks/train_lifter.py --start-from) begins from the packaged net's very
+    function: the export folds each batch norm into its convolution; reading back unfolds it."""
+    import onnxruntime
+
+    x = np.random.default_rng(0).normal(size=(1, F.N_FEATURES, Architecture().receptive + 30))
+    x = x.astype(np.float32)
+    (want,) = onnxruntime.InferenceSession(str(PACKAGED)).run(None, {"keypoints": x})
+    net = from_onnx(PACKAGED, Architecture())
+    with torch.no_grad():
+        got = net(torch.from_numpy(x)).numpy()
+    assert got.shape == want.shape
+    assert np.abs(got - want).max() < 1e-4 * np.abs(want).max()
 
 
 def _mocap(samples: Path, start: float, end: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

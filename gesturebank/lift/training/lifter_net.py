@@ -202,6 +202,50 @@ def _batches(sampler: Sampler, schedule: Schedule) -> Iterator[tuple[np.ndarray,
                 yield ahead.popleft().get()
 
 
+def from_onnx(path: Path, arch: Architecture) -> TemporalLifterNet:
+    """A net with the weights of one exported by `export` (which folds each batch norm into the
+    convolution before it): the convolutions take the folded weights, each norm is made the
+    identity plus the folded bias, so the net in eval mode computes what the file does."""
+    import onnx
+    from onnx import numpy_helper
+
+    graph = onnx.load(str(path)).graph
+    values = {t.name: numpy_helper.to_array(t) for t in graph.initializer}
+    folded = [[values[name] for name in node.input[1:]] for node in graph.node
+              if node.op_type == "Conv"]  # fmt: skip
+    net = TemporalLifterNet(arch)
+    convs = [m for m in net.modules() if isinstance(m, nn.Conv1d)]
+    norms = [m for m in net.modules() if isinstance(m, nn.BatchNorm1d)] + [None]
+    if len(folded) != len(convs):
+        raise ValueError(f"{path}: {len(folded)} convolutions, the architecture has {len(convs)}")
+    with torch.no_grad():
+        for conv, norm, (weight, bias) in zip(convs, norms, folded, strict=True):
+            if tuple(weight.shape) != tuple(conv.weight.shape):
+                raise ValueError(f"{path}: a convolution of shape {weight.shape}, the "
+                                 f"architecture's is {tuple(conv.weight.shape)}")  # fmt: skip
+            conv.weight.copy_(torch.from_numpy(weight.copy()))
+            target = conv.bias if norm is None else norm.bias
+            assert target is not None
+            target.copy_(torch.from_numpy(bias.copy()))
+            if norm is not None:
+                norm.weight.fill_(1.0)
+                norm.running_mean.zero_()  # type: ignore[union-attr]
+                norm.running_var.fill_(1.0 - norm.eps)  # type: ignore[union-attr]
+    net.eval()
+    return net
+
+
+def _training_mode(net: TemporalLifterNet, *, frozen_norms: bool) -> None:
+    """`net` in training mode; its batch norms keep their statistics if `frozen_norms` (a
+    fine-tuned net then starts from the very function it was given, not from the statistics of
+    small batches)."""
+    net.train()
+    if frozen_norms:
+        for norm in net.modules():
+            if isinstance(norm, nn.BatchNorm1d):
+                norm.eval()
+
+
 def train(
     sampler_for: Callable[[int], Sampler],
     *,
@@ -209,14 +253,16 @@ def train(
     schedule: Schedule,
     log: Callable[[int, float, float], None] | None = None,
     snapshot: Callable[[int, TemporalLifterNet], None] | None = None,
+    start_from: Path | None = None,
 ) -> TemporalLifterNet:
     """Adam with a cosine decay; `sampler_for(input_frames)` makes the data; `log(step, loss,
     seconds)` is called every 100 steps, `snapshot(step, net)` (the net in eval mode) every
-    SNAPSHOT_STEPS."""
+    SNAPSHOT_STEPS. `start_from`: an exported net (ONNX) to fine-tune instead of a new one."""
     torch.manual_seed(schedule.rng_seed)
     torch.set_num_threads(schedule.torch_threads)
     sampler = sampler_for(schedule.outputs + arch.receptive - 1)
-    net = TemporalLifterNet(arch)
+    net = TemporalLifterNet(arch) if start_from is None else from_onnx(start_from, arch)
+    frozen = start_from is not None
     opt = torch.optim.Adam(net.parameters(), lr=schedule.lr_start)
     ratio = schedule.lr_end / schedule.lr_start
     sched = torch.optim.lr_scheduler.LambdaLR(
@@ -224,7 +270,7 @@ def train(
     )
     half = (arch.receptive - 1) // 2
     start, running = time.perf_counter(), 0.0
-    net.train()
+    _training_mode(net, frozen_norms=frozen)
     for step, (x, y) in enumerate(_batches(sampler, schedule), start=1):
         pred = net(torch.from_numpy(x))
         loss = loss_fn(pred, torch.from_numpy(y[:, :, half : half + pred.shape[2]]))
@@ -239,7 +285,7 @@ def train(
         if snapshot is not None and step % SNAPSHOT_STEPS == 0 and step < schedule.steps:
             net.eval()
             snapshot(step, net)
-            net.train()
+            _training_mode(net, frozen_norms=frozen)
     net.eval()
     return net
 

@@ -19,8 +19,6 @@ from gesturebank.train.eval.evaluate import (
     average,
 )
 
-NARROW_COLUMNS = 100  # a terminal narrower than this gets a narrow table (80 columns fit)
-
 
 def units(columns: Sequence[Column]) -> str:
     """'units: RMSE °, ΔJ̃ 10⁵ rad²s⁻⁵': the units a narrow table's short headers leave out."""
