@@ -31,6 +31,7 @@ import numpy as np
 
 from gesturebank.clip import Clip, part_columns
 from gesturebank.config import ProcessingConfig, RetargetConfig, RobotConfig
+from gesturebank.datasets.head import FACE
 from gesturebank.datasets.process import process_angles
 from gesturebank.robot import pepper
 from gesturebank.robot.retarget import angle_support, pepper_angles
@@ -273,8 +274,8 @@ def rederive(
     from_pose: bool = True,
 ) -> Clip:
     """Recompute `raw_angles` from `pose3d.joints` (unless `from_pose` is False; masked where the
-    clip's keypoints were unseen, as the builder does) and the 100 Hz angles from those with the
-    builder's `process_angles`."""
+    clip's keypoints were unseen, as the builder does; the head kept where the clip read it from
+    the face) and the 100 Hz angles from those with the builder's `process_angles`."""
     if isinstance(profile, pepper.RobotProfile):
         prof = profile
     else:  # a name, or None: the `robot` section's default
@@ -283,6 +284,10 @@ def rederive(
     if from_pose:
         raw = pepper_angles(clip.pose3d)
         raw[~angle_support(clip.valid)] = np.nan
+        # a head read from the face mesh is not in the pose, nor the face's axes in the clip: kept
+        face = np.asarray(clip.head_source) == FACE
+        head = [pepper.INDEX["HeadPitch"], pepper.INDEX["HeadYaw"]]
+        raw[np.ix_(face, head)] = np.asarray(clip.raw_angles)[np.ix_(face, head)]
     processed = process_angles(
         raw=raw,
         timestamps=clip.timestamps,
