@@ -12,6 +12,7 @@ start, `release_threshold` to stop). `silences` applies issue 32's rule: silence
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 from dataclasses import dataclass
 from fractions import Fraction
@@ -140,6 +141,23 @@ def hysteresis(
     return out
 
 
+# The last track's chunk probabilities, by its samples' digest: a take asks for its audio's
+# activity twice (who speaks, `extract.roles`; the clips' silences, `app.clip.take_activity`),
+# and the model over the whole track is most of the cost (hashing is ~1 % of it).
+_last: tuple[tuple[int, int, bytes], np.ndarray] | None = None
+
+
+def _track_probabilities(signal: np.ndarray, sample_rate: int) -> np.ndarray:
+    """`chunk_probabilities` of `signal` at `sample_rate`, computed once for the same samples
+    asked for twice in a row."""
+    global _last
+    samples = np.ascontiguousarray(signal, np.float32)
+    key = (int(sample_rate), len(samples), hashlib.blake2b(samples.view(np.uint8)).digest())
+    if _last is None or _last[0] != key:
+        _last = (key, chunk_probabilities(to_model_rate(samples, sample_rate)))
+    return _last[1]
+
+
 def speech_activity(
     audio: Audio | None, *, t0: float, n_frames: int, config: SpeechConfig
 ) -> SpeechActivity:
@@ -149,7 +167,7 @@ def speech_activity(
     outside the audio track (or all, when `audio` is None) have probability 0."""
     prob = np.zeros(n_frames, np.float32)
     if audio is not None and len(audio.signal):
-        chunks = chunk_probabilities(to_model_rate(audio.signal, audio.sample_rate))
+        chunks = _track_probabilities(audio.signal, audio.sample_rate)
         centres = t0 + (np.arange(n_frames) + 0.5) / RATE_HZ
         idx = np.floor((centres - audio.start_s) * MODEL_RATE / CHUNK).astype(np.int64)
         n_samples_16k = len(audio.signal) * MODEL_RATE / audio.sample_rate

@@ -88,10 +88,34 @@ def _normalise_rotation(degrees: float) -> int:
     return round(degrees / 90.0) % 4 * 90
 
 
+# What `probe` read, by the file's name and identity (device, inode, size, modification time):
+# a take probes its video more than once (its chunks, its extraction), and the first frame's
+# decode for the rotation made each probe cost as much as 4 detected frames.
+_probed: dict[tuple[str, int, int, int, int], VideoInfo] = {}
+_PROBED_MAX = 256
+
+
 def probe(path: PathLike) -> VideoInfo:
     """Read headers (and the first frame, for the rotation) of a video file."""
     name = os.fspath(path)
-    with open_media(path) as container:
+    try:
+        st = os.stat(name)
+    except OSError:
+        key = None  # open_media says why
+    else:
+        key = (name, st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+        if key in _probed:
+            return _probed[key]
+    info = _probe(name)
+    if key is not None:
+        if len(_probed) >= _PROBED_MAX:
+            _probed.clear()
+        _probed[key] = info
+    return info
+
+
+def _probe(name: str) -> VideoInfo:
+    with open_media(name) as container:
         stream = _video_stream(container, name)
         audio = container.streams.audio[0] if container.streams.audio else None
         fps = float(stream.average_rate or stream.guessed_rate or 0.0)
