@@ -21,6 +21,12 @@ process's when one worker builds alone), and the largest the whole process tree 
 test.bvh, made by `gesturebank.synth`, cached by checksum) with 2 workers: its tree must stay
 under 1.5 GiB (issue 43).
 
+"cores used": the CPU time of the whole process tree (every thread of this process and of the
+workers, from /proc, sampled with the memory) over the run's wall time; "CPU s / video s" the
+same CPU time per second of video, the work each video second costs whatever the machine's
+load. A worker that already uses c cores leaves 2 vs 1 at most cores / c on a machine of that
+many cores, whatever the pool does.
+
 "face model" is the share of the takes' time the face landmark model took with everything
 around it (the second decode at speech.mouth_rate_hz, the crops, the mouths and, with
 `retarget.head_source = "face"`, the head fits; the take record's `mouth_seconds`). The rows
@@ -41,6 +47,7 @@ import argparse
 import json
 import multiprocessing
 import os
+import resource
 import tempfile
 import threading
 import time
@@ -51,7 +58,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from gesturebank.app.build import build_dataset, dashboard_after_build
+from gesturebank.app.build import build_dataset, dashboard_after_build, usable_cores
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
@@ -81,20 +88,30 @@ class TreeMemory:
     `every_s` in a thread (Linux; elsewhere nothing is measured). `tree_mb`: the largest sum of
     the processes' proportional set sizes (shared pages split among their sharers, so the
     forkserver's preloaded modules count once); `process_mb`: the largest peak resident set of
-    one process (a worker's, or this process's when it builds alone)."""
+    one process (a worker's, or this process's when it builds alone); `cpu_s`: the CPU seconds
+    of the whole tree (every thread)."""
 
     def __init__(self, every_s: float = 0.05) -> None:
         self.every_s = every_s
         self.tree_mb = 0.0
         self.process_mb = 0.0
+        self._cpu: dict[int, float] = {}  # pid → its CPU seconds when last seen
+        self._cpu_before: dict[int, float] = {}  # pid → its CPU seconds at the start
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="memory", daemon=True)
+
+    @property
+    def cpu_s(self) -> float:
+        """CPU seconds the tree spent since the start (a process that ended between two samples
+        loses at most `every_s` of its time)."""
+        return sum(cpu - self._cpu_before.get(pid, 0.0) for pid, cpu in self._cpu.items())
 
     def __enter__(self) -> TreeMemory:
         try:  # this process's peak so far is not the run's
             Path("/proc/self/clear_refs").write_text("5")
         except OSError:
             pass
+        self._cpu_before = {pid: _cpu_s(pid) for pid in _tree(os.getpid())}
         self._thread.start()
         return self
 
@@ -113,6 +130,7 @@ class TreeMemory:
         self.tree_mb = max(self.tree_mb, tree)
         for pid in pids:
             self.process_mb = max(self.process_mb, _status_kb(pid, "VmHWM:", "status") / 1024)
+            self._cpu[pid] = max(self._cpu.get(pid, 0.0), _cpu_s(pid))
 
 
 def _tree(pid: int) -> list[int]:
@@ -127,6 +145,15 @@ def _tree(pid: int) -> list[int]:
             except OSError:
                 pass
     return out
+
+
+def _cpu_s(pid: int) -> float:
+    """User + system CPU seconds of process `pid`, all its threads (0 where /proc lacks it)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def _status_kb(pid: int, field: str, file: str) -> float:
@@ -215,6 +242,8 @@ def run(
         "finalise_s": total - wall,
         "worker_mb": memory.process_mb,
         "tree_mb": memory.tree_mb,
+        "cores": memory.cpu_s / total,
+        "cpu_per_video_s": memory.cpu_s / video_s,
     }
 
 
@@ -263,10 +292,20 @@ def run_baseline(videos: Path, processes: int) -> dict[str, float]:
     # its preloaded pipeline, stays its own)
     context = multiprocessing.get_context("spawn")
     start = time.perf_counter()
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with ProcessPoolExecutor(max_workers=processes, mp_context=context) as pool:
         video_s = sum(pool.map(hand_loop, paths))
     wall = time.perf_counter() - start
-    return {"takes": len(paths), "video_s": video_s, "wall_s": wall, "throughput": video_s / wall}
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)  # the processes have been waited for
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    return {
+        "takes": len(paths),
+        "video_s": video_s,
+        "wall_s": wall,
+        "throughput": video_s / wall,
+        "cores": cpu / wall,
+        "cpu_per_video_s": cpu / video_s,
+    }
 
 
 def main() -> None:
@@ -298,7 +337,8 @@ def main() -> None:
     )
     columns = ["run", "processes", "takes wall s", "video s / wall s", "2 vs 1", "vs 1 core"]
     for col in (*columns, "vs hand loop", "outside detect", "face model", "then QC + dashboard s",
-                "of build", "peak MB per worker", "peak MB tree"):  # fmt: skip
+                "of build", "peak MB per worker", "peak MB tree", "cores used",
+                "CPU s / video s"):  # fmt: skip
         table.add_column(col, justify="right")
     single = rows.get(("build-dataset, 1 core", 1))
     for (name, n), r in sorted(rows.items()):
@@ -324,8 +364,40 @@ def main() -> None:
             else "",
             f"{r['worker_mb']:.0f}" if "worker_mb" in r else "",
             f"{r['tree_mb']:.0f}" if "tree_mb" in r else "",
+            f"{r['cores']:.2f}" if "cores" in r else "",
+            f"{r['cpu_per_video_s']:.2f}" if "cpu_per_video_s" in r else "",
         )
-    Console(width=170).print(table)
+    console = Console(width=190)
+    console.print(table)
+    for line in floors(rows, cores=usable_cores()):
+        console.print(line)
+
+
+def floors(rows: dict[tuple[str, int], dict[str, float]], *, cores: int) -> list[str]:
+    """What the acceptance lines of issue 43 need, from this run's CPU times: the 2-vs-1 ceiling
+    one worker's cores leave, and the CPU per video second each throughput line needs on
+    `cores` cores."""
+    one, two = rows.get(("build-dataset", 1)), rows.get(("build-dataset", 2))
+    hand1, hand2 = rows.get(("hand loop", 1)), rows.get(("hand loop", 2))
+    out = []
+    if one and "cores" in one:
+        out.append(
+            f"one worker uses {one['cores']:.2f} of {cores} cores: 2 workers can give at most "
+            f"{cores / one['cores']:.2f}× one at its CPU per video second "
+            f"({one['cpu_per_video_s']:.2f} s); "
+            f"1.5× needs one worker to use ≤ {cores / 1.5:.2f} cores"
+        )
+    for build, hand, factor in ((one, hand1, 1.7), (two, hand2, 1.4)):
+        if build and hand:
+            need = cores / (factor * hand["throughput"])
+            out.append(
+                f"{factor}× the hand loop in {2 if build is two else 1} process(es) "
+                f"({factor * hand['throughput']:.2f} video s / s) needs ≤ {need:.2f} CPU s per "
+                f"video s with all {cores} cores busy; the build spends "
+                f"{build['cpu_per_video_s']:.2f}, "
+                f"the hand loop {hand['cpu_per_video_s']:.2f}"
+            )
+    return out
 
 
 if __name__ == "__main__":
