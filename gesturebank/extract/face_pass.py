@@ -16,7 +16,8 @@ gives its head, as mediapipe's own face pipeline follows a face. It is found afr
 where it was not measured on the sample before or where the model is unsure of it in the
 followed crop (presence below FOLLOW_PRESENCE: somebody else, a cut). Mouth openings read on
 followed crops followed the speech worse (the rendered conversation's second figure: 97 → 81 %
-of frames), so mouths never come from them.
+of frames), so mouths never come from them. A head never found yet is looked for less often
+after three misses in a row (MISSES_BEFORE_BACKING_OFF).
 """
 
 from __future__ import annotations
@@ -34,10 +35,13 @@ from gesturebank.extract.mouth import MIN_FACE_PRESENCE, FaceLandmarker, FaceMes
 # A face is followed from its mesh only while the model is sure of it (a crop from an unsure
 # mesh drifts off the face); below, it is found afresh from the body's keypoints.
 FOLLOW_PRESENCE = MIN_FACE_PRESENCE
-# A head looked for and not found on this many samples in a row (a blurred or masked face, the
-# back of a head the body calls a face) is looked for on one sample in RETRY_EVERY until found
-# again: on the talking demo's lab clip, whose face is pixelated, 2 passes a sample found a head
-# on 1 of 107 samples (a face-pass cost of ~5 % of the take, for nothing).
+# A track whose head has not been found yet, looked for and not found on this many samples in a
+# row (a blurred or masked face, the back of a head the body calls a face), is looked for on one
+# sample in RETRY_EVERY until it is found once; from then on on every sample, as before. (Backing
+# off after any three misses lost face reads where a side view's face comes and goes: held-out
+# test2 at 60°, 11 → 5 % of frames; this rule gave test.bvh at 60° the same heads.) On the
+# talking demo's lab clip, whose face is pixelated, 2 passes a sample found a head on 1 of 107
+# samples: ~5 % of the take, for nothing.
 MISSES_BEFORE_BACKING_OFF = 3
 RETRY_EVERY = 4
 _MIN_STEP = 0.75  # as extract.video's rate cap: a sample when this share of 1 / rate has passed
@@ -92,9 +96,10 @@ class FacePass:
         self._model: FaceLandmarker | None = None
         # track key → (mesh points, the body's nose) of the last sample
         self._tracked: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        # track key → its samples since a head was last found, where it was looked for and not
-        # found on each (a head alone, no mouth: MISSES_BEFORE_BACKING_OFF)
+        # track key → its samples since it was first looked for, while its head was never found
+        # (a head alone, no mouth: MISSES_BEFORE_BACKING_OFF)
         self._misses: dict[int, int] = {}
+        self._seen: set[int] = set()  # track keys whose head was found on some sample
 
     def wants(self, t: float) -> bool:
         """Whether the frame at `t` is sampled (without taking it)."""
@@ -156,7 +161,8 @@ class FacePass:
             )
         if roi is None or not (mouth or work.head_limits is not None):
             return None, None
-        misses = self._misses.get(key, 0) if key >= 0 and not mouth else 0
+        unseen = key >= 0 and not mouth and key not in self._seen
+        misses = self._misses.get(key, 0) if unseen else 0
         if misses >= MISSES_BEFORE_BACKING_OFF:
             self._misses[key] = misses + 1
             if (misses - MISSES_BEFORE_BACKING_OFF) % RETRY_EVERY != RETRY_EVERY - 1:
@@ -186,10 +192,11 @@ class FacePass:
                 opening = first.opening
             mesh = self._mesh(image, mesh_roi(first.points))  # again, on the crop the mesh gives
             if mesh.presence < MIN_HEAD_PRESENCE:
-                if key >= 0 and not mouth:
+                if unseen:
                     self._misses[key] = max(misses + 1, self._misses.get(key, 0))
                 return (opening, _NO_AXES, _NO_CENTRE, np.nan), None
         self._misses.pop(key, None)
+        self._seen.add(key)
         fit = fit_head(mesh.points3d)
         follow_next = (mesh.points, nose) if mesh.presence >= FOLLOW_PRESENCE else None
         return (opening, fit.axes, fit.centre, fit.residual), follow_next

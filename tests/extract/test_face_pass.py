@@ -86,19 +86,20 @@ def test_a_followed_face_moves_with_the_body_and_is_found_afresh_once_lost(scene
     assert np.isnan(faces.faces[2][0].axes).all()  # no head: no face there either
 
 
-def test_a_head_not_found_three_samples_running_is_looked_for_on_every_fourth(scene) -> None:
+def test_a_head_never_found_is_looked_for_less_often_until_it_is(scene) -> None:
     # a pixelated face (the talking demo's lab clip): two passes a sample found nothing
     photo, kp, fresh = scene
     blank = np.zeros_like(photo)
     faces = FacePass(FaceWork(SpeechConfig(), True, HEAD, mouth_alone=False), skeleton="coco17")
     passes = []
-    for i in range(12):
-        faces(i, i / 15, photo if i >= 10 else blank, kp[None], np.array([5]))
+    for i in range(16):
+        faces(i, i / 15, photo if 10 <= i < 12 else blank, kp[None], np.array([5]))
         passes.append(faces.passes)
     # 3 misses (2 passes each), 3 samples not looked at, a miss, 3 not looked at, then found
-    # (2 passes) and followed (1 pass)
-    assert passes == [2, 4, 6, 6, 6, 6, 8, 8, 8, 8, 10, 11]
-    assert [len(f) for f in faces.faces] == [1, 1, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1]
+    # (2 passes) and followed (1 pass); once found, looked for on every sample again (the
+    # followed crop, then afresh: 3 passes; then afresh: 2)
+    assert passes == [2, 4, 6, 6, 6, 6, 8, 8, 8, 8, 10, 11, 14, 16, 18, 20]
+    assert [len(f) for f in faces.faces] == [1, 1, 1, 0, 0, 0, 1, 0, 0, 0] + [1] * 6
     assert np.isnan(faces.faces[6][0].axes).all()
     assert all(_apart_deg(faces.faces[i][0].axes, fresh) < 3.0 for i in (10, 11))
 
