@@ -152,7 +152,7 @@ def _track_probabilities(signal: np.ndarray, sample_rate: int) -> np.ndarray:
     asked for twice in a row."""
     global _last
     samples = np.ascontiguousarray(signal, np.float32)
-    key = (int(sample_rate), len(samples), hashlib.blake2b(samples.view(np.uint8)).digest())
+    key = (int(sample_rate), len(samples), hashlib.blake2b(samples.data).digest())
     if _last is None or _last[0] != key:
         _last = (key, chunk_probabilities(to_model_rate(samples, sample_rate)))
     return _last[1]

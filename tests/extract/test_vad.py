@@ -120,3 +120,22 @@ def test_chunk_probabilities_match_the_wheels_own_onnx_wrapper(samples: Path) ->
     reference = silero.load_silero_vad(onnx=True).audio_forward(torch.from_numpy(x), RATE)
     ours = vad.chunk_probabilities(x)
     np.testing.assert_allclose(ours, reference.numpy().ravel(), atol=1e-5)
+
+
+def test_a_take_asking_twice_runs_the_model_once(monkeypatch) -> None:
+    """Who speaks and the clips' silences both ask for a take's activity (issue 43): the same
+    samples reuse the model's run, other samples (or one sample changed) run it again."""
+    runs: list[int] = []
+    real = vad.chunk_probabilities
+    monkeypatch.setattr(vad, "chunk_probabilities", lambda s: runs.append(len(s)) or real(s))
+    signal = np.random.default_rng(3).uniform(-0.1, 0.1, RATE).astype(np.float32)
+    audio = Audio(signal, RATE, 0.0, 0.0)
+    first, again = (
+        vad.speech_activity(audio, t0=0.0, n_frames=n, config=SpeechConfig()) for n in (100, 90)
+    )
+    assert len(runs) == 1
+    np.testing.assert_array_equal(first.probability[:90], again.probability)
+    changed = signal.copy()
+    changed[100] += 0.01
+    vad.speech_activity(Audio(changed, RATE, 0.0, 0.0), t0=0.0, n_frames=100, config=SpeechConfig())
+    assert len(runs) == 2
