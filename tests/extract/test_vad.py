@@ -127,7 +127,12 @@ def test_a_take_asking_twice_runs_the_model_once(monkeypatch) -> None:
     samples reuse the model's run, other samples (or one sample changed) run it again."""
     runs: list[int] = []
     real = vad.chunk_probabilities
-    monkeypatch.setattr(vad, "chunk_probabilities", lambda s: runs.append(len(s)) or real(s))
+
+    def counted(signal: np.ndarray) -> np.ndarray:
+        runs.append(len(signal))
+        return real(signal)
+
+    monkeypatch.setattr(vad, "chunk_probabilities", counted)
     signal = np.random.default_rng(3).uniform(-0.1, 0.1, RATE).astype(np.float32)
     audio = Audio(signal, RATE, 0.0, 0.0)
     first, again = (
