@@ -17,6 +17,14 @@ interval over clips (`lift.agreement`).
 
 --quick: the fast stretch's first 3.5 s, level and elevated, one look, 640×360 (seconds with the
 renders and detections cached).
+
+--floors (instead of the build; not part of --quick): how much of the lifter's error each thing
+it cannot see costs (issue 39's floors). The default lifter alone on the T-shirt renders, from
+the true 2D and from BlazePose as the build runs it (tracked), as lifted and with things set
+true by an oracle (`lift.scoring`): each arm bone's depth sign along the camera ray (the frontal
+ambiguity), the torso's tilt towards the camera (the hips turned about the neck; turning the
+whole body would change no angle) and both; and each joint put on its 2D ray at the true depth
+(no lifter: the error of the 2D alone, the detector's share; none for the true 2D).
 """
 
 from __future__ import annotations
@@ -31,16 +39,28 @@ from rich.console import Console
 from rich.table import Table
 
 from gesturebank.app.build import build_dataset
+from gesturebank.camera_files import CameraGroup
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.process import process_angles
 from gesturebank.datasets.takes import discover_takes
+from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.agreement import Interval, agreement, bootstrap_over_clips
-from gesturebank.lift.scoring import ARM_JOINTS, camera_axes, score_angles, sign_errors
+from gesturebank.lift.scoring import (
+    ARM_JOINTS,
+    at_true_depth,
+    camera_axes,
+    project_view,
+    score_angles,
+    sign_errors,
+    with_true_depth_signs,
+    with_true_tilt,
+)
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import motion_pose
 from gesturebank.robot import pepper
 from gesturebank.robot.pepper import JOINTS
+from gesturebank.robot.retarget import pepper_angles
 from gesturebank.samples import default_samples_dir
 from gesturebank.skeletons import COCO17
 from gesturebank.synth.score import score_2d, worst_joint_p90
@@ -192,10 +212,65 @@ def agreement_table(clips: list[dict[str, np.ndarray]], *, draws: int) -> Table:
     return table
 
 
+def floors_table(config: Config) -> Table:
+    """The default lifter alone on the held-out T-shirt renders, from the true 2D and from
+    BlazePose, as lifted and with oracles, and the 2D at the true depths (module doc): arm MAE
+    ° / hand cm, and the wrong depth signs as lifted."""
+    oracles = {
+        "as lifted": lambda j, t: j,
+        "true depth signs": with_true_depth_signs,
+        "true torso tilt": with_true_tilt,
+        "both": lambda j, t: with_true_tilt(with_true_depth_signs(j, t), t),
+    }
+    fast = most_vigorous_start(config, HELDOUT, HELDOUT_S)
+    table = Table(title=f"Floors: the `{config.lifter.name}` lifter alone on the held-out "
+                  f"T-shirt renders of {HELDOUT}.bvh (calm 0–{HELDOUT_S:g} s, fast from "
+                  f"{fast:g} s), arm MAE ° / Pepper hand cm, as lifted and with one thing set "
+                  "true")  # fmt: skip
+    for col in ("motion", "camera", "2D", "wrong sign %", *oracles, "the 2D at true depth"):
+        table.add_column(col, justify="right")
+    lifter = LIFTERS.create(config.lifter.name, config)
+    for kind, start in {"calm": 0.0, "fast": fast}.items():
+        for camera, (azimuth, elevation) in CAMERAS.items():
+            if camera in TURNED and kind != "calm":
+                continue
+            synth = SynthConfig(azimuths_deg=[azimuth], start_s=start, length_s=HELDOUT_S,
+                                elevation_deg=elevation, look=LOOKS[0], width_px=IMAGE[0],
+                                height_px=IMAGE[1])  # fmt: skip
+            truth = render_truth(config, synth, HELDOUT)
+            cam, world = truth.cameras[0], truth.joints3d.astype(np.float64)
+            true_angles = pepper_angles(world, config=config.retarget)
+            sources = {
+                "true": project_view(world, cam, timestamps=truth.times),
+                "BlazePose": detect_cached(config, truth.videos[0]),
+            }
+            for source, pose in sources.items():
+                lifted = camera_axes(lifter.lift(TakeViews.of(pose, CameraGroup([cam]))))
+                signs = np.sum(list(sign_errors(lifted, world, camera=cam).values()), axis=0)
+                cells = []
+                for oracle in oracles.values():
+                    joints = oracle(lifted, cam.to_camera(world))
+                    per_joint, _, hand, _ = score_angles(
+                        pepper_angles(joints, config=config.retarget), true_angles
+                    )
+                    cells.append(f"{np.nanmean(per_joint[ARM_JOINTS]):.1f} / {hand:.1f}")
+                placed = at_true_depth(pose.to_coco17().keypoints, camera=cam,
+                                       truth_camera=cam.to_camera(world))  # fmt: skip
+                per_joint, _, hand, _ = score_angles(
+                    pepper_angles(placed, config=config.retarget), true_angles
+                )
+                cells.append(f"{np.nanmean(per_joint[ARM_JOINTS]):.1f} / {hand:.1f}")
+                table.add_row(kind, camera, source, f"{100 * signs[1] / max(signs[0], 1):.0f}",
+                              *cells)  # fmt: skip
+    return table
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one short render pair (seconds)")
     parser.add_argument("--onnx", type=Path, help="the learned lifter's net (default: packaged)")
+    parser.add_argument("--floors", action="store_true",
+                        help="the lifter alone with oracles, instead of the build")  # fmt: skip
     args = parser.parse_args()
     config = Config()
     if args.onnx is not None:
@@ -203,6 +278,9 @@ def main() -> None:
         lifter = config.lifter.model_copy(update={"learned": learned})
         config = config.model_copy(update={"lifter": lifter})
     console = Console(width=max(Console().width, 160))  # 11 columns: keep them readable
+    if args.floors:
+        console.print(floors_table(config))
+        return
     for table in heldout_tables(config, quick=args.quick):
         console.print(table)
 
