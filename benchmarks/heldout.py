@@ -24,7 +24,9 @@ the true 2D and from BlazePose as the build runs it (tracked), as lifted and wit
 true by an oracle (`lift.scoring`): each arm bone's depth sign along the camera ray (the frontal
 ambiguity), the torso's tilt towards the camera (the hips turned about the neck; turning the
 whole body would change no angle) and both; and each joint put on its 2D ray at the true depth
-(no lifter: the error of the 2D alone, the detector's share; none for the true 2D).
+(no lifter: the error of the 2D alone, the detector's share; none for the true 2D). The lift as
+lifted and the 2D at true depth also through the build's processing of the angles (low-pass,
+reach, speed limit), as the whole build would store them (no QC, no clips).
 """
 
 from __future__ import annotations
@@ -215,7 +217,8 @@ def agreement_table(clips: list[dict[str, np.ndarray]], *, draws: int) -> Table:
 def floors_table(config: Config) -> Table:
     """The default lifter alone on the held-out T-shirt renders, from the true 2D and from
     BlazePose, as lifted and with oracles, and the 2D at the true depths (module doc): arm MAE
-    ° / hand cm, and the wrong depth signs as lifted."""
+    ° / hand cm, and the wrong depth signs as lifted; the first and last also through the
+    build's processing (low-pass, reach, speed limit: `process_angles`, truth likewise)."""
     oracles = {
         "as lifted": lambda j, t: j,
         "true depth signs": with_true_depth_signs,
@@ -225,11 +228,24 @@ def floors_table(config: Config) -> Table:
     fast = most_vigorous_start(config, HELDOUT, HELDOUT_S)
     table = Table(title=f"Floors: the `{config.lifter.name}` lifter alone on the held-out "
                   f"T-shirt renders of {HELDOUT}.bvh (calm 0–{HELDOUT_S:g} s, fast from "
-                  f"{fast:g} s), arm MAE ° / Pepper hand cm, as lifted and with one thing set "
+                  f"{fast:g} s), arm MAE ° / Pepper hand cm, as lifted and with things set "
                   "true")  # fmt: skip
-    for col in ("motion", "camera", "2D", "wrong sign %", *oracles, "the 2D at true depth"):
+    for col in ("motion", "camera", "2D", "wrong sign %", *oracles, "the 2D at true depth",
+                "processed: as lifted", "processed: 2D at true depth"):  # fmt: skip
         table.add_column(col, justify="right")
     lifter = LIFTERS.create(config.lifter.name, config)
+    profile = pepper.load_profile(config.robot.profile)
+
+    def processed(angles: np.ndarray, times: np.ndarray) -> np.ndarray:
+        clock = np.arange(times[0], times[-1], 1.0 / config.processing.rate_hz)
+        return process_angles(raw=angles, timestamps=times, clock=clock,
+                              processing=config.processing, retarget=config.retarget,
+                              profile=profile).angles.astype(np.float64)  # fmt: skip
+
+    def cell(angles: np.ndarray, true: np.ndarray) -> str:
+        per_joint, _, hand, _ = score_angles(angles, true)
+        return f"{np.nanmean(per_joint[ARM_JOINTS]):.1f} / {hand:.1f}"
+
     for kind, start in {"calm": 0.0, "fast": fast}.items():
         for camera, (azimuth, elevation) in CAMERAS.items():
             if camera in TURNED and kind != "calm":
@@ -239,6 +255,7 @@ def floors_table(config: Config) -> Table:
                                 height_px=IMAGE[1])  # fmt: skip
             truth = render_truth(config, synth, HELDOUT)
             cam, world = truth.cameras[0], truth.joints3d.astype(np.float64)
+            seen = cam.to_camera(world)
             true_angles = pepper_angles(world, config=config.retarget)
             sources = {
                 "true": project_view(world, cam, timestamps=truth.times),
@@ -247,19 +264,14 @@ def floors_table(config: Config) -> Table:
             for source, pose in sources.items():
                 lifted = camera_axes(lifter.lift(TakeViews.of(pose, CameraGroup([cam]))))
                 signs = np.sum(list(sign_errors(lifted, world, camera=cam).values()), axis=0)
-                cells = []
-                for oracle in oracles.values():
-                    joints = oracle(lifted, cam.to_camera(world))
-                    per_joint, _, hand, _ = score_angles(
-                        pepper_angles(joints, config=config.retarget), true_angles
-                    )
-                    cells.append(f"{np.nanmean(per_joint[ARM_JOINTS]):.1f} / {hand:.1f}")
-                placed = at_true_depth(pose.to_coco17().keypoints, camera=cam,
-                                       truth_camera=cam.to_camera(world))  # fmt: skip
-                per_joint, _, hand, _ = score_angles(
-                    pepper_angles(placed, config=config.retarget), true_angles
-                )
-                cells.append(f"{np.nanmean(per_joint[ARM_JOINTS]):.1f} / {hand:.1f}")
+                angles = {name: pepper_angles(oracle(lifted, seen), config=config.retarget)
+                          for name, oracle in oracles.items()}  # fmt: skip
+                placed = at_true_depth(pose.to_coco17().keypoints, camera=cam, truth_camera=seen)
+                angles["placed"] = pepper_angles(placed, config=config.retarget)
+                cells = [cell(a, true_angles) for a in angles.values()]
+                true_processed = processed(true_angles, truth.times)
+                for name in ("as lifted", "placed"):
+                    cells.append(cell(processed(angles[name], truth.times), true_processed))
                 table.add_row(kind, camera, source, f"{100 * signs[1] / max(signs[0], 1):.0f}",
                               *cells)  # fmt: skip
     return table
