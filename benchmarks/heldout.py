@@ -26,7 +26,8 @@ ambiguity), the torso's tilt towards the camera (the hips turned about the neck;
 whole body would change no angle) and both; and each joint put on its 2D ray at the true depth
 (no lifter: the error of the 2D alone, the detector's share; none for the true 2D). The lift as
 lifted and the 2D at true depth also through the build's processing of the angles (low-pass,
-reach, speed limit), as the whole build would store them (no QC, no clips).
+reach, speed limit), as the whole build would store them (no QC, no clips). Then the same on
+Pose2Sim's Demo_SinglePerson (real footage), each camera against the 4-camera triangulation.
 """
 
 from __future__ import annotations
@@ -36,18 +37,20 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from fidelity import IMAGE, TRUTH_BVH, detect_cached, render_truth
+from fidelity import IMAGE, TRUTH_BVH, angle_diff_deg, detect_cached, mean_median, render_truth
 from rich.console import Console
 from rich.table import Table
 
 from gesturebank.app.build import build_dataset
-from gesturebank.camera_files import CameraGroup
+from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import CameraGroup, load_cameras
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.process import process_angles
-from gesturebank.datasets.takes import discover_takes
+from gesturebank.datasets.takes import discover_takes, find_calibration
 from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.agreement import Interval, agreement, bootstrap_over_clips
+from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
     ARM_JOINTS,
     at_true_depth,
@@ -277,6 +280,51 @@ def floors_table(config: Config) -> Table:
     return table
 
 
+def pose2sim_floors_table() -> Table:
+    """Pose2Sim Demo_SinglePerson (real footage, 60 fps): each camera lifted alone by the default
+    lifter against the 4-camera triangulation (fidelity.py's (c): mean Pepper angle error over
+    the 11 joints), as lifted and with the oracles of `floors_table` taking the triangulation
+    for the truth; `blazepose-world` for comparison (issue 39's Pose2Sim line)."""
+    root = default_samples_dir() / "pose2sim" / "Demo_SinglePerson"
+    config = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps
+    cams = load_cameras(find_calibration(root))
+    videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
+    poses = [extract_take(v, config, with_audio=False).tracked.pose for v in videos]
+    reference = MultiviewLifter.from_config(config).lift(TakeViews.of(poses, cams))
+    world = reference.joints.astype(np.float64)
+    ref_angles = pepper_angles(reference, config=config.retarget)
+    variants = {
+        "blazepose-world": None,
+        f"{config.lifter.name}, as lifted": lambda j, t: j,
+        "true depth signs": with_true_depth_signs,
+        "true torso tilt": with_true_tilt,
+        "both": lambda j, t: with_true_tilt(with_true_depth_signs(j, t), t),
+    }
+    table = Table(title="Floors on Pose2Sim Demo_SinglePerson: mean Pepper angle error (°) of "
+                  "each camera alone against the 4-camera triangulation, oracles taking the "
+                  "triangulation for the truth")  # fmt: skip
+    for col in ("lift", *cams.names):
+        table.add_column(col, justify="right")
+    lifters = {
+        name: LIFTERS.create(name, config) for name in ("blazepose-world", config.lifter.name)
+    }
+    rows: dict[str, list[str]] = {name: [] for name in (*variants, "the 2D at true depth")}
+    for c, cam in enumerate(cams):
+        view = TakeViews.of(poses[c], cams.subset([cams.names[c]]))
+        seen = cam.to_camera(world)
+        lifted = camera_axes(lifters[config.lifter.name].lift(view))
+        angles = {name: pepper_angles(camera_axes(lifters[name].lift(view)) if oracle is None
+                                      else oracle(lifted, seen), config=config.retarget)
+                  for name, oracle in variants.items()}  # fmt: skip
+        placed = at_true_depth(poses[c].to_coco17().keypoints, camera=cam, truth_camera=seen)
+        angles["the 2D at true depth"] = pepper_angles(placed, config=config.retarget)
+        for name, a in angles.items():
+            rows[name].append(f"{np.nanmean(mean_median(angle_diff_deg(a, ref_angles))[0]):.1f}")
+    for name, cells in rows.items():
+        table.add_row(name, *cells)
+    return table
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one short render pair (seconds)")
@@ -292,6 +340,7 @@ def main() -> None:
     console = Console(width=max(Console().width, 160))  # 11 columns: keep them readable
     if args.floors:
         console.print(floors_table(config))
+        console.print(pose2sim_floors_table())
         return
     for table in heldout_tables(config, quick=args.quick):
         console.print(table)
