@@ -1,6 +1,7 @@
 """The left/right swap repair (2D only; the first of `gesturebank.repair`'s three): per body
 group, a two-state Viterbi — labels as given / exchanged — over the group's frame-to-frame path
-length, and the short runs that disagree with the labels before them exchanged back.
+length (with a weak preference for the take's usual facing, `_FACING_PAIRS`), and the short runs
+that disagree with the labels before them exchanged back.
 """
 
 from __future__ import annotations
