@@ -289,6 +289,7 @@ def multi_view(take: Take, *, config: Config, chunks: DetectionCache | None) -> 
             offsets_s=report.offsets_s,
             cameras=list(cameras),
             reference=ref,
+            max_residual=config.retarget.head_max_fit_residual,
         ),
         camera=cameras[ref],
     )

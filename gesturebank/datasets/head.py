@@ -47,12 +47,14 @@ def rig_head(
     offsets_s: Sequence[float] | np.ndarray,
     cameras: Sequence[Camera],
     reference: int,
+    max_residual: float,
 ) -> FaceHead | None:
     """The face heads of a calibrated rig's cameras as one, on the reference camera's frames and
     in its axes: each camera's head axes (T_c, 3, 3) turned into the reference camera's axes
     (R_ref·R_cᵀ), taken at the camera's frame nearest each reference frame on the reference
     clock (`times[c]` − `offsets_s[c]`, as `lift.multiview.sync.align`; none past half a frame),
-    and averaged where one or more cameras found the face (the rotation nearest their sum); the
+    and averaged where one or more cameras found the face with a fit residual of at most
+    `max_residual` (`retarget.head_max_fit_residual`; the rotation nearest their sum); the
     residual is the largest of those averaged. None when no camera has a face head.
 
     The cameras' own heads differ by the face model's error in each view, which averaging
@@ -75,10 +77,11 @@ def rig_head(
         k = np.clip(k, 0, len(moved) - 1)
         near = np.abs(moved[k] - ref_t) <= step / 2 + 1e-9
         axes = ref_r @ np.asarray(camera.R, np.float64).T @ np.asarray(head.axes, np.float64)[k]
-        ok = near & np.isfinite(axes).all(axis=(1, 2))
+        fit = np.asarray(head.residual, np.float64)[k]
+        ok = near & np.isfinite(axes).all(axis=(1, 2)) & (fit <= max_residual)
         total[ok] += axes[ok]
         count[ok] += 1
-        residual[ok] = np.fmax(residual[ok], np.asarray(head.residual, np.float64)[k][ok])
+        residual[ok] = np.fmax(residual[ok], fit[ok])
     axes = np.full(total.shape, np.nan)
     seen = count > 0
     axes[seen] = orthonormal(total[seen])

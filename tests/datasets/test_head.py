@@ -145,7 +145,8 @@ def _camera(name: str, rotvec: tuple[float, float, float]) -> Camera:
 def test_a_rigs_face_heads_are_averaged_on_the_reference_clock_in_its_axes() -> None:
     """`rig_head`: two calibrated cameras, the second's clock 0.1 s ahead; each sees the head
     turned 4° off the truth, the other way; averaged in the reference camera's axes they give
-    the truth. A frame only one camera saw takes that camera's head; none: NaN."""
+    the truth. A frame only one camera saw (or fitted within the limit) takes that camera's
+    head; none: NaN."""
     n = 12
     world = Rotation.from_euler("ZYX", np.stack([np.linspace(0, 0.5, n), [0.2] * n, [0.0] * n],
                                                 axis=1)).as_matrix()  # fmt: skip
@@ -155,21 +156,25 @@ def test_a_rigs_face_heads_are_averaged_on_the_reference_clock_in_its_axes() -> 
     times = [np.arange(n) / 10.0, np.arange(n) / 10.0 + 0.1]
     heads = [FaceHead(seen[0], np.full(n, 0.01)), FaceHead(seen[1], np.full(n, 0.02))]
     heads[0].axes[3] = np.nan  # camera a lost the face on frame 3
-    fused = rig_head(heads, times=times, offsets_s=[0.0, 0.1], cameras=cams, reference=0)
+    heads[1].residual[5] = 0.5  # camera b's fit on frame 5 is past the limit: not averaged
+    fused = rig_head(heads, times=times, offsets_s=[0.0, 0.1], cameras=cams, reference=0,
+                     max_residual=0.1)  # fmt: skip
     assert fused is not None
     truth = cams[0].R @ world
-    both = [k for k in range(n) if k != 3]
+    both = [k for k in range(n) if k not in (3, 5)]
     angle = Rotation.from_matrix(np.swapaxes(fused.axes[both], 1, 2) @ truth[both]).magnitude()
     assert np.degrees(angle).max() < 0.3  # the two cameras' 4° errors cancel
     alone = cams[0].R @ cams[1].R.T @ seen[1][3]
     assert np.allclose(fused.axes[3], alone, atol=1e-9)
     assert np.allclose(fused.residual[both], 0.02)
+    assert np.allclose(fused.axes[5], seen[0][5], atol=1e-9)  # camera a's alone
+    assert fused.residual[5] == pytest.approx(0.01)
     # the second camera's clock 0.6 s ahead: the reference's first 6 frames are before its
     # first (more than half a frame), the rest are its frames 0-5
     late = rig_head([None, heads[1]], times=times, offsets_s=[0.0, -0.5], cameras=cams,
-                    reference=0)  # fmt: skip
+                    reference=0, max_residual=1.0)  # fmt: skip
     assert late is not None
     assert np.isnan(late.axes[:6]).all()
     assert np.allclose(late.axes[6:], cams[0].R @ cams[1].R.T @ seen[1][:6], atol=1e-9)
     assert rig_head([None, None], times=times, offsets_s=[0.0, 0.1], cameras=cams,
-                    reference=0) is None  # fmt: skip
+                    reference=0, max_residual=1.0) is None  # fmt: skip
