@@ -29,7 +29,9 @@ clips' 100 Hz frames by the source of their head (`clip.head_source`: the face m
 face keypoints): the share of each and its head error, so the mesh, the fallback and the chosen
 mix are each scored. `--head-source body` builds with the body's keypoints only (the head
 before issue 40); `--every-clip` scores the clips QC rejected too (side views, arms at a limit:
-their heads are still measured).
+their heads are still measured). `--cameras N` renders each view as a calibrated rig of N cameras
+spread over `[synth] rig_spread_deg` around its azimuth and builds it as one multi-camera take
+(the `multiview` lifter; the head from every camera's face, `datasets.head.rig_head`).
 
     .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
     .venv/bin/python benchmarks/pipeline_truth.py --bvh test2.bvh test3.bvh --start 0 \
