@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+
+from tests.quick_benchmarks import QuickRuns
 
 
 @pytest.fixture(scope="session")
@@ -16,6 +19,26 @@ def samples() -> Path:
     root = default_samples_dir()  # $GESTUREBANK_SAMPLES (the Makefile sets it) or the cache dir
     fetch_samples(root)
     return root
+
+
+@pytest.fixture(scope="session", autouse=True)
+def quick_runs(request: pytest.FixtureRequest) -> Iterator[QuickRuns | None]:
+    """The selected benchmarks' --quick runs, started with the session beside the tests
+    (tests/quick_benchmarks.py); None when no benchmark test is selected."""
+    scripts = [
+        item.callspec.params["script"]
+        for item in request.session.items
+        if isinstance(item, pytest.Function)
+        and item.originalname == "test_quick_mode_runs_and_prints_a_table"
+    ]
+    if not scripts:
+        yield None
+        return
+    runs = QuickRuns(scripts, request.getfixturevalue("samples"))
+    try:
+        yield runs
+    finally:
+        runs.close()
 
 
 @pytest.fixture(scope="session")
