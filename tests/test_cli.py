@@ -64,9 +64,18 @@ COMMANDS = [
 ]
 
 
+@pytest.fixture(scope="module")
+def helps() -> dict[str, subprocess.CompletedProcess[str]]:
+    """`gesturebank COMMAND --help` of every command, run two at a time."""
+    done = run_each([("gesturebank", command, "--help") for command in COMMANDS])
+    return dict(zip(COMMANDS, done, strict=True))
+
+
 @pytest.mark.parametrize("command", COMMANDS)
-def test_each_command_has_help(command: str) -> None:
-    r = run("gesturebank", command, "--help")
+def test_each_command_has_help(
+    command: str, helps: dict[str, subprocess.CompletedProcess[str]]
+) -> None:
+    r = helps[command]
     assert r.returncode == 0
     assert "Usage: gesturebank " + command in r.stdout
 
