@@ -385,7 +385,8 @@ def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_pat
 
     video = samples / "talking" / "lab" / "cam01_arctic.mp4"
     out = tmp_path / "ds"
-    r = gb("build-dataset", str(video), str(out))
+    fast = ("--set", "video.max_fps=10")  # a third of the frames detected: the cache is the point
+    r = gb("build-dataset", str(video), str(out), *fast)
     assert r.returncode == 0, r.stderr
     assert "from the cache" not in r.stdout  # a first build detects
     env["COLUMNS"] = "80"
@@ -398,7 +399,7 @@ def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_pat
     assert "set by $GESTUREBANK_CACHE" in lines[1] and all(len(ln) <= 80 for ln in lines[1:])
     assert "1 entry, " in r.stdout
     env["COLUMNS"] = "200"
-    r = gb("build-dataset", str(video), str(out), "--force")
+    r = gb("build-dataset", str(video), str(out), "--force", *fast)
     assert r.returncode == 0, r.stderr
     assert "1 of 1 takes built took their detections from the cache" in r.stdout, r.stdout
     r = gb("cache", "clear")
