@@ -10,6 +10,8 @@ import pytest
 
 from tests.quick_benchmarks import QuickRuns
 
+QUICK_RUNS = pytest.StashKey[QuickRuns]()
+
 
 @pytest.fixture(scope="session")
 def samples() -> Path:
@@ -39,10 +41,17 @@ def quick_runs(request: pytest.FixtureRequest) -> Iterator[QuickRuns | None]:
         yield None
         return
     runs = QuickRuns(scripts, samples)
+    request.config.stash[QUICK_RUNS] = runs
     try:
         yield runs
     finally:
         runs.close()
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    runs = terminalreporter.config.stash.get(QUICK_RUNS, None)
+    if runs is not None and runs.seconds:
+        terminalreporter.write_line(f"benchmarks' --quick runs: {runs.report()}")
 
 
 @pytest.fixture(scope="session")

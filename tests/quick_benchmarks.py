@@ -12,6 +12,7 @@ import os
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
@@ -32,6 +33,7 @@ class QuickRuns:
         # UTF-8 out, so rich draws its box characters rather than an ASCII fallback.
         self._env = os.environ | {"GESTUREBANK_SAMPLES": str(samples), "PYTHONIOENCODING": "utf-8"}
         self._procs: list[subprocess.Popen[str]] = []
+        self.seconds: dict[str, float] = {}  # each finished run's wall time (the session's report)
         self._lock = threading.Lock()
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="quick-benchmarks")
         self._runs: dict[str, Future[subprocess.CompletedProcess[str]]] = {
@@ -53,6 +55,7 @@ class QuickRuns:
 
     def _run(self, script: Path) -> subprocess.CompletedProcess[str]:
         args = [sys.executable, str(script), "--quick"]
+        start = time.perf_counter()
         proc = subprocess.Popen(
             args,
             cwd=ROOT,
@@ -70,4 +73,10 @@ class QuickRuns:
             proc.kill()
             proc.communicate()
             raise
+        self.seconds[script.name] = time.perf_counter() - start
         return subprocess.CompletedProcess(args, proc.returncode, out, err)
+
+    def report(self) -> str:
+        """The runs' wall times, slowest first (pytest's durations show only the waits)."""
+        runs = sorted(self.seconds.items(), key=lambda kv: -kv[1])
+        return ", ".join(f"{name} {s:.1f} s" for name, s in runs)
