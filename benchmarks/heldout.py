@@ -17,6 +17,17 @@ interval over clips (`lift.agreement`).
 
 --quick: the fast stretch's first 3.5 s, level and elevated, one look, 640×360 (seconds with the
 renders and detections cached).
+
+--floors (instead of the build; not part of --quick): how much of the lifter's error each thing
+it cannot see costs (issue 39's floors). The default lifter alone on the T-shirt renders, from
+the true 2D and from BlazePose as the build runs it (tracked), as lifted and with things set
+true by an oracle (`lift.scoring`): each arm bone's depth sign along the camera ray (the frontal
+ambiguity), the torso's tilt towards the camera (the hips turned about the neck; turning the
+whole body would change no angle) and both; and each joint put on its 2D ray at the true depth
+(no lifter: the error of the 2D alone, the detector's share; none for the true 2D). The lift as
+lifted and the 2D at true depth also through the build's processing of the angles (low-pass,
+reach, speed limit), as the whole build would store them (no QC, no clips). Then the same on
+Pose2Sim's Demo_SinglePerson (real footage), each camera against the 4-camera triangulation.
 """
 
 from __future__ import annotations
@@ -26,21 +37,35 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from fidelity import IMAGE, TRUTH_BVH, detect_cached, render_truth
+from fidelity import IMAGE, TRUTH_BVH, angle_diff_deg, detect_cached, mean_median, render_truth
 from rich.console import Console
 from rich.table import Table
 
 from gesturebank.app.build import build_dataset
+from gesturebank.app.extract import extract_take
+from gesturebank.camera_files import CameraGroup, load_cameras
 from gesturebank.config import Config, SynthConfig
 from gesturebank.datasets import open as open_dataset
 from gesturebank.datasets.process import process_angles
-from gesturebank.datasets.takes import discover_takes
+from gesturebank.datasets.takes import discover_takes, find_calibration
+from gesturebank.lift import LIFTERS, TakeViews
 from gesturebank.lift.agreement import Interval, agreement, bootstrap_over_clips
-from gesturebank.lift.scoring import ARM_JOINTS, camera_axes, score_angles, sign_errors
+from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
+from gesturebank.lift.scoring import (
+    ARM_JOINTS,
+    at_true_depth,
+    camera_axes,
+    project_view,
+    score_angles,
+    sign_errors,
+    with_true_depth_signs,
+    with_true_tilt,
+)
 from gesturebank.mocap.bvh import read_bvh
 from gesturebank.mocap.pose import motion_pose
 from gesturebank.robot import pepper
 from gesturebank.robot.pepper import JOINTS
+from gesturebank.robot.retarget import pepper_angles
 from gesturebank.samples import default_samples_dir
 from gesturebank.skeletons import COCO17
 from gesturebank.synth.score import score_2d, worst_joint_p90
@@ -192,10 +217,120 @@ def agreement_table(clips: list[dict[str, np.ndarray]], *, draws: int) -> Table:
     return table
 
 
+def floors_table(config: Config) -> Table:
+    """The default lifter alone on the held-out T-shirt renders, from the true 2D and from
+    BlazePose, as lifted and with oracles, and the 2D at the true depths (module doc): arm MAE
+    ° / hand cm, and the wrong depth signs as lifted; the first and last also through the
+    build's processing (low-pass, reach, speed limit: `process_angles`, truth likewise)."""
+    oracles = {
+        "as lifted": lambda j, t: j,
+        "true depth signs": with_true_depth_signs,
+        "true torso tilt": with_true_tilt,
+        "both": lambda j, t: with_true_tilt(with_true_depth_signs(j, t), t),
+    }
+    fast = most_vigorous_start(config, HELDOUT, HELDOUT_S)
+    table = Table(title=f"Floors: the `{config.lifter.name}` lifter alone on the held-out "
+                  f"T-shirt renders of {HELDOUT}.bvh (calm 0–{HELDOUT_S:g} s, fast from "
+                  f"{fast:g} s), arm MAE ° / Pepper hand cm, as lifted and with things set "
+                  "true")  # fmt: skip
+    for col in ("motion", "camera", "2D", "wrong sign %", *oracles, "the 2D at true depth",
+                "processed: as lifted", "processed: 2D at true depth"):  # fmt: skip
+        table.add_column(col, justify="right")
+    lifter = LIFTERS.create(config.lifter.name, config)
+    profile = pepper.load_profile(config.robot.profile)
+
+    def processed(angles: np.ndarray, times: np.ndarray) -> np.ndarray:
+        clock = np.arange(times[0], times[-1], 1.0 / config.processing.rate_hz)
+        return process_angles(raw=angles, timestamps=times, clock=clock,
+                              processing=config.processing, retarget=config.retarget,
+                              profile=profile).angles.astype(np.float64)  # fmt: skip
+
+    def cell(angles: np.ndarray, true: np.ndarray) -> str:
+        per_joint, _, hand, _ = score_angles(angles, true)
+        return f"{np.nanmean(per_joint[ARM_JOINTS]):.1f} / {hand:.1f}"
+
+    for kind, start in {"calm": 0.0, "fast": fast}.items():
+        for camera, (azimuth, elevation) in CAMERAS.items():
+            if camera in TURNED and kind != "calm":
+                continue
+            synth = SynthConfig(azimuths_deg=[azimuth], start_s=start, length_s=HELDOUT_S,
+                                elevation_deg=elevation, look=LOOKS[0], width_px=IMAGE[0],
+                                height_px=IMAGE[1])  # fmt: skip
+            truth = render_truth(config, synth, HELDOUT)
+            cam, world = truth.cameras[0], truth.joints3d.astype(np.float64)
+            seen = cam.to_camera(world)
+            true_angles = pepper_angles(world, config=config.retarget)
+            sources = {
+                "true": project_view(world, cam, timestamps=truth.times),
+                "BlazePose": detect_cached(config, truth.videos[0]),
+            }
+            for source, pose in sources.items():
+                lifted = camera_axes(lifter.lift(TakeViews.of(pose, CameraGroup([cam]))))
+                signs = np.sum(list(sign_errors(lifted, world, camera=cam).values()), axis=0)
+                angles = {name: pepper_angles(oracle(lifted, seen), config=config.retarget)
+                          for name, oracle in oracles.items()}  # fmt: skip
+                placed = at_true_depth(pose.to_coco17().keypoints, camera=cam, truth_camera=seen)
+                angles["placed"] = pepper_angles(placed, config=config.retarget)
+                cells = [cell(a, true_angles) for a in angles.values()]
+                true_processed = processed(true_angles, truth.times)
+                for name in ("as lifted", "placed"):
+                    cells.append(cell(processed(angles[name], truth.times), true_processed))
+                table.add_row(kind, camera, source, f"{100 * signs[1] / max(signs[0], 1):.0f}",
+                              *cells)  # fmt: skip
+    return table
+
+
+def pose2sim_floors_table() -> Table:
+    """Pose2Sim Demo_SinglePerson (real footage, 60 fps): each camera lifted alone by the default
+    lifter against the 4-camera triangulation (fidelity.py's (c): mean Pepper angle error over
+    the 11 joints), as lifted and with the oracles of `floors_table` taking the triangulation
+    for the truth; `blazepose-world` for comparison (issue 39's Pose2Sim line)."""
+    root = default_samples_dir() / "pose2sim" / "Demo_SinglePerson"
+    config = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps
+    cams = load_cameras(find_calibration(root))
+    videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
+    poses = [extract_take(v, config, with_audio=False).tracked.pose for v in videos]
+    reference = MultiviewLifter.from_config(config).lift(TakeViews.of(poses, cams))
+    world = reference.joints.astype(np.float64)
+    ref_angles = pepper_angles(reference, config=config.retarget)
+    variants = {
+        "blazepose-world": None,
+        f"{config.lifter.name}, as lifted": lambda j, t: j,
+        "true depth signs": with_true_depth_signs,
+        "true torso tilt": with_true_tilt,
+        "both": lambda j, t: with_true_tilt(with_true_depth_signs(j, t), t),
+    }
+    table = Table(title="Floors on Pose2Sim Demo_SinglePerson: mean Pepper angle error (°) of "
+                  "each camera alone against the 4-camera triangulation, oracles taking the "
+                  "triangulation for the truth")  # fmt: skip
+    for col in ("lift", *cams.names):
+        table.add_column(col, justify="right")
+    lifters = {
+        name: LIFTERS.create(name, config) for name in ("blazepose-world", config.lifter.name)
+    }
+    rows: dict[str, list[str]] = {name: [] for name in (*variants, "the 2D at true depth")}
+    for c, cam in enumerate(cams):
+        view = TakeViews.of(poses[c], cams.subset([cams.names[c]]))
+        seen = cam.to_camera(world)
+        lifted = camera_axes(lifters[config.lifter.name].lift(view))
+        angles = {name: pepper_angles(camera_axes(lifters[name].lift(view)) if oracle is None
+                                      else oracle(lifted, seen), config=config.retarget)
+                  for name, oracle in variants.items()}  # fmt: skip
+        placed = at_true_depth(poses[c].to_coco17().keypoints, camera=cam, truth_camera=seen)
+        angles["the 2D at true depth"] = pepper_angles(placed, config=config.retarget)
+        for name, a in angles.items():
+            rows[name].append(f"{np.nanmean(mean_median(angle_diff_deg(a, ref_angles))[0]):.1f}")
+    for name, cells in rows.items():
+        table.add_row(name, *cells)
+    return table
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one short render pair (seconds)")
     parser.add_argument("--onnx", type=Path, help="the learned lifter's net (default: packaged)")
+    parser.add_argument("--floors", action="store_true",
+                        help="the lifter alone with oracles, instead of the build")  # fmt: skip
     args = parser.parse_args()
     config = Config()
     if args.onnx is not None:
@@ -203,6 +338,10 @@ def main() -> None:
         lifter = config.lifter.model_copy(update={"learned": learned})
         config = config.model_copy(update={"lifter": lifter})
     console = Console(width=max(Console().width, 160))  # 11 columns: keep them readable
+    if args.floors:
+        console.print(floors_table(config))
+        console.print(pose2sim_floors_table())
+        return
     for table in heldout_tables(config, quick=args.quick):
         console.print(table)
 

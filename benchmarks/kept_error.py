@@ -21,12 +21,17 @@ hand error (cm) of all, kept and cut seconds, and the seconds cut by reason.
         [--set qc.KEY=VALUE ...] [--out DIR]
 
 --quick: test.bvh 31–51 s at 60° only. `--set` re-judges with QC settings changed (the build is
-reused: only the re-judging runs again).
+reused: only the re-judging runs again). `--by-yaw` (renders): per take, the samples binned by
+how far the person's torso is truly turned from the camera (the truth's shoulders and hips in
+the camera's frame, about the torso's up axis: 0° facing it, 90° side on), with the share the
+2D calls seen from the side (`qc.views.sideways`) and the arm and hand error per bin, and where
+the cut samples lie: what the sideways rule is in terms of the truth.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import shutil
 import tempfile
@@ -177,6 +182,67 @@ def errors(s: Samples, rows: np.ndarray, truth: str) -> tuple[float, float]:
     ) else float("nan")
 
 
+YAW_BINS = (0, 15, 30, 45, 55, 60, 65, 70, 75, 80, 90, 105, 120, 150, 180.001)  # °
+
+
+def truth_yaw(folder: Path, times: np.ndarray) -> np.ndarray:
+    """(N,) how far the rendered person's torso is turned from the camera at `times` (s of the
+    take), degrees 0–180, from the truth beside the render linked in `folder`."""
+    from gesturebank.geometry import body_frame
+    from gesturebank.skeletons import COCO17
+    from gesturebank.synth.truth import Truth
+
+    truth = Truth.load((folder / "cam01.mp4").resolve().parent.parent)
+    cam = truth.cameras[0]
+    joints = truth.joints3d @ cam.R.T + cam.t  # the camera's frame: the camera at 0
+    ls, rs, lh, rh = (joints[:, COCO17.index[n]] for n in
+                      ("left_shoulder", "right_shoulder", "left_hip", "right_hip"))  # fmt: skip
+    forward, _, up = body_frame(ls, rs, left_hip=lh, right_hip=rh)
+
+    def level(v: np.ndarray) -> np.ndarray:  # v without its part along the torso's up
+        v = v - np.sum(v * up, axis=-1, keepdims=True) * up
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+    to_camera = -(ls + rs + lh + rh) / 4
+    cos = np.clip(np.sum(level(forward) * level(to_camera), axis=-1), -1.0, 1.0)
+    return np.interp(times, truth.times, np.degrees(np.arccos(cos)))
+
+
+def sideways_samples(out: Path, times: np.ndarray) -> np.ndarray:
+    """(N,) whether the video frame of each sample of `times` is seen from the side in the 2D
+    of the whole build in `out` (`qc.views.sideways`, as QC judges it)."""
+    from gesturebank.qc.metrics import judged_points, view_flags
+
+    side = np.zeros(len(times), bool)
+    dataset = open_dataset(out)
+    for row in (r for r in dataset.rows() if r.clip.kind == "clip"):
+        clip = dataset.load(row.clip.clip_id)
+        flags = view_flags(judged_points(clip))[1]
+        frames = np.asarray(clip.timestamps) + clip.start_s
+        k = np.clip(np.searchsorted(frames, times - 1e-6), 0, len(frames) - 1)
+        inside = (times >= frames[0] - 1e-6) & (times <= frames[-1] + 1e-6)
+        side[inside] = flags[k[inside]]
+    return side
+
+
+def yaw_rows(s: Samples, *, yaw: np.ndarray, side: np.ndarray, kept: np.ndarray) -> list[str]:
+    """Lines of the `--by-yaw` table of one take: per bin of `yaw`, the samples, the share
+    `side`, arm ° and hand cm; then the yaw of the cut samples."""
+    lines = [" yaw °       samples  sideways %  arm °  hand cm"]
+    for a, b in itertools.pairwise(YAW_BINS):
+        rows = (yaw >= a) & (yaw < b)
+        if rows.sum() < 20:  # a fifth of a second: too few to say
+            continue
+        arm, hand = errors(s, rows, "limited")
+        lines.append(f" {a:3.0f}–{b:<4.0f} {rows.sum():9d} {100 * side[rows].mean():11.0f} "
+                     f"{arm:6.1f} {hand:8.1f}")  # fmt: skip
+    if (~kept).any():
+        p = np.percentile(yaw[~kept], [0, 10, 50, 90, 100])
+        cut = "min {:.1f}, 10 % {:.1f}, median {:.1f}, 90 % {:.1f}, max {:.1f}".format(*p)
+        lines.append(f" cut samples' yaw °: {cut}; kept: median {np.median(yaw[kept]):.1f}")
+    return lines
+
+
 def settings(pairs: list[str]) -> dict:
     """`qc.KEY=VALUE` pairs (JSON values; `none` for None) as a config dict."""
     tree: dict = {}
@@ -195,6 +261,7 @@ def main() -> None:
     ap.add_argument("--azimuths", type=float, nargs="+", help="level cameras at these instead")
     ap.add_argument("--set", nargs="*", default=[], help="qc.KEY=VALUE to re-judge with")
     ap.add_argument("--out", type=Path, help="work folder (kept, builds reused)")
+    ap.add_argument("--by-yaw", action="store_true", help="renders: samples by the truth's turn")
     args = ap.parse_args()
     tmp = None if args.out else tempfile.TemporaryDirectory()
     root = Path(args.out or tmp.name)  # type: ignore[union-attr]
@@ -203,7 +270,7 @@ def main() -> None:
     if args.mocap:
         takes = mocap_folders(root / "videos")
     else:
-        views = ((60.0, 0.0),) if args.quick else VIEWS
+        views: tuple[tuple[float, float], ...] = ((60.0, 0.0),) if args.quick else VIEWS
         views = tuple((a, 0.0) for a in args.azimuths) if args.azimuths else views
         motions = ["test"] if args.quick else args.motions
         takes = [render_folder(m, az, el, root / "videos") for m in motions for az, el in views]
@@ -235,6 +302,10 @@ def main() -> None:
                *(f"{v:.1f}" for v in arm), *(f"{v:.1f}" for v in hand), why]  # fmt: skip
         print(" | ".join(row), flush=True)  # as it comes: a full run takes a while
         table.add_row(*row)
+        if args.by_yaw and not args.mocap:
+            yaw = truth_yaw(folder, s.times)
+            lines = yaw_rows(s, yaw=yaw, side=sideways_samples(built, s.times), kept=kept)
+            print("\n".join(lines), flush=True)
     Console(width=220).print(table)
     if tmp is not None:
         tmp.cleanup()

@@ -29,7 +29,9 @@ clips' 100 Hz frames by the source of their head (`clip.head_source`: the face m
 face keypoints): the share of each and its head error, so the mesh, the fallback and the chosen
 mix are each scored. `--head-source body` builds with the body's keypoints only (the head
 before issue 40); `--every-clip` scores the clips QC rejected too (side views, arms at a limit:
-their heads are still measured).
+their heads are still measured). `--cameras N` renders each view as a calibrated rig of N cameras
+spread over `[synth] rig_spread_deg` around its azimuth and builds it as one multi-camera take
+(the `multiview` lifter; the head from every camera's face, `datasets.head.rig_head`).
 
     .venv/bin/python benchmarks/pipeline_truth.py [--looks tshirt sleeves] [--azimuths 0 30 60]
     .venv/bin/python benchmarks/pipeline_truth.py --bvh test2.bvh test3.bvh --start 0 \
@@ -69,8 +71,9 @@ from gesturebank.qc.metrics import facing_away
 from gesturebank.robot import pepper
 from gesturebank.robot.pepper import JOINTS
 from gesturebank.samples import default_samples_dir, fetch_samples
-from gesturebank.synth.take import Performer, cached_render, render_cache
-from gesturebank.synth.truth import Truth
+from gesturebank.synth.take import Performer, cached_render, render_cache, rig_azimuths
+from gesturebank.synth.truth import CALIBRATION, VIDEOS, Truth
+from gesturebank.synth.truth import SPEECH as SPEECH_WAV
 
 BVH_DIR = "bvhtools/testBvhFiles"
 START_S, LENGTH_S = 31.0, 20.0  # issue 30's acceptance stretch
@@ -80,13 +83,15 @@ VIEWS_OFF = {"qc": {"max_facing_away_fraction": 1.0, "max_sideways_fraction": 1.
 
 def render(config: Config, *, azimuth: float, look: str, length_s: float,
            size: tuple[int, int], bvh: str = "test.bvh", start_s: float = START_S,
-           elevation: float = 0.0) -> Truth:  # fmt: skip
+           elevation: float = 0.0, cameras: int = 1) -> Truth:  # fmt: skip
     samples = default_samples_dir()
     path = samples / BVH_DIR / bvh
     if not path.is_file():
         fetch_samples(samples)
     synth = SynthConfig.model_validate({
-        "azimuths_deg": [azimuth], "start_s": start_s, "length_s": length_s, "look": look,
+        "azimuths_deg": rig_azimuths(centre_deg=azimuth, count=cameras,
+                                     spread_deg=config.synth.rig_spread_deg),
+        "start_s": start_s, "length_s": length_s, "look": look,
         "width_px": size[0], "height_px": size[1], "elevation_deg": elevation,
     })  # fmt: skip
     speech = [samples / rel for rel in SPEECH]
@@ -129,12 +134,16 @@ def measure(truth: Truth, config: Config, out: Path, *, every_clip: bool = False
     """Build the render's video into `out` and score its kept clips (`every_clip`: every clip
     it made, QC's verdict aside) against both truths."""
     status: Status | None = None if every_clip else "accepted"
-    build_dataset(
-        discover_takes(truth.videos[0].parent),
-        videos_dir=truth.videos[0].parent,
-        out=out,
-        config=config,
-    )
+    videos = truth.videos[0].parent
+    if len(truth.videos) > 1:  # a calibrated rig: one multi-camera take (its files linked)
+        take = out.parent / f"{out.name}-take" / "rig"
+        (take / VIDEOS).mkdir(parents=True)
+        for video in truth.videos:
+            (take / VIDEOS / video.name).symlink_to(video)
+        for name in (CALIBRATION, SPEECH_WAV):
+            (take / name).symlink_to(truth.folder / name)
+        videos = take.parent
+    build_dataset(discover_takes(videos), videos_dir=videos, out=out, config=config)
     dataset = open_dataset(out)
     stored, pipeline_truth, unlimited, sources = [], [], [], []
     deep, wrong = 0, 0
@@ -149,9 +158,12 @@ def measure(truth: Truth, config: Config, out: Path, *, every_clip: bool = False
         clip = dataset.load(row.clip.clip_id)
         frames = np.round((clip.timestamps + clip.start_s - truth.times[0]) * truth.fps)
         frames = np.clip(frames.astype(int), 0, len(truth.times) - 1)
-        signs = sign_errors(
-            camera_axes(clip.pose3d), truth.joints3d[frames], camera=truth.cameras[0]
+        lifted = (
+            truth.cameras[0].to_camera(clip.pose3d.joints.astype(np.float64))
+            if clip.pose3d.frame == "world"  # a rig's triangulated joints
+            else camera_axes(clip.pose3d)
         )
+        signs = sign_errors(lifted, truth.joints3d[frames], camera=truth.cameras[0])
         deep += sum(n for n, _ in signs.values())
         wrong += sum(w for _, w in signs.values())
         limited_truth, free_truth = truths(truth, clip.times + clip.start_s, config)
@@ -228,6 +240,13 @@ def main() -> None:
         help="camera heights, degrees above the horizon",
     )
     parser.add_argument(
+        "--cameras",
+        type=int,
+        default=1,
+        help="cameras per view: more makes a calibrated rig spread over [synth] rig_spread_deg "
+        "around each azimuth, built as one multi-camera take (the multiview lifter)",
+    )
+    parser.add_argument(
         "--head-source",
         choices=["face", "body"],
         help="retarget.head_source of the build (default: the configuration's)",
@@ -258,13 +277,15 @@ def main() -> None:
                  for az in azimuths]  # fmt: skip
         for bvh, look, azimuth, elevation in views:
             truth = render(defaults, azimuth=azimuth, look=look, length_s=length, size=size,
-                           bvh=bvh, start_s=args.start, elevation=elevation)  # fmt: skip
+                           bvh=bvh, start_s=args.start, elevation=elevation,
+                           cameras=args.cameras)  # fmt: skip
             true_2d = truth.joints2d[0]
             away = facing_away(true_2d, np.ones(true_2d.shape[:2], dtype=bool)).mean()
             for qc, config in configs.items():
                 name = f"{bvh}-{look}-{azimuth:g}-{elevation:g}-{qc}"
                 got = measure(truth, config, Path(tmp) / name, every_clip=args.every_clip)
                 view = f"{azimuth:g}°" + (f" ↑{elevation:g}°" if elevation else "")
+                view += f" ×{args.cameras}" if args.cameras > 1 else ""
                 first = (bvh, look, view, f"{100 * away:.0f}", qc)
                 kept = f"{got.kept_s:.1f} / {length:g}"
                 reasons = "; ".join(got.reasons) or "-"

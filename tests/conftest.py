@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+
+from tests.quick_benchmarks import QuickRuns
+
+QUICK_RUNS = pytest.StashKey[QuickRuns]()
 
 
 @pytest.fixture(scope="session")
@@ -16,6 +21,37 @@ def samples() -> Path:
     root = default_samples_dir()  # $GESTUREBANK_SAMPLES (the Makefile sets it) or the cache dir
     fetch_samples(root)
     return root
+
+
+@pytest.fixture(scope="session", autouse=True)
+def quick_runs(request: pytest.FixtureRequest) -> Iterator[QuickRuns | None]:
+    """The selected benchmarks' --quick runs, started with the session beside the tests
+    (tests/quick_benchmarks.py); None when no benchmark test is selected."""
+    scripts = [
+        item.callspec.params["script"]
+        for item in request.session.items
+        if isinstance(item, pytest.Function)
+        and item.originalname == "test_quick_mode_runs_and_prints_a_table"
+    ]
+    try:
+        samples = request.getfixturevalue("samples") if scripts else None
+    except Exception:  # no media: the tests that need it fail on their own `samples`, not all
+        samples = None
+    if samples is None:
+        yield None
+        return
+    runs = QuickRuns(scripts, samples)
+    request.config.stash[QUICK_RUNS] = runs
+    try:
+        yield runs
+    finally:
+        runs.close()
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    runs = terminalreporter.config.stash.get(QUICK_RUNS, None)
+    if runs is not None and runs.seconds:
+        terminalreporter.write_line(f"benchmarks' --quick runs: {runs.report()}")
 
 
 @pytest.fixture(scope="session")

@@ -1,17 +1,17 @@
 """Every benchmark runs in its `--quick` mode, so none rots (benchmarks/README.md).
 
 The scripts are found, not listed: each `benchmarks/*.py` whose source has a `"--quick"` flag is
-run in a subprocess as a user would run it, from the repository, on the test's sample media.
+run in a subprocess as a user would run it, from the repository, on the test's sample media;
+the runs start with the session, beside the other tests (tests/quick_benchmarks.py).
 """
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.quick_benchmarks import QuickRuns
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = sorted((ROOT / "benchmarks").glob("*.py"))
@@ -42,18 +42,12 @@ def test_every_benchmark_has_a_quick_mode() -> None:
 
 
 @pytest.mark.parametrize("script", _quick_params())
-def test_quick_mode_runs_and_prints_a_table(script: Path, samples: Path) -> None:
-    # UTF-8 out, so rich draws its box characters rather than an ASCII fallback.
-    env = os.environ | {"GESTUREBANK_SAMPLES": str(samples), "PYTHONIOENCODING": "utf-8"}
-    done = subprocess.run(
-        [sys.executable, str(script), "--quick"],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        encoding="utf-8",
-        timeout=900,  # a guard against a hang, not a speed requirement
-    )
+def test_quick_mode_runs_and_prints_a_table(
+    script: Path, samples: Path, quick_runs: QuickRuns | None
+) -> None:
+    # run on `samples` in a subprocess as a user would, started with the session (conftest.py)
+    assert quick_runs is not None and quick_runs.samples == samples
+    done = quick_runs.result(script)
     # both streams: faults.py says which row failed on stderr and why (its table) on stdout
     assert done.returncode == 0, (
         f"{script.name} --quick exited {done.returncode}:\n{done.stderr}\n{done.stdout[-6000:]}"

@@ -3,6 +3,8 @@
 import os
 import subprocess
 import sys
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -14,6 +16,15 @@ def run(*args: str, columns: int | None = None) -> subprocess.CompletedProcess[s
     cmd = [str(BIN / args[0]), *args[1:]]
     env = None if columns is None else {**os.environ, "COLUMNS": str(columns)}
     return subprocess.run(cmd, capture_output=True, text=True, timeout=120, check=False, env=env)
+
+
+def run_each(
+    cases: Sequence[Sequence[str]], *, columns: int | None = None
+) -> list[subprocess.CompletedProcess[str]]:
+    """`run` of each command, two at a time (independent commands; each one's start, mostly
+    imports, keeps one core busy), in the order given."""
+    with ThreadPoolExecutor(max_workers=min(2, os.cpu_count() or 1)) as pool:
+        return list(pool.map(lambda args: run(*args, columns=columns), cases))
 
 
 def fits(text: str, columns: int = 80) -> bool:
@@ -53,9 +64,18 @@ COMMANDS = [
 ]
 
 
+@pytest.fixture(scope="module")
+def helps() -> dict[str, subprocess.CompletedProcess[str]]:
+    """`gesturebank COMMAND --help` of every command, run two at a time."""
+    done = run_each([("gesturebank", command, "--help") for command in COMMANDS])
+    return dict(zip(COMMANDS, done, strict=True))
+
+
 @pytest.mark.parametrize("command", COMMANDS)
-def test_each_command_has_help(command: str) -> None:
-    r = run("gesturebank", command, "--help")
+def test_each_command_has_help(
+    command: str, helps: dict[str, subprocess.CompletedProcess[str]]
+) -> None:
+    r = helps[command]
     assert r.returncode == 0
     assert "Usage: gesturebank " + command in r.stdout
 
@@ -93,8 +113,8 @@ def test_usage_errors_exit_2_with_one_line(tmp_path: Path) -> None:
         (("build-dataset", str(videos), str(tmp_path / "o"), "--set", "audio.nfilt=0"), "nfilt"),
         (("config", "--set", "qc.outlier_z=-1"), "qc.outlier_z"),
     ]
-    for args, message in cases:
-        r = run("gesturebank", *args)
+    done = run_each([("gesturebank", *args) for args, _ in cases])
+    for (args, message), r in zip(cases, done, strict=True):
         assert r.returncode == 2, (args, r.stderr)
         lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
         assert len(lines) == 1, r.stderr
@@ -145,8 +165,8 @@ def test_train_and_qc_output_errors_are_one_line(demo_dataset: Path, tmp_path: P
         (("train", str(dataset), *sd, "--out", str(blocker / "m")), "cannot write the model"),
         (("qc", str(dataset)), f"{dataset}: cannot write the QC results"),
     ]
-    for args, message in cases:
-        r = run("gesturebank", *args)
+    done = run_each([("gesturebank", *args) for args, _ in cases])
+    for (args, message), r in zip(cases, done, strict=True):
         assert r.returncode == 2, (args, r.stderr)
         lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
         assert len(lines) == 1 and message in lines[0], r.stderr
@@ -237,8 +257,7 @@ def test_every_writer_keeps_an_existing_output_unless_forced(tmp_path: Path) -> 
         ("replay", str(tmp_path / "t.csv"), "--backend", "record", "--out", str(kept)),
         ("live", str(model), "--backend", "record", "--input", wav, "--out", str(kept)),
     ]
-    for args in cases:
-        r = run("gesturebank", *args)
+    for args, r in zip(cases, run_each([("gesturebank", *a) for a in cases]), strict=True):
         assert r.returncode == 2, (args, r.stdout, r.stderr)
         assert "already exists and is kept; --force replaces it" in r.stderr, (args, r.stderr)
     assert kept.read_text() == "precious" and (model / "model.json").read_text() == "{}"
@@ -276,8 +295,8 @@ def test_every_name_choice_says_the_flag_the_values_and_the_closest(tmp_path: Pa
         (("replay", str(timeline), "--backend", "smi", "--out", str(tmp_path / "v.mp4")),
          "--backend", "sim", "record"),
     ]  # fmt: skip
-    for args, flag, closest, listed in cases:
-        r = run("gesturebank", *args, columns=200)
+    done = run_each([("gesturebank", *c[0]) for c in cases], columns=200)
+    for (args, flag, closest, listed), r in zip(cases, done, strict=True):
         assert r.returncode == 2, (args, r.stderr)
         assert flag in r.stderr and f"did you mean {closest!r}?" in r.stderr, (args, r.stderr)
         assert listed in r.stderr, (args, r.stderr)
@@ -287,12 +306,13 @@ def test_unknown_plugin_names_are_one_usage_error_before_any_take(tmp_path: Path
     videos, out = tmp_path / "videos", tmp_path / "out"
     (videos / "s1").mkdir(parents=True)
     (videos / "s1" / "a.mp4").write_bytes(b"")  # would fail as a take: no take may start
-    for option, message in [
+    cases = [
         (("--detector", "foo"), "unknown detector 'foo' (--detector); one of: blazepose"),
         (("--lifter", "bar"), "unknown lifter 'bar' (--lifter); one of: blazepose-world"),
         (("--set", "robot.profile=nao"), "unknown robot profile 'nao'"),
-    ]:
-        r = run("build-dataset", str(videos), str(out), "--quiet", *option)
+    ]
+    done = run_each([("build-dataset", str(videos), str(out), "--quiet", *o) for o, _ in cases])
+    for (option, message), r in zip(cases, done, strict=True):
         assert r.returncode == 2, (option, r.stdout, r.stderr)
         lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
         assert len(lines) == 1 and message in lines[0], r.stderr
@@ -365,7 +385,8 @@ def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_pat
 
     video = samples / "talking" / "lab" / "cam01_arctic.mp4"
     out = tmp_path / "ds"
-    r = gb("build-dataset", str(video), str(out))
+    fast = ("--set", "video.max_fps=10")  # a third of the frames detected: the cache is the point
+    r = gb("build-dataset", str(video), str(out), *fast)
     assert r.returncode == 0, r.stderr
     assert "from the cache" not in r.stdout  # a first build detects
     env["COLUMNS"] = "80"
@@ -378,7 +399,7 @@ def test_the_detection_cache_is_shown_counted_and_cleared(samples: Path, tmp_pat
     assert "set by $GESTUREBANK_CACHE" in lines[1] and all(len(ln) <= 80 for ln in lines[1:])
     assert "1 entry, " in r.stdout
     env["COLUMNS"] = "200"
-    r = gb("build-dataset", str(video), str(out), "--force")
+    r = gb("build-dataset", str(video), str(out), "--force", *fast)
     assert r.returncode == 0, r.stderr
     assert "1 of 1 takes built took their detections from the cache" in r.stdout, r.stdout
     r = gb("cache", "clear")

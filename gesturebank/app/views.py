@@ -13,7 +13,7 @@ import numpy as np
 
 from gesturebank.audio.io import Audio
 from gesturebank.config import Config
-from gesturebank.datasets.head import FaceHead
+from gesturebank.datasets.head import FaceHead, rig_head
 from gesturebank.datasets.takes import Take
 from gesturebank.errors import InputError
 from gesturebank.geometry import Camera
@@ -217,7 +217,8 @@ def multi_view(take: Take, *, config: Config, chunks: DetectionCache | None) -> 
     """A multi-camera take: every camera detected and repaired, triangulated by the multi-view
     lifter. The reference camera's clock, shots and speaker stand for the take, its 2D pose is
     kept to be drawn; the QC judges the 3D as every camera sees it (the cameras travel in the
-    3D pose's `cameras`, set by the lifter), not the reference camera's 2D. The
+    3D pose's `cameras`, set by the lifter), not the reference camera's 2D. The head from the
+    face is every camera's that found it, averaged (`datasets.head.rig_head`). The
     audio is a .wav beside the videos, else the camera track with the most energy, moved onto
     the reference clock by the camera offsets the lifter used."""
     from gesturebank.app.extract import extract_take
@@ -273,12 +274,22 @@ def multi_view(take: Take, *, config: Config, chunks: DetectionCache | None) -> 
         cached=None if None in (hits := [x.info.cache_hit for x in exts]) else all(hits),
         tracking=_tracking_json(e.tracked.report),
         preview=e.preview,
-        face=face_head(
-            e.heads,
-            e.tracked.report.main_ids,
-            image_size=poses[ref].image_size,
-            config=config,
-            camera=cameras[ref],
+        face=rig_head(
+            [
+                face_head(
+                    x.heads,
+                    x.tracked.report.main_ids,
+                    image_size=pose.image_size,
+                    config=config,
+                    camera=camera,
+                )
+                for x, pose, camera in zip(exts, poses, cameras, strict=True)
+            ],
+            times=[pose.timestamps for pose in poses],
+            offsets_s=report.offsets_s,
+            cameras=list(cameras),
+            reference=ref,
+            max_residual=config.retarget.head_max_fit_residual,
         ),
         camera=cameras[ref],
     )

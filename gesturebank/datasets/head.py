@@ -11,11 +11,13 @@ least sure, and made the fallback worse (test.bvh 0–6 s rendered at 60° from 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from gesturebank.clip import HEAD_SOURCES
+from gesturebank.extract.head_pose import orthonormal
 from gesturebank.geometry import Camera
 from gesturebank.lift.scoring import AXES
 from gesturebank.poses import Pose3D
@@ -36,6 +38,54 @@ class FaceHead:
 
     def frames(self, a: int, b: int) -> FaceHead:
         return FaceHead(self.axes[a:b], self.residual[a:b])
+
+
+def rig_head(
+    heads: Sequence[FaceHead | None],
+    *,
+    times: Sequence[np.ndarray],
+    offsets_s: Sequence[float] | np.ndarray,
+    cameras: Sequence[Camera],
+    reference: int,
+    max_residual: float,
+) -> FaceHead | None:
+    """The face heads of a calibrated rig's cameras as one, on the reference camera's frames and
+    in its axes: each camera's head axes (T_c, 3, 3) turned into the reference camera's axes
+    (R_ref·R_cᵀ), taken at the camera's frame nearest each reference frame on the reference
+    clock (`times[c]` − `offsets_s[c]`, as `lift.multiview.sync.align`; none past half a frame),
+    and averaged where one or more cameras found the face with a fit residual of at most
+    `max_residual` (`retarget.head_max_fit_residual`; the rotation nearest their sum); the
+    residual is the largest of those averaged. None when no camera has a face head.
+
+    The cameras' own heads differ by the face model's error in each view, which averaging
+    halves (benchmarks/head_rig.py, held out, 4 cameras: each camera 7.1–9.1°, averaged
+    4.8–7.7°)."""
+    if all(h is None for h in heads):
+        return None
+    ref_t = np.asarray(times[reference], np.float64)
+    ref_r = np.asarray(cameras[reference].R, np.float64)
+    total = np.zeros((len(ref_t), 3, 3))
+    count = np.zeros(len(ref_t), int)
+    residual = np.full(len(ref_t), np.nan)
+    for head, t, offset, camera in zip(heads, times, offsets_s, cameras, strict=True):
+        if head is None or len(t) == 0:
+            continue
+        moved = np.asarray(t, np.float64) - float(offset)
+        step = float(np.median(np.diff(moved))) if len(moved) > 1 else np.inf
+        k = np.clip(np.searchsorted(moved, ref_t), 1, max(1, len(moved) - 1))
+        k = np.where(np.abs(moved[k - 1] - ref_t) <= np.abs(moved[k] - ref_t), k - 1, k)
+        k = np.clip(k, 0, len(moved) - 1)
+        near = np.abs(moved[k] - ref_t) <= step / 2 + 1e-9
+        axes = ref_r @ np.asarray(camera.R, np.float64).T @ np.asarray(head.axes, np.float64)[k]
+        fit = np.asarray(head.residual, np.float64)[k]
+        ok = near & np.isfinite(axes).all(axis=(1, 2)) & (fit <= max_residual)
+        total[ok] += axes[ok]
+        count[ok] += 1
+        residual[ok] = np.fmax(residual[ok], fit[ok])
+    axes = np.full(total.shape, np.nan)
+    seen = count > 0
+    axes[seen] = orthonormal(total[seen])
+    return FaceHead(axes, residual)
 
 
 def in_pose_frame(axes: np.ndarray, *, pose3d: Pose3D, camera: Camera | None) -> np.ndarray | None:

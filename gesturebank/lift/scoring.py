@@ -18,6 +18,10 @@ Mirror consistency is measured with `mirror_view` (the image flipped left-right,
 right keypoints exchanged) and `mirror_angles` (the robot's angles of the mirrored motion turned
 back). Lifters output different frames; `camera_axes` turns each into the camera's axes (x right,
 y down, z forward).
+
+Oracles (issue 39's floors, benchmarks/heldout.py --floors) set one thing a lift cannot see in
+its image true: the arm bones' depth signs, the torso's tilt towards the camera, or every
+joint's depth on its 2D ray.
 """
 
 from __future__ import annotations
@@ -207,3 +211,59 @@ def score_lift(
     per_joint, elbow, hand, head = score_angles(angles, true_angles)
     signs = sign_errors(joints, truth, camera=camera)
     return LiftScore(per_joint, signs, elbow, hand, head, head_bias_deg(angles, true_angles))
+
+
+# Oracles (issue 39's floors): the lift with one thing it cannot see in the image set true, so
+# the error that remains says how much of the error that thing is.
+
+
+def with_true_depth_signs(lifted: np.ndarray, truth_camera: np.ndarray) -> np.ndarray:
+    """Lifted joints (T, 17, 3), camera axes, with each arm bone whose direction along the
+    camera ray through its parent disagrees in sign with the truth (T, 17, 3, camera axes)
+    reflected across the plane normal to that ray (its image nearly unchanged), the joints
+    below it carried along: the lift with the frontal ambiguity resolved right."""
+    out = np.array(lifted, dtype=np.float64)
+    for side in ("left", "right"):
+        s, e, w = (COCO17.index[f"{side}_{j}"] for j in ("shoulder", "elbow", "wrist"))
+        for parent, child, carried in ((s, e, [e, w]), (e, w, [w])):
+            ray = truth_camera[:, parent] / np.linalg.norm(truth_camera[:, parent], axis=-1,
+                                                           keepdims=True)  # fmt: skip
+            mine = np.sum((out[:, child] - out[:, parent]) * ray, -1)
+            true = np.sum((truth_camera[:, child] - truth_camera[:, parent]) * ray, -1)
+            wrong = np.flatnonzero(np.isfinite(mine + true) & (np.sign(mine) != np.sign(true)))
+            out[np.ix_(wrong, np.asarray(carried))] -= (
+                2.0 * (mine[wrong, None] * ray[wrong])[:, None]
+            )
+    return out
+
+
+def at_true_depth(keypoints: np.ndarray, *, camera: Camera, truth_camera: np.ndarray) -> np.ndarray:
+    """(T, 17, 3) camera axes: each joint on the ray through its pixel (keypoints (T, 17, ≥2)
+    of `camera`) at the true joint's depth (truth_camera (T, 17, 3)): what a lifter that knew
+    every depth would make of this 2D, so its error is the 2D's alone (none for the true 2D)."""
+    rays = camera.undistort_points(np.asarray(keypoints, np.float64)[..., :2], normalised=True)
+    depth = truth_camera[..., 2:3]
+    return np.concatenate([rays * depth, depth], axis=-1)
+
+
+def torso_tilt_deg(joints: np.ndarray) -> np.ndarray:
+    """(T,) the torso's tilt away from the camera, degrees, of joints (T, 17, 3) in camera axes
+    (x right, y down, z forward): mid-hip → neck in the y–z plane, 0 upright, + the top away."""
+    spine = joints[:, [5, 6]].mean(axis=1) - joints[:, [11, 12]].mean(axis=1)
+    return np.asarray(np.rad2deg(np.arctan2(spine[:, 2], -spine[:, 1])))
+
+
+def with_true_tilt(lifted: np.ndarray, truth_camera: np.ndarray) -> np.ndarray:
+    """Lifted joints (T, 17, 3), camera axes, with the hips (and legs) turned per frame about the
+    camera's x axis through the neck so the torso's tilt (`torso_tilt_deg`) is the truth's (T,
+    17, 3, camera axes), the arms and face kept as lifted (turning the whole body would change
+    no robot angle)."""
+    out = np.array(lifted, dtype=np.float64)
+    turn = np.deg2rad(torso_tilt_deg(truth_camera) - torso_tilt_deg(out))[:, None]
+    neck = out[:, [5, 6]].mean(axis=1, keepdims=True)
+    rel = out[:, 11:] - neck
+    up, away = -rel[..., 1], rel[..., 2]  # the tilt turns (up, away) by `turn`
+    rel[..., 1] = -(up * np.cos(turn) - away * np.sin(turn))
+    rel[..., 2] = up * np.sin(turn) + away * np.cos(turn)
+    out[:, 11:] = neck + rel
+    return out

@@ -1,6 +1,7 @@
 """The left/right swap repair (2D only; the first of `gesturebank.repair`'s three): per body
 group, a two-state Viterbi — labels as given / exchanged — over the group's frame-to-frame path
-length, and the short runs that disagree with the labels before them exchanged back.
+length (with a weak preference for the take's usual facing, `_FACING_PAIRS`), and the short runs
+that disagree with the labels before them exchanged back.
 """
 
 from __future__ import annotations
@@ -32,6 +33,18 @@ _MATCH_ORDER = ("legs", "arms", "face")
 # are a few pixels apart in 2D, too close for its motion alone to tell a swap; a head cannot
 # turn its left ear to the right shoulder, so the (already repaired) shoulders say which is which.
 _ANCHORS = {"face": ("left_shoulder", "right_shoulder")}
+# The pair of a group whose sides say which way the torso faces in 2D: the take's usual facing
+# is a weak preference (issue 41). A detector that takes a person for turned round exchanges
+# every label, and may enter that gradually (its skeleton turns over a few frames: no exchange
+# step to see) and leave it in one step, or the reverse. The motion then tells only that the
+# labels before and after the step differ, not which are right, and the run touching the take's
+# end was taken for right (test3.bvh at 0°: 0.97 s facing away, put right in one step at its
+# end, so the 10 s after it were called exchanged and nothing was repaired). Shoulder widths
+# per second facing the unusual way: a run of up to 2 s gains no more from it than its two
+# switches cost, so the preference alone never flips a short run; it decides between label
+# paths the motion explains about as well.
+_FACING_PAIRS = {"arms": "shoulder", "legs": "hip"}
+_FACING_PER_S = _SWITCH_PENALTY
 
 
 def _unsided(name: str) -> tuple[str, str] | None:
@@ -117,6 +130,35 @@ def _anchor_costs(roles: F64, anchor: F64, scale: float) -> F64:
     return (exchanged - given) / scale
 
 
+def _facing_costs(
+    points: F64, visible: Bools, *, skeleton: Skeleton, pair: str, timestamps: F64
+) -> F64:
+    """(T,) how much more the exchanged labels of `pair` ("shoulder", "hip") cost in each frame
+    of `points (T, K, 2)`: +_FACING_PER_S × the frame's length where the labels as given face
+    the take's usual way, minus that where they face the other way, 0 where the torso is not
+    seen. Facing as `qc.views` tells it: right → left across the torso's up (mid-hips →
+    mid-shoulders, or mid-shoulders → nose) turned clockwise faces away (image y down)."""
+    idx = skeleton.index
+    need = ("left_shoulder", "right_shoulder", "left_hip", "right_hip", "nose")
+    if not all(n in idx for n in need) or f"left_{pair}" not in idx:
+        return np.zeros(len(points))
+    xy = np.where(visible[..., None], points[..., :2], np.nan)
+    shoulders = (xy[:, idx["left_shoulder"]] + xy[:, idx["right_shoulder"]]) / 2
+    hips = (xy[:, idx["left_hip"]] + xy[:, idx["right_hip"]]) / 2
+    up = shoulders - hips
+    up = np.where(np.isfinite(up), up, xy[:, idx["nose"]] - shoulders)
+    across = xy[:, idx[f"left_{pair}"]] - xy[:, idx[f"right_{pair}"]]
+    turn = across[:, 0] * up[:, 1] - across[:, 1] * up[:, 0]
+    seen = np.isfinite(turn) & (turn != 0)
+    if not seen.any():
+        return np.zeros(len(points))
+    usual = np.mean(turn[seen] > 0) > 0.5  # the take faces away more often than not
+    ts = np.asarray(timestamps, np.float64)
+    dt = np.diff(ts, append=ts[-1] + (np.median(np.diff(ts)) if len(ts) > 1 else 0.0))
+    sign = np.where((turn > 0) == usual, 1.0, -1.0)
+    return np.where(seen, sign * _FACING_PER_S * dt, 0.0)
+
+
 def _viterbi(same: F64, cross: F64, penalty: float, exchanged: F64) -> Bools:
     """Cheapest state path `(n,)` (False = as given, True = exchanged) over n frames whose
     steps cost `same` when the state stays and `cross` + `penalty` when it changes, and whose
@@ -179,13 +221,15 @@ def swap_frames(
     max_swap_s: float,
     reset_gap_s: float,
     anchor: np.ndarray | None = None,
+    facing: np.ndarray | None = None,
 ) -> Bools:
     """(T,) True on the frames whose labels of one body group should be exchanged back.
 
     points (T, K, C), visible (T, K) bool (only visible points are evidence), pairs (P, 2)
     left/right indices of the group, scale: shoulder width in the points' units; anchor:
     optional (2,) indices of a pair whose sides the group's sides must also stay near (in the
-    points' current labels). The group's frames with a visible point are cut where it was
+    points' current labels); facing: optional (T,) cost of the exchanged labels per frame
+    (`_facing_costs`). The group's frames with a visible point are cut where it was
     unseen for longer than `reset_gap_s`; in each piece `_viterbi` labels every frame as given
     or exchanged, and `_short_runs` picks the runs to flip back. The frames between a flipped
     run's first and last frame are flipped too (unseen ones change nothing).
@@ -200,6 +244,8 @@ def swap_frames(
     else:
         sides = np.where(visible[:, anchor, None], points[:, anchor], np.nan)  # (T, 2, C)
         prefer = _anchor_costs(roles, sides, scale)
+    if facing is not None:
+        prefer = prefer + facing
     flip = np.zeros(len(ts), dtype=bool)
     for frames in _segments(seen, ts, reset_gap_s):
         if len(frames) < 2:
@@ -240,6 +286,11 @@ def repair_swaps(
         visible = ~(kp[..., 2] < config.visible_confidence)  # NaN confidence counts as seen
     for group, pairs in swap_groups(skeleton).items():
         anchor = [skeleton.index[a] for a in _ANCHORS.get(group, ()) if a in skeleton.index]
+        facing = None
+        if group in _FACING_PAIRS:
+            facing = _facing_costs(
+                kp, visible, skeleton=skeleton, pair=_FACING_PAIRS[group], timestamps=timestamps
+            )
         flip = swap_frames(
             points=kp[..., :2],
             visible=visible,
@@ -250,6 +301,7 @@ def repair_swaps(
             # unseen for longer than any run repaired: labels across that are not compared
             reset_gap_s=config.max_swap_s,
             anchor=np.array(anchor) if len(anchor) == 2 else None,
+            facing=facing,
         )
         if flip.any():
             kp = exchange(kp, pairs=pairs, frames=flip)

@@ -262,7 +262,9 @@ def test_ctrl_c_stops_cleanly_and_a_rerun_resumes(samples: Path, tmp_path: Path)
     done = {p.stem for p in (out / "takes").glob("*.json")}
     manifest = pq.read_table(out / "manifest.parquet").to_pylist()
     assert {r["take_id"] for r in manifest if r["qc_status"] != "failed"} == done
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    # the rerun may read the detection cache (the suite's other builds filled it): the cache
+    # was off above only so that the interrupt lands mid-build
+    r = subprocess.run(cmd[:-1], capture_output=True, text=True, timeout=300, check=False)
     assert r.returncode == 0, r.stdout
     takes = {r["take_id"] for r in pq.read_table(out / "manifest.parquet").to_pylist()}
     assert len(takes) == 3

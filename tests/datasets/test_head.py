@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gesturebank.datasets.head import BODY, FACE, in_pose_frame, mix_head
+from gesturebank.datasets.head import BODY, FACE, FaceHead, in_pose_frame, mix_head, rig_head
 from gesturebank.geometry import Camera
 from gesturebank.poses import Pose3D
 from gesturebank.robot import pepper
@@ -134,3 +134,47 @@ def test_a_fast_small_nod_survives_the_face_models_rate_and_the_processing() -> 
     inner = (clock > 0.5) & (clock < seconds - 0.5)
     swing = np.ptp(processed.angles[inner, P])
     assert swing >= 0.85 * 2 * amp
+
+
+def _camera(name: str, rotvec: tuple[float, float, float]) -> Camera:
+    k = np.array([[1000.0, 0, 640], [0, 1000.0, 360], [0, 0, 1]])
+    rotation = Rotation.from_rotvec(rotvec).as_matrix()
+    return Camera(name, (1280, 720), k, np.zeros(5), rotation, np.array([0.0, 0.0, 3.0]))
+
+
+def test_a_rigs_face_heads_are_averaged_on_the_reference_clock_in_its_axes() -> None:
+    """`rig_head`: two calibrated cameras, the second's clock 0.1 s ahead; each sees the head
+    turned 4° off the truth, the other way; averaged in the reference camera's axes they give
+    the truth. A frame only one camera saw (or fitted within the limit) takes that camera's
+    head; none: NaN."""
+    n = 12
+    world = Rotation.from_euler("ZYX", np.stack([np.linspace(0, 0.5, n), [0.2] * n, [0.0] * n],
+                                                axis=1)).as_matrix()  # fmt: skip
+    cams = [_camera("a", (0.0, 0.4, 0.0)), _camera("b", (0.1, -0.5, 0.0))]
+    off = Rotation.from_rotvec([0.0, np.radians(4.0), 0.0]).as_matrix()
+    seen = [c.R @ r @ world for c, r in zip(cams, (off, off.T), strict=True)]  # camera axes
+    times = [np.arange(n) / 10.0, np.arange(n) / 10.0 + 0.1]
+    heads = [FaceHead(seen[0], np.full(n, 0.01)), FaceHead(seen[1], np.full(n, 0.02))]
+    heads[0].axes[3] = np.nan  # camera a lost the face on frame 3
+    heads[1].residual[5] = 0.5  # camera b's fit on frame 5 is past the limit: not averaged
+    fused = rig_head(heads, times=times, offsets_s=[0.0, 0.1], cameras=cams, reference=0,
+                     max_residual=0.1)  # fmt: skip
+    assert fused is not None
+    truth = cams[0].R @ world
+    both = [k for k in range(n) if k not in (3, 5)]
+    angle = Rotation.from_matrix(np.swapaxes(fused.axes[both], 1, 2) @ truth[both]).magnitude()
+    assert np.degrees(angle).max() < 0.3  # the two cameras' 4° errors cancel
+    alone = cams[0].R @ cams[1].R.T @ seen[1][3]
+    assert np.allclose(fused.axes[3], alone, atol=1e-9)
+    assert np.allclose(fused.residual[both], 0.02)
+    assert np.allclose(fused.axes[5], seen[0][5], atol=1e-9)  # camera a's alone
+    assert fused.residual[5] == pytest.approx(0.01)
+    # the second camera's clock 0.6 s ahead: the reference's first 6 frames are before its
+    # first (more than half a frame), the rest are its frames 0-5
+    late = rig_head([None, heads[1]], times=times, offsets_s=[0.0, -0.5], cameras=cams,
+                    reference=0, max_residual=1.0)  # fmt: skip
+    assert late is not None
+    assert np.isnan(late.axes[:6]).all()
+    assert np.allclose(late.axes[6:], cams[0].R @ cams[1].R.T @ seen[1][:6], atol=1e-9)
+    assert rig_head([None, None], times=times, offsets_s=[0.0, 0.1], cameras=cams,
+                    reference=0, max_residual=1.0) is None  # fmt: skip

@@ -1,0 +1,78 @@
+"""The floors' oracles (issue 39): a lift whose arm bones point the wrong way in depth gets the
+true signs back with its image kept, a lift tilted towards the camera gets the true tilt (its
+hips turned back, its arms kept), and the 2D put at the true depths is the truth."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gesturebank.camera_files import Camera
+from gesturebank.lift.scoring import (
+    at_true_depth,
+    sign_errors,
+    torso_tilt_deg,
+    with_true_depth_signs,
+    with_true_tilt,
+)
+from gesturebank.lift.training.lifter_motion import gesture_take
+from gesturebank.skeletons import COCO17
+
+# a person facing the camera 3 m away: world (forward, left, up) → camera (right, down, forward)
+TO_CAMERA = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [-1.0, 0.0, 0.0]])
+LS, LE, LW = (COCO17.index[f"left_{j}"] for j in ("shoulder", "elbow", "wrist"))
+# a camera at the origin of those axes (its world is the camera's own frame)
+CAMERA = Camera("truth", (1280, 720), np.array([[1000.0, 0.0, 640.0], [0.0, 1000.0, 360.0],
+                [0.0, 0.0, 1.0]]), np.zeros(0), np.eye(3), np.zeros(3))  # fmt: skip
+
+
+def _seen(seed: int) -> np.ndarray:
+    """(60, 17, 3) made-up gesture motion in the axes of a camera 3 m in front of it."""
+    world = gesture_take(np.random.default_rng(seed), 60)
+    return world @ TO_CAMERA.T + np.array([0.0, 0.0, 3.0])
+
+
+def _image(joints: np.ndarray) -> np.ndarray:
+    return joints[..., :2] / joints[..., 2:]
+
+
+def _reflected(joints: np.ndarray, parent: int, carried: list[int]) -> np.ndarray:
+    """`joints` with the bone from `parent` reflected across the plane normal to the ray through
+    `parent`: the frontal ambiguity's other answer."""
+    out = joints.copy()
+    ray = out[:, parent] / np.linalg.norm(out[:, parent], axis=-1, keepdims=True)
+    along = np.sum((out[:, carried[0]] - out[:, parent]) * ray, -1)
+    out[:, carried] -= 2.0 * (along[:, None] * ray)[:, None]
+    return out
+
+
+def test_true_depth_signs_undo_a_bone_turned_the_wrong_way() -> None:
+    truth = _seen(0)
+    wrong = _reflected(truth, LS, [LE, LW])
+    # the wrong answer looks (nearly) the same from the camera, yet its depth signs are wrong
+    assert np.abs(_image(wrong) - _image(truth)).max() < 0.02
+    deep, flipped = sign_errors(wrong, truth, camera=CAMERA)["L upper arm"]
+    assert deep > 0 and flipped == deep
+    assert np.allclose(with_true_depth_signs(wrong, truth), truth)
+    assert np.allclose(with_true_depth_signs(truth, truth), truth)  # right signs: untouched
+
+
+def test_the_true_2d_at_true_depth_is_the_truth() -> None:
+    truth = _seen(2)
+    pixels = CAMERA.project(truth)
+    assert np.allclose(at_true_depth(pixels, camera=CAMERA, truth_camera=truth), truth)
+    nudged = pixels + np.array([10.0, 0.0])  # 10 px to the right: x moves by 10 / f of the depth
+    moved = at_true_depth(nudged, camera=CAMERA, truth_camera=truth) - truth
+    assert np.allclose(moved[..., 0], 0.01 * truth[..., 2]) and np.allclose(moved[..., 1:], 0)
+
+
+def test_true_tilt_undoes_a_torso_leaning_the_wrong_way() -> None:
+    truth = _seen(1)
+    turn = np.deg2rad(15.0)  # the whole body tilted 15° towards the camera about the neck
+    neck = truth[:, [5, 6]].mean(axis=1, keepdims=True)
+    rot = np.array([[1, 0, 0], [0, np.cos(turn), -np.sin(turn)], [0, np.sin(turn), np.cos(turn)]])
+    tilted = neck + (truth - neck) @ rot.T
+    assert np.abs(torso_tilt_deg(tilted) - torso_tilt_deg(truth)).min() > 14.0
+    hips = with_true_tilt(tilted, truth)
+    assert np.allclose(torso_tilt_deg(hips), torso_tilt_deg(truth))
+    assert np.allclose(hips[:, :11], tilted[:, :11])  # the arms and face stay as lifted
+    assert np.allclose(hips[:, 11:], truth[:, 11:])  # the hips turned back where they were
