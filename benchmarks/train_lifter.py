@@ -52,6 +52,8 @@ from gesturebank.lift.learned import PACKAGED, LearnedLifter
 from gesturebank.lift.learned import features as F
 from gesturebank.lift.scoring import look_at, project_view, score_lift
 from gesturebank.lift.training.lifter_net import (
+    ARM_WEIGHT,
+    TILT_WEIGHT,
     Architecture,
     Sampler,
     Schedule,
@@ -165,6 +167,7 @@ def main() -> None:
             "command": command,
             "schedule": {k: getattr(schedule, k) for k in ("steps", "batch", "outputs",
                          "lr_start", "lr_end", "rng_seed", "torch_threads", "workers")},
+            "loss": {"arm_weight": ARM_WEIGHT, "tilt_weight": TILT_WEIGHT},
             "minutes": round(minutes, 1),
             **({"started_from": _started_from(args.start_from)} if args.start_from else {}),
         })  # fmt: skip
