@@ -142,8 +142,10 @@ def head_split(scores: list[LiftScore]) -> str:
 
 
 def angle_diff_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(N, 11) |a − b| in degrees (periodic), NaN where either is unknown."""
-    d = np.abs(a - b)
+    """(N, 11) |a − b| in degrees (periodic), NaN where either is unknown. A lifter's angles
+    may lie more than a turn apart (ElbowYaw unwrapped over time): without the modulo such a
+    difference read negative (issue 39's Pose2Sim line, found this round)."""
+    d = np.abs(a - b) % (2 * np.pi)
     return np.rad2deg(np.minimum(d, 2 * np.pi - d))
 
 
