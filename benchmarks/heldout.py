@@ -37,7 +37,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from fidelity import IMAGE, TRUTH_BVH, angle_diff_deg, detect_cached, mean_median, render_truth
+from fidelity import IMAGE, TRUTH_BVH, detect_cached, mean_median, render_truth
 from rich.console import Console
 from rich.table import Table
 
@@ -53,6 +53,7 @@ from gesturebank.lift.agreement import Interval, agreement, bootstrap_over_clips
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
     ARM_JOINTS,
+    angle_error_deg,
     at_true_depth,
     camera_axes,
     project_view,
@@ -319,7 +320,7 @@ def pose2sim_floors_table() -> Table:
         placed = at_true_depth(poses[c].to_coco17().keypoints, camera=cam, truth_camera=seen)
         angles["the 2D at true depth"] = pepper_angles(placed, config=config.retarget)
         for name, a in angles.items():
-            rows[name].append(f"{np.nanmean(mean_median(angle_diff_deg(a, ref_angles))[0]):.1f}")
+            rows[name].append(f"{np.nanmean(mean_median(angle_error_deg(a, ref_angles))[0]):.1f}")
     for name, cells in rows.items():
         table.add_row(name, *cells)
     return table

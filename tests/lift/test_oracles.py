@@ -8,6 +8,7 @@ import numpy as np
 
 from gesturebank.camera_files import Camera
 from gesturebank.lift.scoring import (
+    angle_error_deg,
     at_true_depth,
     sign_errors,
     torso_tilt_deg,
@@ -76,3 +77,11 @@ def test_true_tilt_undoes_a_torso_leaning_the_wrong_way() -> None:
     assert np.allclose(torso_tilt_deg(hips), torso_tilt_deg(truth))
     assert np.allclose(hips[:, :11], tilted[:, :11])  # the arms and face stay as lifted
     assert np.allclose(hips[:, 11:], truth[:, 11:])  # the hips turned back where they were
+
+
+def test_angle_errors_are_periodic_however_many_turns_apart() -> None:
+    """A lifter's ElbowYaw is unwrapped over time, so it can lie turns away from the truth's:
+    the error is still the shorter way round, never negative (benchmarks' Pose2Sim means)."""
+    truth = np.deg2rad(np.array([10.0, -170.0, 0.0]))
+    lifted = truth + np.deg2rad(np.array([20.0 + 720.0, -30.0 - 360.0, 190.0]))
+    np.testing.assert_allclose(angle_error_deg(lifted, truth), [20.0, 30.0, 170.0], atol=1e-9)
