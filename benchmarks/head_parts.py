@@ -18,7 +18,7 @@ more cameras kept the face (the frames `benchmarks/head_rig.py` scores).
 Measured (held out, 0–10 s, renders 1280×720): from 30° above one camera, the lifter's torso
 leans back by about the camera's pitch (test2 at 0°: torso 28.6° off, face's part 2.9°, build
 17.2°); a rig's torso is within 2–3° and its error is the face's (test3 from above, 4 cameras:
-face's part 15.0°, each camera 12–17°, build 16.5°; test.bvh the same way: 5.1°).
+torso's part 2.1°, face's part 14.2°, each camera 16.0°, build 15.7°; test.bvh: 5.0°).
 
     .venv/bin/python benchmarks/head_parts.py --bvh test2.bvh test3.bvh --azimuths 0 30 60 \
         --elevations 0 30 [--cameras 4] [--length 10]
