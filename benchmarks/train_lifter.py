@@ -29,7 +29,8 @@ Demo_SinglePerson (26.7–32.8° against 31–39°) and from perfect 2D on held-
 BlazePose 2D of the held-out renders: better from 30° and 60° (arm 20.6 / 23.1° against 23.4 /
 25.8°), on fast motion (30.1–30.3° against 31.4–31.7°) and on Pose2Sim (24.6–33.1° against
 31.1–38.9°), worse at 0° and from above (19.9–20.2° against 16.1–19.2°) and on test.bvh 31–51 s
-(9.0–9.8° against 7.9–8.5°): not packaged either (CHANGELOG, issue 39).
+(9.0–9.8° against 7.9–8.5°): not packaged either (CHANGELOG, issue 39). These two paragraphs
+quote Pose2Sim under the benchmarks' old angle difference, which read low by 2–12°.
 
 With the torso's tilt as a target too (lifter_net.TILT_WEIGHT), 6,000 steps from scratch (31.6
 min on a busy machine; `--steps 6000`), lifting the build's BlazePose 2D (heldout.py --floors
