@@ -82,6 +82,7 @@ from gesturebank.lift.scoring import (
     ARM_BONES,
     DEEP,
     LiftScore,
+    angle_error_deg,
     look_at,
     mirror_angles,
     mirror_view,
@@ -139,12 +140,6 @@ def head_split(scores: list[LiftScore]) -> str:
     mae = np.mean([s.angle_error_deg[:2] for s in scores], axis=0)
     bias = np.mean([s.head_bias for s in scores], axis=0)
     return f"{mae[0]:.0f}/{mae[1]:.0f} ({bias[0]:+.0f}/{bias[1]:+.0f})"
-
-
-def angle_diff_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(N, 11) |a − b| in degrees (periodic), NaN where either is unknown."""
-    d = np.abs(a - b)
-    return np.rad2deg(np.minimum(d, 2 * np.pi - d))
 
 
 def mean_median(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -226,11 +221,11 @@ def consistency_table(
     for pair in splits[:1] if quick else splits:
         rest = tuple(i for i in all_idx if i not in pair)
         name = f"{'+'.join(cams.names[i] for i in pair)} vs {'+'.join(cams.names[i] for i in rest)}"
-        rows.append((name, angle_diff_deg(angles(pair), angles(rest))))
+        rows.append((name, angle_error_deg(angles(pair), angles(rest))))
     for left_out in all_idx[:1] if quick else all_idx:
         keep = tuple(i for i in all_idx if i != left_out)
         rows.append(
-            (f"all − {cams.names[left_out]} vs all", angle_diff_deg(angles(keep), reference))
+            (f"all − {cams.names[left_out]} vs all", angle_error_deg(angles(keep), reference))
         )
     table = Table(title="(a) reference self-consistency, Pepper angles, mean/median degrees")
     for col in ("comparison", *JOINTS, "mean", "median"):
@@ -577,7 +572,7 @@ def main() -> None:
             floor = floor_px(reference, c, cams, poses)
             xview.add_row(name, cams.names[c], f"{np.nanmedian(px):.1f}", f"{np.nanmean(px):.1f}",
                           f"{floor:.1f}", f"{fps:.0f}")  # fmt: skip
-            d = angle_diff_deg(pepper_angles(pose, config=config.retarget), ref_angles)
+            d = angle_error_deg(pepper_angles(pose, config=config.retarget), ref_angles)
             mean, _ = mean_median(d)
             angle.add_row(name, cams.names[c], *(f"{v:.0f}" for v in mean),
                           f"{np.nanmean(mean):.1f}", f"{np.nanmedian(d):.1f}")  # fmt: skip

@@ -37,7 +37,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from fidelity import IMAGE, TRUTH_BVH, angle_diff_deg, detect_cached, mean_median, render_truth
+from fidelity import IMAGE, TRUTH_BVH, detect_cached, mean_median, render_truth
 from rich.console import Console
 from rich.table import Table
 
@@ -53,11 +53,14 @@ from gesturebank.lift.agreement import Interval, agreement, bootstrap_over_clips
 from gesturebank.lift.multiview.lifter import MultiviewLifter, match_videos
 from gesturebank.lift.scoring import (
     ARM_JOINTS,
+    angle_error_deg,
     at_true_depth,
+    averaged_directions,
     camera_axes,
     project_view,
     score_angles,
     sign_errors,
+    with_nearer_directions,
     with_true_depth_signs,
     with_true_tilt,
 )
@@ -217,11 +220,21 @@ def agreement_table(clips: list[dict[str, np.ndarray]], *, draws: int) -> Table:
     return table
 
 
-def floors_table(config: Config) -> Table:
+TWO_LIFTS = {  # issue 39: BlazePose's world landmarks as a second input, combined with the net's
+    "blazepose-world": lambda j, w, t: w,
+    "directions averaged 0.75": lambda j, w, t: averaged_directions(j, w, weight=0.75),
+    "directions averaged 0.5": lambda j, w, t: averaged_directions(j, w, weight=0.5),
+    "the nearer of the two (oracle)": with_nearer_directions,
+}
+
+
+def floors_table(config: Config) -> tuple[Table, Table]:
     """The default lifter alone on the held-out T-shirt renders, from the true 2D and from
     BlazePose, as lifted and with oracles, and the 2D at the true depths (module doc): arm MAE
     ° / hand cm, and the wrong depth signs as lifted; the first and last also through the
-    build's processing (low-pass, reach, speed limit: `process_angles`, truth likewise)."""
+    build's processing (low-pass, reach, speed limit: `process_angles`, truth likewise). And
+    from BlazePose, its world landmarks (`blazepose-world`) and their combinations with the
+    lift (`TWO_LIFTS`), processed."""
     oracles = {
         "as lifted": lambda j, t: j,
         "true depth signs": with_true_depth_signs,
@@ -236,7 +249,13 @@ def floors_table(config: Config) -> Table:
     for col in ("motion", "camera", "2D", "wrong sign %", *oracles, "the 2D at true depth",
                 "processed: as lifted", "processed: 2D at true depth"):  # fmt: skip
         table.add_column(col, justify="right")
+    two = Table(title="Two lifts of BlazePose's 2D, the lift and BlazePose's world landmarks, "
+                "combined bone by bone (`lift.scoring`), processed as the build does: arm MAE ° "
+                "/ Pepper hand cm")  # fmt: skip
+    for col in ("motion", "camera", f"{config.lifter.name}", *TWO_LIFTS):
+        two.add_column(col, justify="right")
     lifter = LIFTERS.create(config.lifter.name, config)
+    world_lifter = LIFTERS.create("blazepose-world", config)
     profile = pepper.load_profile(config.robot.profile)
 
     def processed(angles: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -277,16 +296,23 @@ def floors_table(config: Config) -> Table:
                     cells.append(cell(processed(angles[name], truth.times), true_processed))
                 table.add_row(kind, camera, source, f"{100 * signs[1] / max(signs[0], 1):.0f}",
                               *cells)  # fmt: skip
-    return table
+                if source == "BlazePose":
+                    world = camera_axes(world_lifter.lift(TakeViews.of(pose, CameraGroup([cam]))))
+                    combined = [pepper_angles(combine(lifted, world, seen), config=config.retarget)
+                                for combine in TWO_LIFTS.values()]  # fmt: skip
+                    scores = [cell(processed(a, truth.times), true_processed) for a in combined]
+                    two.add_row(kind, camera, cells[-2], *scores)
+    return table, two
 
 
-def pose2sim_floors_table() -> Table:
-    """Pose2Sim Demo_SinglePerson (real footage, 60 fps): each camera lifted alone by the default
+def pose2sim_floors_table(given: Config) -> Table:
+    """Pose2Sim Demo_SinglePerson (real footage, 60 fps): each camera lifted alone by `given`'s
     lifter against the 4-camera triangulation (fidelity.py's (c): mean Pepper angle error over
     the 11 joints), as lifted and with the oracles of `floors_table` taking the triangulation
-    for the truth; `blazepose-world` for comparison (issue 39's Pose2Sim line)."""
+    for the truth, and combined with `blazepose-world` (`TWO_LIFTS`; issue 39's Pose2Sim line)."""
     root = default_samples_dir() / "pose2sim" / "Demo_SinglePerson"
     config = Config.model_validate({"video": {"max_fps": None}})  # the demo's 60 fps
+    config = config.model_copy(update={"lifter": given.lifter})
     cams = load_cameras(find_calibration(root))
     videos = match_videos(cams, sorted((root / "videos").glob("*.mp4")))
     poses = [extract_take(v, config, with_audio=False).tracked.pose for v in videos]
@@ -308,7 +334,9 @@ def pose2sim_floors_table() -> Table:
     lifters = {
         name: LIFTERS.create(name, config) for name in ("blazepose-world", config.lifter.name)
     }
-    rows: dict[str, list[str]] = {name: [] for name in (*variants, "the 2D at true depth")}
+    combined = [name for name in TWO_LIFTS if name != "blazepose-world"]
+    rows: dict[str, list[str]] = {name: [] for name in (*variants, *combined,
+                                                        "the 2D at true depth")}  # fmt: skip
     for c, cam in enumerate(cams):
         view = TakeViews.of(poses[c], cams.subset([cams.names[c]]))
         seen = cam.to_camera(world)
@@ -316,10 +344,14 @@ def pose2sim_floors_table() -> Table:
         angles = {name: pepper_angles(camera_axes(lifters[name].lift(view)) if oracle is None
                                       else oracle(lifted, seen), config=config.retarget)
                   for name, oracle in variants.items()}  # fmt: skip
+        other = camera_axes(lifters["blazepose-world"].lift(view))
+        for name in combined:
+            angles[name] = pepper_angles(TWO_LIFTS[name](lifted, other, seen),
+                                         config=config.retarget)  # fmt: skip
         placed = at_true_depth(poses[c].to_coco17().keypoints, camera=cam, truth_camera=seen)
         angles["the 2D at true depth"] = pepper_angles(placed, config=config.retarget)
         for name, a in angles.items():
-            rows[name].append(f"{np.nanmean(mean_median(angle_diff_deg(a, ref_angles))[0]):.1f}")
+            rows[name].append(f"{np.nanmean(mean_median(angle_error_deg(a, ref_angles))[0]):.1f}")
     for name, cells in rows.items():
         table.add_row(name, *cells)
     return table
@@ -339,8 +371,9 @@ def main() -> None:
         config = config.model_copy(update={"lifter": lifter})
     console = Console(width=max(Console().width, 160))  # 11 columns: keep them readable
     if args.floors:
-        console.print(floors_table(config))
-        console.print(pose2sim_floors_table())
+        for table in floors_table(config):
+            console.print(table)
+        console.print(pose2sim_floors_table(config))
         return
     for table in heldout_tables(config, quick=args.quick):
         console.print(table)

@@ -21,7 +21,9 @@ y down, z forward).
 
 Oracles (issue 39's floors, benchmarks/heldout.py --floors) set one thing a lift cannot see in
 its image true: the arm bones' depth signs, the torso's tilt towards the camera, or every
-joint's depth on its 2D ray.
+joint's depth on its 2D ray. Two lifts of one view (the net's and BlazePose's world landmarks)
+are combined bone by bone by `averaged_directions`, and by the oracle `with_nearer_directions`,
+the ceiling of any choice between them.
 """
 
 from __future__ import annotations
@@ -267,3 +269,66 @@ def with_true_tilt(lifted: np.ndarray, truth_camera: np.ndarray) -> np.ndarray:
     rel[..., 2] = up * np.sin(turn) + away * np.cos(turn)
     out[:, 11:] = neck + rel
     return out
+
+
+# Two lifts of one view combined bone by bone (issue 39: BlazePose's world landmarks as a second
+# input), the net's bone lengths kept: each bone (parent, child) from the neck (None) outwards.
+_I = COCO17.index
+_BONES = (
+    *((None, _I[j]) for j in ("left_shoulder", "right_shoulder", "left_hip", "right_hip", "nose")),
+    *((_I["nose"], _I[f"{s}_eye"]) for s in ("left", "right")),
+    *((_I[f"{s}_eye"], _I[f"{s}_ear"]) for s in ("left", "right")),
+    *((_I[f"{s}_{a}"], _I[f"{s}_{b}"]) for s in ("left", "right")
+      for a, b in (("shoulder", "elbow"), ("elbow", "wrist"))),
+)  # fmt: skip
+
+
+def _units(joints: np.ndarray) -> list[np.ndarray]:
+    """(T, 3) unit direction of each bone of `_BONES` in joints (T, 17, 3)."""
+    neck = joints[:, [5, 6]].mean(axis=1)
+    out = []
+    for parent, child in _BONES:
+        bone = joints[:, child] - (neck if parent is None else joints[:, parent])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out.append(bone / np.linalg.norm(bone, axis=-1, keepdims=True))
+    return out
+
+
+def _rebuilt(lifted: np.ndarray, units: list[np.ndarray]) -> np.ndarray:
+    """lifted (T, 17, 3) rebuilt from its neck with its own bone lengths along `units`."""
+    out = np.array(lifted, dtype=np.float64)
+    neck = out[:, [5, 6]].mean(axis=1)
+    for (parent, child), unit in zip(_BONES, units, strict=True):
+        start = neck if parent is None else out[:, parent]
+        length = np.linalg.norm(lifted[:, child] - (neck if parent is None
+                                                    else lifted[:, parent]), axis=-1)  # fmt: skip
+        out[:, child] = start + length[:, None] * unit
+    return out
+
+
+def averaged_directions(lifted: np.ndarray, other: np.ndarray, *, weight: float) -> np.ndarray:
+    """lifted (T, 17, 3, camera axes) with each bone along `weight` × its direction + (1 −
+    `weight`) × `other`'s (T, 17, 3, camera axes, any origin), normalised; where `other` lacks
+    the bone, lifted's own."""
+    units = []
+    for mine, theirs in zip(_units(lifted), _units(other), strict=True):
+        known = np.isfinite(theirs).all(axis=-1, keepdims=True)
+        mix = np.where(known, weight * mine + (1 - weight) * np.nan_to_num(theirs), mine)
+        units.append(mix / np.linalg.norm(mix, axis=-1, keepdims=True))
+    return _rebuilt(lifted, units)
+
+
+def with_nearer_directions(
+    lifted: np.ndarray, other: np.ndarray, truth_camera: np.ndarray
+) -> np.ndarray:
+    """An oracle: lifted (T, 17, 3, camera axes) with each bone, per frame, along whichever of its
+    own and `other`'s direction is nearer the truth's (T, 17, 3, camera axes): the best a choice
+    between the two lifts could do."""
+    units = []
+    for mine, theirs, true in zip(_units(lifted), _units(other), _units(truth_camera),
+                                  strict=True):  # fmt: skip
+        nearer = np.nan_to_num(np.sum(theirs * true, -1), nan=-2.0) > np.nan_to_num(
+            np.sum(mine * true, -1), nan=-2.0
+        )
+        units.append(np.where(nearer[:, None], theirs, mine))
+    return _rebuilt(lifted, units)

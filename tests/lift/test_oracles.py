@@ -8,9 +8,12 @@ import numpy as np
 
 from gesturebank.camera_files import Camera
 from gesturebank.lift.scoring import (
+    angle_error_deg,
     at_true_depth,
+    averaged_directions,
     sign_errors,
     torso_tilt_deg,
+    with_nearer_directions,
     with_true_depth_signs,
     with_true_tilt,
 )
@@ -76,3 +79,34 @@ def test_true_tilt_undoes_a_torso_leaning_the_wrong_way() -> None:
     assert np.allclose(torso_tilt_deg(hips), torso_tilt_deg(truth))
     assert np.allclose(hips[:, :11], tilted[:, :11])  # the arms and face stay as lifted
     assert np.allclose(hips[:, 11:], truth[:, 11:])  # the hips turned back where they were
+
+
+def test_angle_errors_are_periodic_however_many_turns_apart() -> None:
+    """A lifter's ElbowYaw is unwrapped over time, so it can lie turns away from the truth's:
+    the error is still the shorter way round, never negative (benchmarks' Pose2Sim means)."""
+    truth = np.deg2rad(np.array([10.0, -170.0, 0.0]))
+    lifted = truth + np.deg2rad(np.array([20.0 + 720.0, -30.0 - 360.0, 190.0]))
+    np.testing.assert_allclose(angle_error_deg(lifted, truth), [20.0, 30.0, 170.0], atol=1e-9)
+
+
+def test_two_lifts_combined_bone_by_bone_keep_the_first_ones_lengths() -> None:
+    """The net's lift with its left upper arm the wrong way, and a second lift (BlazePose's world
+    landmarks: the hips as origin) with it right: the oracle takes the nearer direction of each
+    bone, the average mixes them (weight on the first), each from the first lift's neck."""
+    truth = _seen(0)
+    wrong = _reflected(truth, LS, [LE, LW])
+    other = truth - truth[:, [11, 12]].mean(axis=1, keepdims=True)
+    assert np.allclose(with_nearer_directions(wrong, other, truth), truth)
+    assert np.allclose(averaged_directions(wrong, other, weight=1.0), wrong)
+    assert np.allclose(averaged_directions(wrong, other, weight=0.0), truth)
+    half = averaged_directions(wrong, other, weight=0.5)
+    unit = [(j[:, LE] - j[:, LS]) / np.linalg.norm(j[:, LE] - j[:, LS], axis=-1, keepdims=True)
+            for j in (half, wrong, truth)]  # fmt: skip
+    turned = np.sum(unit[1] * unit[2], axis=-1) < 0.99
+    assert turned.any()  # the half way bisects the two directions where they differ
+    np.testing.assert_allclose(np.sum(unit[0] * unit[1], -1), np.sum(unit[0] * unit[2], -1))
+    np.testing.assert_allclose(np.linalg.norm(half[:, LE] - half[:, LS], axis=-1),
+                               np.linalg.norm(truth[:, LE] - truth[:, LS], axis=-1))  # fmt: skip
+    unseen = other.copy()
+    unseen[:, LE] = np.nan  # a bone the second lift lacks keeps the first's direction
+    assert np.allclose(averaged_directions(wrong, unseen, weight=0.0), wrong)

@@ -38,8 +38,12 @@ from gesturebank.mocap.pose import body_axes
 SNAPSHOT_STEPS = 1000
 LOOKAHEAD = 4  # batches made ahead of the training step
 ARM_WEIGHT = 2.0  # loss weight of elbows and wrists
+# loss weight of the mid-hip's distance (the torso's tilt towards the camera; issue 39's floors:
+# the tilt is most of the gap on real footage), added to the joints' weighted mean
+TILT_WEIGHT = 0.5
 UP = np.array([0.0, 0.0, 1.0])  # lifter_motion's world up
 _ARMS = [F.JOINTS.index(j) for j in F.JOINTS if "elbow" in j or "wrist" in j]
+_HIPS = [F.JOINTS.index(j) for j in ("left_hip", "right_hip")]
 
 
 @dataclass(frozen=True)
@@ -151,13 +155,17 @@ class Sampler:
         return joints, None
 
 
-def loss_fn(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Weighted mean joint distance of (B, N_OUTPUTS, T) predictions."""
+def loss_fn(pred: torch.Tensor, target: torch.Tensor, *, tilt_weight: float = TILT_WEIGHT
+            ) -> torch.Tensor:  # fmt: skip
+    """Weighted mean joint distance of (B, N_OUTPUTS, T) predictions, plus `tilt_weight` times
+    the mid-hip's distance (the torso's tilt; the neck is the origin)."""
     b, _, t = pred.shape
-    d = (pred - target).reshape(b, F.N_JOINTS, 3, t).norm(dim=2)
+    diff = (pred - target).reshape(b, F.N_JOINTS, 3, t)
+    d = diff.norm(dim=2)
     w = torch.ones(F.N_JOINTS)
     w[_ARMS] = ARM_WEIGHT
-    return (d * w[None, :, None]).sum(1).mean() / w.sum()
+    tilt = diff[:, _HIPS].mean(1).norm(dim=1).mean()
+    return (d * w[None, :, None]).sum(1).mean() / w.sum() + tilt_weight * tilt
 
 
 @dataclass(frozen=True)
