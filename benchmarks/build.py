@@ -510,7 +510,11 @@ def floors(rows: dict[tuple[str, int], dict[str, float]], *, cores: int) -> list
             f"{n} worker(s) {100 * r['finalise_s'] / (r['wall_s'] + r['finalise_s']):.1f} %"
             for n, r in shares
         )
-        out.append(f"QC + dashboard ≤ 2 % of the build: {qc}")
+        worst_qc = max(100 * r["finalise_s"] / (r["wall_s"] + r["finalise_s"]) for _, r in shares)
+        out.append(
+            f"QC + dashboard ≤ 2 % of the build: {qc} "
+            f"({_verdict(worst_qc, 2.0, at_most=True, unit=' points')})"
+        )
     if uhd:
         out.append(
             f"4K UHD, 2 workers, process tree ≤ {UHD_LIMIT_MB:.0f} MB: {uhd['tree_mb']:.0f} MB "
