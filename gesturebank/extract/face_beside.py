@@ -71,6 +71,7 @@ class FacesBeside:
             except BaseException as exc:  # raised in the detector's thread
                 self._error = exc
             finally:
+                item = None  # the frame is not held while the next one is awaited
                 self._idle.release()
 
     def close(self) -> None:
