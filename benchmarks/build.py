@@ -48,7 +48,8 @@ without the head from the face (issue 40), so the difference is what the head co
 
 --copies N links each talking demo clip N times (as separate takes) so two workers have work to
 share and the ~1 s start-up (imports) is not what gets measured; the clips themselves come from
-`gesturebank fetch-samples`. --quick: one clip, one copy, one worker and one process, no 4K.
+`gesturebank fetch-samples`. --quick: one clip, one copy, one worker and one process, no 4K,
+no "in line" row.
 --no-uhd: without the 4K UHD row (its first run renders for a few minutes).
 """
 
