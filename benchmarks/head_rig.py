@@ -6,8 +6,10 @@ Calibrated rigs (`--rig N [N ...]`) of N cameras spread over `--spread` degrees 
 at each of `--elevations` (`rig_errors`): each camera alone, the mean of the cameras' head
 rotations, and the face mesh triangulated across the cameras (`lift.multiview.triangulate`) with
 the reference fitted to it; scored in a level frontal camera's axes, over the frames where two or
-more cameras kept the face. The build averages the cameras' heads (`datasets.head.rig_head`, the
-"mean rotation" here); `benchmarks/pipeline_truth.py --cameras N` scores it through the build.
+more cameras kept the face (test3 from 30° above: 12 of 40). The build combines the cameras'
+heads (`datasets.head.rig_head`: the "mean rotation" here, each camera's depth direction counted
+less); `benchmarks/pipeline_truth.py --cameras N` scores it through the build, and
+`benchmarks/head_parts.py --cameras N` splits the build's error into the face's and the torso's.
 Held out, 40 frames, 4 cameras: each camera 7.1–9.1°, averaged 4.8–7.7°, triangulated 4.6–6.4°.
 
 `--pose2sim`: real footage. The Pose2Sim demos' face widths and the model's presence per camera,

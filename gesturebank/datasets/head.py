@@ -17,7 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from gesturebank.clip import HEAD_SOURCES
-from gesturebank.extract.head_pose import orthonormal
 from gesturebank.geometry import Camera
 from gesturebank.lift.scoring import AXES
 from gesturebank.poses import Pose3D
@@ -26,6 +25,10 @@ from gesturebank.robot.retarget import head_from_axes
 
 FACE, BODY = HEAD_SOURCES.index("face"), HEAD_SOURCES.index("body")
 _PITCH, _YAW = INDEX["HeadPitch"], INDEX["HeadYaw"]
+# A rig camera's face head along its own optical axis, against across it (`rig_head`). Tuned on
+# test.bvh 0–10 s, 4 cameras over 90° (benchmarks/head_parts.py --cameras 4, the build's head
+# per frame): level 6.1 → 5.7°, 30° above 6.1 → 5.0° (1: the plain average; 0.1: 6.0 / 4.6°).
+RIG_DEPTH_WEIGHT = 0.25
 
 
 @dataclass(frozen=True)
@@ -53,18 +56,23 @@ def rig_head(
     in its axes: each camera's head axes (T_c, 3, 3) turned into the reference camera's axes
     (R_ref·R_cᵀ), taken at the camera's frame nearest each reference frame on the reference
     clock (`times[c]` − `offsets_s[c]`, as `lift.multiview.sync.align`; none past half a frame),
-    and averaged where one or more cameras found the face with a fit residual of at most
-    `max_residual` (`retarget.head_max_fit_residual`; the rotation nearest their sum); the
-    residual is the largest of those averaged. None when no camera has a face head.
+    and combined where one or more cameras found the face with a fit residual of at most
+    `max_residual` (`retarget.head_max_fit_residual`); the residual is the largest of those
+    combined. None when no camera has a face head.
 
-    The cameras' own heads differ by the face model's error in each view, which averaging
-    halves (benchmarks/head_rig.py, held out, 4 cameras: each camera 7.1–9.1°, averaged
-    4.8–7.7°)."""
+    The combination is a least-squares average of the head's axes in which each camera's
+    reading along its own optical axis counts RIG_DEPTH_WEIGHT as much as across it: the face
+    model reads a head's turn towards or away from a camera (depth) worse than across the
+    image, and another camera of the rig sees that direction across its image. The rotation
+    nearest the result is the head; one camera alone gives its own head. The cameras' own heads
+    differ by the face model's error in each view, which combining shrinks
+    (benchmarks/head_rig.py, held out, 4 cameras: each camera 7.1–9.1°, averaged 4.8–7.7°)."""
     if all(h is None for h in heads):
         return None
     ref_t = np.asarray(times[reference], np.float64)
     ref_r = np.asarray(cameras[reference].R, np.float64)
-    total = np.zeros((len(ref_t), 3, 3))
+    weights = np.zeros((len(ref_t), 3, 3))  # Σ P_c, P_c = I − (1 − w)·z_c z_cᵀ
+    total = np.zeros((len(ref_t), 3, 3))  # Σ P_c · axes_c
     count = np.zeros(len(ref_t), int)
     residual = np.full(len(ref_t), np.nan)
     for head, t, offset, camera in zip(heads, times, offsets_s, cameras, strict=True):
@@ -76,16 +84,30 @@ def rig_head(
         k = np.where(np.abs(moved[k - 1] - ref_t) <= np.abs(moved[k] - ref_t), k - 1, k)
         k = np.clip(k, 0, len(moved) - 1)
         near = np.abs(moved[k] - ref_t) <= step / 2 + 1e-9
-        axes = ref_r @ np.asarray(camera.R, np.float64).T @ np.asarray(head.axes, np.float64)[k]
+        to_ref = ref_r @ np.asarray(camera.R, np.float64).T
+        axes = to_ref @ np.asarray(head.axes, np.float64)[k]
         fit = np.asarray(head.residual, np.float64)[k]
         ok = near & np.isfinite(axes).all(axis=(1, 2)) & (fit <= max_residual)
-        total[ok] += axes[ok]
+        depth = to_ref[:, 2]  # the camera's optical axis in the reference camera's axes
+        across = np.eye(3) - (1.0 - RIG_DEPTH_WEIGHT) * np.outer(depth, depth)
+        weights[ok] += across
+        total[ok] += across @ axes[ok]
         count[ok] += 1
         residual[ok] = np.fmax(residual[ok], fit[ok])
     axes = np.full(total.shape, np.nan)
     seen = count > 0
-    axes[seen] = orthonormal(total[seen])
+    axes[seen] = _forward_first(np.linalg.solve(weights[seen], total[seen]))
     return FaceHead(axes, residual)
+
+
+def _forward_first(axes: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) rotations from near-rotations `axes` (columns forward, left, up) that keep
+    the forward column's direction (the head's direction is what HeadPitch and HeadYaw read):
+    forward normalised, left made square to it, up = forward × left."""
+    forward = axes[:, :, 0] / np.linalg.norm(axes[:, :, 0], axis=1, keepdims=True)
+    left = axes[:, :, 1] - forward * np.sum(forward * axes[:, :, 1], axis=1, keepdims=True)
+    left /= np.linalg.norm(left, axis=1, keepdims=True)
+    return np.stack([forward, left, np.cross(forward, left)], axis=2)
 
 
 def in_pose_frame(axes: np.ndarray, *, pose3d: Pose3D, camera: Camera | None) -> np.ndarray | None:
