@@ -30,6 +30,7 @@ from gesturebank.extract.detectors import (
     Frame,
     MultiPersonDetector,
 )
+from gesturebank.extract.face_beside import FacesBeside, faces_beside
 from gesturebank.extract.face_pass import FacePass, FaceWork
 from gesturebank.extract.frame_watch import watcher
 from gesturebank.extract.head_pose import HeadPoses
@@ -79,7 +80,8 @@ class Detections:
     cuts, the detector's name, whether the detections came from the cache (None: the detector
     is not cached), and the frames decoded on the way for the preview strip — (source time,
     RGB thumbnail); none when nothing was decoded (a cache hit); the face pass, when it ran
-    during detection."""
+    during detection (in its own thread, `extract.face_beside`), and the seconds the detector
+    waited for it (`faces_waited_s`: its share of the detection's wall time)."""
 
     multi: MultiPose2D
     shots: Shots
@@ -87,6 +89,7 @@ class Detections:
     cache_hit: bool | None
     preview: tuple[tuple[float, np.ndarray], ...] = ()
     faces: FacePass | None = None  # the face pass made during detection (None: not made)
+    faces_waited_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -178,7 +181,7 @@ def _face_pass(det: Detector, work: FaceWork | None) -> FacePass | None:
 
 
 def _run(
-    det: Detector, path: Path, config: Config, taps: _Taps, faces: FacePass | None = None
+    det: Detector, path: Path, config: Config, taps: _Taps, faces: FacesBeside | None = None
 ) -> tuple[MultiPose2D, Shots]:
     if not getattr(det, "needs_pixels", True) and isinstance(det, MultiPersonDetector):
         # Precomputed keypoints: the video's clock is enough, no decode (and no shot detection).
@@ -240,7 +243,9 @@ def detect_people(
             return Detections(cached[0], cached[1], det.name, True)
     face_pass = _face_pass(det, faces)
     try:
-        multi, shots = _run(det, path, config, taps, face_pass)
+        # the face pass of frame n beside the pose pass of frame n + 1 (`extract.face_beside`)
+        with faces_beside(face_pass) as beside:
+            multi, shots = _run(det, path, config, taps, beside)
     except GesturebankError as exc:
         if str(path) in str(exc):
             raise
@@ -251,7 +256,8 @@ def detect_people(
         except OSError as exc:  # e.g. a full disk: the cache only saves time, the take goes on
             log.warning("%s: detection cache not written (%s)", path, exc.strerror or exc)
     hit = None if key is None else False
-    return Detections(multi, shots, det.name, hit, tuple(taps.preview), face_pass)
+    waited = 0.0 if beside is None else beside.waited_s
+    return Detections(multi, shots, det.name, hit, tuple(taps.preview), face_pass, waited)
 
 
 def _detect_chunks(
@@ -384,8 +390,10 @@ def extract_take(
             path, config, cache=cache, preview_times=times, faces=face_work(config)
         )
     multi, shots, preview = found.multi, found.shots, list(found.preview)
-    # the face pass made during detection is the faces' time, not the detector's
-    detect_s = time.perf_counter() - t0 - (found.faces.seconds if found.faces else 0.0)
+    # the face pass made during detection ran beside it: the time the detector waited for it is
+    # the faces' time, not the detector's (where its CPU slowed the detector, that is counted
+    # in the detector's time: the two cannot be told apart on the clock)
+    detect_s = time.perf_counter() - t0 - found.faces_waited_s
     if not preview and len(times):  # detections from the cache: the frames were not decoded
         preview = [(t, thumbnail(image)) for t, image in frames_at(path, times.tolist())]
     if len(multi) == 0:

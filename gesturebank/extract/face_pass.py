@@ -105,6 +105,13 @@ class FacePass:
         """Whether the frame at `t` is sampled (without taking it)."""
         return t - self.last_t >= self.min_step
 
+    def take(self, t: float) -> bool:
+        """Whether the frame at `t` is sampled, taking it if so (the rate's clock moves on)."""
+        if not self.wants(t):
+            return False
+        self.last_t = t
+        return True
+
     def __call__(
         self,
         index: int,
@@ -115,10 +122,15 @@ class FacePass:
     ) -> None:
         """Frame `index` at `t`: RGB `image`, everybody's `keypoints (P, K, 3)` (NaN: an empty
         slot) and their track `keys (P,)` (-1: none; None: no tracks, nothing followed)."""
-        if not self.wants(t):
-            return
+        if self.take(t):
+            self.measure(index, image, keypoints, keys)
+
+    def measure(
+        self, index: int, image: np.ndarray, keypoints: np.ndarray, keys: np.ndarray | None
+    ) -> None:
+        """The faces of sampled frame `index` (`take`), as `__call__` says; called in the
+        sampled frames' order."""
         start = time.perf_counter()
-        self.last_t = t
         kps = np.asarray(keypoints, np.float32)  # as the detections are stored
         present = [p for p in range(len(kps)) if np.isfinite(kps[p, :, 0]).any()]
         tracked: dict[int, tuple[np.ndarray, np.ndarray]] = {}

@@ -382,3 +382,77 @@ def test_max_people_keeps_the_strongest(samples: Path) -> None:
     frames = _frames(samples / "pose2sim" / "Demo_MultiPerson" / "videos" / "cam04.mp4")[:20]
     multi = DETECTORS.create("blazepose", BlazePoseConfig(max_people=1)).detect_people(iter(frames))
     assert multi.keypoints.shape[1] == 1 and multi.present.all()
+
+
+class _InLine:
+    """An executor that runs what it is given at once, in the caller's thread (as before the
+    person search ran beside the tracks)."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        pass
+
+    def submit(self, fn, *args):
+        from concurrent.futures import Future
+
+        done: Future = Future()
+        done.set_result(fn(*args))
+        return done
+
+    def __enter__(self) -> _InLine:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+
+def test_the_person_search_beside_the_tracks_finds_what_it_finds_in_line(
+    samples: Path, monkeypatch
+) -> None:
+    """Issue 43: where the person detector is due on the clock, it runs in a thread of its own
+    while the tracks' landmark passes run (it sees the frame alone): the same people, the same
+    tracks (Pose2Sim Demo_MultiPerson cam03's first second: two people, searched for beside
+    them twice)."""
+    import threading
+
+    from gesturebank.extract.detectors.blazepose import detector as module
+
+    frames = _frames(samples / "pose2sim" / "Demo_MultiPerson" / "videos" / "cam03.mp4")[:32]
+    det = DETECTORS.create("blazepose", BlazePoseConfig())
+    where: list[str] = []
+    real = det.find_people
+    monkeypatch.setattr(
+        det,
+        "find_people",
+        lambda image: where.append(threading.current_thread().name) or real(image),
+    )
+    beside = det.detect_people(iter(frames))
+    assert any(name.startswith("people") for name in where)
+    monkeypatch.setattr(module, "ThreadPoolExecutor", _InLine)
+    in_line = det.detect_people(iter(frames))
+    assert beside.ids is not None and in_line.ids is not None
+    np.testing.assert_array_equal(beside.ids, in_line.ids)
+    np.testing.assert_array_equal(beside.keypoints, in_line.keypoints)
+    assert beside.world is not None and in_line.world is not None
+    np.testing.assert_array_equal(beside.world, in_line.world)
+
+
+def test_a_failing_search_beside_stops_the_detection_with_its_error(
+    samples: Path, monkeypatch
+) -> None:
+    import threading
+
+    frames = _cam01(samples)[:40]
+    det = DETECTORS.create("blazepose", BlazePoseConfig())
+    real = det.find_people
+    calls: list[int] = []
+
+    def breaks(image: np.ndarray):
+        calls.append(1)
+        if len(calls) == 2:  # the first search beside a track
+            raise DetectionError("person detector broke")
+        return real(image)
+
+    monkeypatch.setattr(det, "find_people", breaks)
+    with pytest.raises(DetectionError, match="person detector broke"):
+        det.detect_people(iter(frames))
+    assert not [t for t in threading.enumerate() if t.name.startswith("people")]

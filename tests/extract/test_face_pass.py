@@ -135,3 +135,103 @@ def test_the_face_pass_during_detection_equals_the_second_decode(samples, tmp_pa
     np.testing.assert_array_equal(during.heads.axes, again.heads.axes)
     assert during.tracked.roles is not None and again.tracked.roles is not None
     np.testing.assert_array_equal(during.tracked.roles.role, again.tracked.roles.role)
+
+
+def _sequence(scene):
+    """32 frames at 30 fps (16 samples at 15 Hz) of a face missed, looked for less often, then
+    found on 2 samples and followed."""
+    photo, kp, _ = scene
+    blank = np.zeros_like(photo)
+    return [
+        (i, i / 30, photo if 10 <= i < 14 else blank, kp[None], np.array([5])) for i in range(32)
+    ]
+
+
+def test_the_face_pass_beside_the_detector_measures_what_it_measures_in_line(scene) -> None:
+    """Issue 43: the face pass of frame n runs in its own thread while the detector goes on to
+    frame n + 1; the frames sampled, the passes and the heads are the ones measured in line."""
+    from gesturebank.extract.face_beside import faces_beside
+
+    work = FaceWork(SpeechConfig(), True, HEAD, mouth_alone=False)
+    inline, beside = FacePass(work, skeleton="coco17"), FacePass(work, skeleton="coco17")
+    for frame in _sequence(scene):
+        inline(*frame)
+    with faces_beside(beside) as hook:
+        assert hook is not None
+        for frame in _sequence(scene):
+            hook(*frame)
+    assert beside.rows == inline.rows == list(range(0, 32, 2))
+    assert beside.passes == inline.passes
+    assert any(np.isfinite(f.axes).all() for found in beside.faces for f in found)
+    for a, b in zip(inline.faces, beside.faces, strict=True):
+        assert [f.slot for f in a] == [f.slot for f in b]
+        for f, g in zip(a, b, strict=True):
+            np.testing.assert_array_equal(f.axes, g.axes)
+
+
+class _Failing(FacePass):
+    """A face pass whose model breaks on its third sample (as a missing model file would)."""
+
+    def measure(self, index, image, keypoints, keys) -> None:
+        if len(self.rows) == 2:
+            raise RuntimeError("face model broke")
+        self.rows.append(index)
+
+
+def _detect(hook, frames: int, fail_at: int | None = None) -> None:
+    for i in range(frames):
+        if i == fail_at:
+            raise KeyboardInterrupt  # Ctrl-C in the detector's thread
+        hook(i, i / 15, np.zeros((4, 4, 3), np.uint8), np.zeros((1, 17, 3)), np.array([0]))
+
+
+def _faces_threads() -> list:
+    import threading
+
+    return [t for t in threading.enumerate() if t.name == "faces"]
+
+
+def _ends(run) -> BaseException | None:
+    """What `run` raised, run in a thread that must end (a hang fails, not blocks, the test)."""
+    import threading
+
+    raised: list[BaseException | None] = [None]
+
+    def target() -> None:
+        try:
+            run()
+        except BaseException as exc:
+            raised[0] = exc
+
+    thread = threading.Thread(target=target)
+    thread.start()
+    thread.join(timeout=30)
+    assert not thread.is_alive(), "the detection hangs on the face thread"
+    return raised[0]
+
+
+def test_a_failure_in_the_face_thread_stops_the_detection_with_its_error() -> None:
+    from gesturebank.extract.face_beside import faces_beside
+
+    faces = _Failing(FaceWork(SpeechConfig(), False, None), skeleton="coco17")
+
+    def run() -> None:
+        with faces_beside(faces) as hook:
+            _detect(hook, 50)
+
+    raised = _ends(run)
+    assert isinstance(raised, RuntimeError) and str(raised) == "face model broke"
+    assert faces.rows == [0, 1] and not _faces_threads()
+
+
+def test_an_interrupted_detection_leaves_no_face_thread_behind() -> None:
+    from gesturebank.extract.face_beside import faces_beside
+
+    faces = _Failing(FaceWork(SpeechConfig(), False, None), skeleton="coco17")
+
+    def run() -> None:
+        with faces_beside(faces) as hook:
+            _detect(hook, 50, fail_at=1)
+
+    assert isinstance(_ends(run), KeyboardInterrupt)
+    assert faces.rows in ([], [0]) and not _faces_threads()  # frame 0 measured or dropped

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -113,21 +114,23 @@ class BlazePoseDetector:
         on_people(index, t, image, keypoints (P, 33, 3), ids (P,)): each frame's people as
         they are found, with the frame (the face pass, `extract.face_pass`, runs there instead
         of decoding the video again)."""
-        tracker = Tracker(self)
         times: list[float] = []
         people: list[np.ndarray] = []
         worlds: list[np.ndarray] = []
         ids: list[np.ndarray] = []
         size: tuple[int, int] | None = None
-        for t, image in frames:
-            size = size or (image.shape[1], image.shape[0])
-            kp, wd, tid = tracker.step(float(t), image)
-            if on_people is not None:
-                on_people(len(times), float(t), image, kp, tid)
-            times.append(float(t))
-            people.append(kp)
-            worlds.append(wd)
-            ids.append(tid)
+        # the person detector's searches beside the tracks' landmark passes (`Tracker`)
+        with ThreadPoolExecutor(1, thread_name_prefix="people") as beside:
+            tracker = Tracker(self, beside)
+            for t, image in frames:
+                size = size or (image.shape[1], image.shape[0])
+                kp, wd, tid = tracker.step(float(t), image)
+                if on_people is not None:
+                    on_people(len(times), float(t), image, kp, tid)
+                times.append(float(t))
+                people.append(kp)
+                worlds.append(wd)
+                ids.append(tid)
         if size is None:
             raise DetectionError("blazepose: no frames to detect on")
         return MultiPose2D.from_people(people, np.asarray(times), self.skeleton, size, worlds, ids)

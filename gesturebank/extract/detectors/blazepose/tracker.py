@@ -8,6 +8,7 @@ tracks fall on one person, the one that moved is run again with that person hidd
 from __future__ import annotations
 
 from collections.abc import Iterable
+from concurrent.futures import Executor, Future, wait
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
 
@@ -180,28 +181,44 @@ def _smoothed(track: _Track, lm: Landmarks, t: float) -> tuple[np.ndarray, np.nd
 
 
 class Tracker:
-    """Frame-by-frame state of `detect_people`: the live tracks and the detector's clock."""
+    """Frame-by-frame state of `detect_people`: the live tracks and the detector's clock.
 
-    def __init__(self, detector: PoseModels) -> None:
+    `beside`: a thread that runs the person detector while this one runs the tracks' landmark
+    passes, on the frames where the search is due on the clock (the landmarks cannot change
+    that it runs there, nor what it finds: it sees the frame alone), so one worker keeps both
+    cores busy (issue 43). None: one after the other."""
+
+    def __init__(self, detector: PoseModels, beside: Executor | None = None) -> None:
         self.det = detector
         self.cfg = detector.config
         self.tracks: list[_Track] = []
         self.next_id = 0
         self.last_detection: float | None = None
+        self.beside = beside
 
     def step(self, t: float, image: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """((N, 33, 3) keypoints, (N, 33, 3) world, (N,) ids) of the people in this frame."""
         found: list[tuple[_Track, Landmarks]] = []
         lost = False
-        for track in self.tracks:
-            lm = self.det.landmarks(image, track.roi)
-            if lm.presence >= self.cfg.min_tracking_confidence:
-                found.append((track, lm))
-            else:
-                lost = True
-        found = self._unique(image, found)
+        # due on the clock with room for somebody: `_new_people` will search this frame
+        search = None
+        if self.beside is not None and self.tracks and len(self.tracks) < self.cfg.max_people:
+            if self._detection_due(t):
+                search = self.beside.submit(self.det.find_people, image)
+        try:
+            for track in self.tracks:
+                lm = self.det.landmarks(image, track.roi)
+                if lm.presence >= self.cfg.min_tracking_confidence:
+                    found.append((track, lm))
+                else:
+                    lost = True
+            found = self._unique(image, found)
+        except BaseException:
+            if search is not None:
+                wait([search])  # not left running on the way out
+            raise
         if lost or not found or self._detection_due(t):
-            found += self._new_people(t, image, found)
+            found += self._new_people(t, image, found, search)
         return self._emit(t, found)
 
     def _detection_due(self, t: float) -> bool:
@@ -249,13 +266,18 @@ class Tracker:
         return kept
 
     def _new_people(
-        self, t: float, image: np.ndarray, found: list[tuple[_Track, Landmarks]]
+        self,
+        t: float,
+        image: np.ndarray,
+        found: list[tuple[_Track, Landmarks]],
+        search: Future[PersonBoxes] | None = None,
     ) -> list[tuple[_Track, Landmarks]]:
-        """Tracks for detected people not already followed, strongest first, up to max_people."""
+        """Tracks for detected people not already followed, strongest first, up to max_people
+        (`search`: the person detector on this frame, run beside)."""
         self.last_detection = t
         if len(found) >= self.cfg.max_people:
             return []
-        dets = self.det.find_people(image)
+        dets = self.det.find_people(image) if search is None else search.result()
         taken = [lm.points for _, lm in found]
         new: list[tuple[_Track, Landmarks]] = []
         for i in range(len(dets)):
