@@ -1,7 +1,8 @@
 """The left/right swap repair (2D only; the first of `gesturebank.repair`'s three): per body
 group, a two-state Viterbi — labels as given / exchanged — over the group's frame-to-frame path
-length (with a weak preference for the take's usual facing, `_FACING_PAIRS`), and the short runs
-that disagree with the labels before them exchanged back.
+length, and the short runs that disagree with the labels before them exchanged back; a second
+path that also weighs the take's usual facing (`_FACING_PAIRS`) replaces it where every run it
+adds looks like a skeleton the detector turned round (`_facing_explains`).
 """
 
 from __future__ import annotations
@@ -42,7 +43,11 @@ _ANCHORS = {"face": ("left_shoulder", "right_shoulder")}
 # end, so the 10 s after it were called exchanged and nothing was repaired). Shoulder widths
 # per second facing the unusual way: a run of up to 2 s gains no more from it than its two
 # switches cost, so the preference alone never flips a short run; it decides between label
-# paths the motion explains about as well.
+# paths the motion explains about as well. But a person really turns round too (the detector
+# following), and fast motion makes jumps that look like exchange steps: the path with the
+# preference is taken only where every run it adds faces the unusual way as given and meets
+# the usual way on both sides (issue 39: a held-out fast render, its real turns and a jump
+# flipped, 5.9 % of frames exchanged against 0 without the preference).
 _FACING_PAIRS = {"arms": "shoulder", "legs": "hip"}
 _FACING_PER_S = _SWITCH_PENALTY
 
@@ -159,6 +164,28 @@ def _facing_costs(
     return np.where(seen, sign * _FACING_PER_S * dt, 0.0)
 
 
+def _facing_explains(runs: Bools, facing: F64) -> bool:
+    """Whether every run of `runs (n,)` looks like a skeleton the detector turned round: as
+    given, its labels face the unusual way (`facing (n,)` < 0, `_facing_costs`) in most of
+    the frames of each of its halves where the facing is told (≠ 0), and the usual way (> 0)
+    in the nearest told frame on either side of it. A run flipped only for the usual facing
+    that faces the usual way over half of it, or where it meets its context, is no such
+    skeleton: the detector followed a real turn there, or the run is the wrong side of a jump
+    the fast motion made (issue 39)."""
+    told = np.flatnonzero(facing != 0)
+    for a, b in _runs(runs):
+        if not runs[a]:
+            continue
+        inside = told[(told >= a) & (told < b)]
+        outside = [told[told < a][-1:], told[told >= b][:1]]
+        halves = np.array_split(inside, 2) if len(inside) > 1 else [inside]
+        if any(np.mean(facing[h] < 0) <= 0.5 for h in halves if len(h)) or not len(inside):
+            return False
+        if any(len(o) and facing[o[0]] < 0 for o in outside):
+            return False
+    return True
+
+
 def _viterbi(same: F64, cross: F64, penalty: float, exchanged: F64) -> Bools:
     """Cheapest state path `(n,)` (False = as given, True = exchanged) over n frames whose
     steps cost `same` when the state stays and `cross` + `penalty` when it changes, and whose
@@ -231,8 +258,10 @@ def swap_frames(
     points' current labels); facing: optional (T,) cost of the exchanged labels per frame
     (`_facing_costs`). The group's frames with a visible point are cut where it was
     unseen for longer than `reset_gap_s`; in each piece `_viterbi` labels every frame as given
-    or exchanged, and `_short_runs` picks the runs to flip back. The frames between a flipped
-    run's first and last frame are flipped too (unseen ones change nothing).
+    or exchanged, and `_short_runs` picks the runs to flip back. With `facing`, a second path
+    that adds it to the costs is taken instead where `_facing_explains` every run it flips and
+    the first does not. The frames between a flipped run's first and last frame are flipped
+    too (unseen ones change nothing).
     """
     ts = np.asarray(timestamps, dtype=np.float64)
     dt = float(np.median(np.diff(ts))) if len(ts) > 1 else 0.0
@@ -244,8 +273,6 @@ def swap_frames(
     else:
         sides = np.where(visible[:, anchor, None], points[:, anchor], np.nan)  # (T, 2, C)
         prefer = _anchor_costs(roles, sides, scale)
-    if facing is not None:
-        prefer = prefer + facing
     flip = np.zeros(len(ts), dtype=bool)
     for frames in _segments(seen, ts, reset_gap_s):
         if len(frames) < 2:
@@ -253,6 +280,11 @@ def swap_frames(
         same, cross = _step_costs(roles[frames], ts[frames], scale)
         states = _viterbi(same, cross, _SWITCH_PENALTY, prefer[frames])
         back = _short_runs(states, ts[frames], end_s[frames], max_swap_s)
+        if facing is not None:
+            turned = _viterbi(same, cross, _SWITCH_PENALTY, prefer[frames] + facing[frames])
+            also = _short_runs(turned, ts[frames], end_s[frames], max_swap_s)
+            if _facing_explains(also & ~back, facing[frames]):
+                back = also
         for a, b in _runs(back):
             if back[a]:
                 flip[frames[a] : frames[b - 1] + 1] = True
