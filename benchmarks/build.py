@@ -65,7 +65,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Iterator
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 from unittest import mock
@@ -80,6 +80,7 @@ from gesturebank.datasets.takes import discover_takes
 from gesturebank.footage import SPEECH
 from gesturebank.samples import default_samples_dir, fetch_samples
 from gesturebank.synth.take import Performer, cached_render, render_cache
+from gesturebank.testing.inline import InLineExecutor
 
 UHD = (3840, 2160)
 UHD_LENGTH_S = 4.0
@@ -266,24 +267,6 @@ def run(
     }
 
 
-class _InLine:
-    """An executor that runs what it is given at once, in the caller's thread."""
-
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        pass
-
-    def submit(self, fn, *args):
-        done: Future = Future()
-        done.set_result(fn(*args))
-        return done
-
-    def __enter__(self) -> _InLine:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        pass
-
-
 class _FacesInLine:
     """The face pass called in the detector's thread; all of its time the detector's wait."""
 
@@ -308,7 +291,9 @@ def in_line() -> Iterator[None]:
     """The face pass and the person detector's searches in the tracker's thread, as before
     they ran beside it (one worker builds in this process, so the patches reach it)."""
     with (
-        mock.patch("gesturebank.extract.detectors.blazepose.detector.ThreadPoolExecutor", _InLine),
+        mock.patch(
+            "gesturebank.extract.detectors.blazepose.detector.ThreadPoolExecutor", InLineExecutor
+        ),
         mock.patch("gesturebank.app.extract.faces_beside", _faces_in_line),
     ):
         yield

@@ -16,6 +16,7 @@ from gesturebank.extract.detectors import DETECTORS, Frame
 from gesturebank.extract.detectors import blazepose as bp
 from gesturebank.extract.video import iter_frames
 from gesturebank.poses import MultiPose2D, Pose2D
+from gesturebank.testing.inline import InLineExecutor
 
 UPPER = [*range(17), 23, 24]  # face, shoulders, elbows, wrists, hips
 SINGLE = ("cam01", "cam02", "cam03", "cam04")
@@ -384,27 +385,6 @@ def test_max_people_keeps_the_strongest(samples: Path) -> None:
     assert multi.keypoints.shape[1] == 1 and multi.present.all()
 
 
-class _InLine:
-    """An executor that runs what it is given at once, in the caller's thread (as before the
-    person search ran beside the tracks)."""
-
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        pass
-
-    def submit(self, fn, *args):
-        from concurrent.futures import Future
-
-        done: Future = Future()
-        done.set_result(fn(*args))
-        return done
-
-    def __enter__(self) -> _InLine:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        pass
-
-
 def test_the_person_search_beside_the_tracks_finds_what_it_finds_in_line(
     samples: Path, monkeypatch
 ) -> None:
@@ -427,7 +407,7 @@ def test_the_person_search_beside_the_tracks_finds_what_it_finds_in_line(
     )
     beside = det.detect_people(iter(frames))
     assert any(name.startswith("people") for name in where)
-    monkeypatch.setattr(module, "ThreadPoolExecutor", _InLine)
+    monkeypatch.setattr(module, "ThreadPoolExecutor", InLineExecutor)
     in_line = det.detect_people(iter(frames))
     assert beside.ids is not None and in_line.ids is not None
     np.testing.assert_array_equal(beside.ids, in_line.ids)
