@@ -178,7 +178,8 @@ def _facing_explains(runs: Bools, facing: F64) -> bool:
             continue
         inside = told[(told >= a) & (told < b)]
         outside = [told[told < a][-1:], told[told >= b][:1]]
-        halves = np.array_split(inside, 2) if len(inside) > 1 else [inside]
+        m = len(inside)  # an odd run's middle frame counts in both halves: time has no direction
+        halves = [inside[: (m + 1) // 2], inside[m // 2 :]]
         if any(np.mean(facing[h] < 0) <= 0.5 for h in halves if len(h)) or not len(inside):
             return False
         if any(len(o) and facing[o[0]] < 0 for o in outside):
