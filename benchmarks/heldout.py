@@ -224,7 +224,7 @@ TWO_LIFTS = {  # issue 39: BlazePose's world landmarks as a second input, combin
     "blazepose-world": lambda j, w, t: w,
     "directions averaged 0.75": lambda j, w, t: averaged_directions(j, w, weight=0.75),
     "directions averaged 0.5": lambda j, w, t: averaged_directions(j, w, weight=0.5),
-    "the nearer of the two (oracle)": with_nearer_directions,
+    "the nearer of the two (oracle)": lambda j, w, t: with_nearer_directions(j, w, truth_camera=t),
 }
 
 

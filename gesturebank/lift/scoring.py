@@ -319,7 +319,7 @@ def averaged_directions(lifted: np.ndarray, other: np.ndarray, *, weight: float)
 
 
 def with_nearer_directions(
-    lifted: np.ndarray, other: np.ndarray, truth_camera: np.ndarray
+    lifted: np.ndarray, other: np.ndarray, *, truth_camera: np.ndarray
 ) -> np.ndarray:
     """An oracle: lifted (T, 17, 3, camera axes) with each bone, per frame, along whichever of its
     own and `other`'s direction is nearer the truth's (T, 17, 3, camera axes): the best a choice

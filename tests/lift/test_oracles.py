@@ -96,7 +96,7 @@ def test_two_lifts_combined_bone_by_bone_keep_the_first_ones_lengths() -> None:
     truth = _seen(0)
     wrong = _reflected(truth, LS, [LE, LW])
     other = truth - truth[:, [11, 12]].mean(axis=1, keepdims=True)
-    assert np.allclose(with_nearer_directions(wrong, other, truth), truth)
+    assert np.allclose(with_nearer_directions(wrong, other, truth_camera=truth), truth)
     assert np.allclose(averaged_directions(wrong, other, weight=1.0), wrong)
     assert np.allclose(averaged_directions(wrong, other, weight=0.0), truth)
     half = averaged_directions(wrong, other, weight=0.5)
