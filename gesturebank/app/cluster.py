@@ -420,9 +420,25 @@ def run_on_ray(
                 _clean_temporaries(out, take.take_id)  # a killed earlier attempt's
                 yield result
         finally:
-            for ref in pending:  # Ctrl-C or an error: stop the rest, keep what finished
-                ray.cancel(ref, force=True)
-            if pending:  # let them die before the caller removes what they left half-written
-                ray.wait(
-                    pending, num_returns=len(pending), timeout=config.build.ray_check_timeout_s
-                )
+            _cancel(pending, timeout_s=config.build.ray_check_timeout_s)
+
+
+# How long a stopped build waits for tasks whose replies are on their way before it cancels the
+# rest, seconds: cancelling a task as its reply arrives races the reply in Ray's task manager,
+# which aborts the driver (Ray 2.60: "Tried to complete task that was not pending"; the Ctrl-C
+# lands just as a take is written, under load 1 in 3 times).
+_REPLY_GRACE_S = 1.0
+
+
+def _cancel(pending: list, *, timeout_s: float) -> None:
+    """Stop the tasks `pending` (Ctrl-C or an error: keep what finished, and what is finishing)
+    and let them end, up to `timeout_s`, before the caller removes what they left half-written."""
+    import ray
+
+    if not pending:
+        return
+    _, pending = ray.wait(pending, num_returns=len(pending), timeout=_REPLY_GRACE_S)
+    for ref in pending:
+        ray.cancel(ref, force=True)
+    if pending:
+        ray.wait(pending, num_returns=len(pending), timeout=timeout_s)
